@@ -1,0 +1,287 @@
+//! Quasi-static analysis with load stepping and Newton-Raphson (the deal.II step-41 shape:
+//! `run()` reads like the algorithm).
+//!
+//! For each output time `t_n`: set the load factor `lambda(t_n)`, impose the prescribed
+//! displacements, iterate `K du = lambda f_ext - f_int(u)` on the free DOFs until the residual
+//! converges, then commit `u` and the point history. A step that fails is retried from the last
+//! converged state with half the increment (cut-back). When every material is linear the
+//! stiffness is assembled and factored once for the whole run, and each step is one solve plus
+//! one residual check.
+
+use crate::assembly::{Assembler, AssemblyInput, AssemblyOutput, SparsityPattern, CONSTRAINED};
+use crate::fem::material::{PlasticState, Stress4};
+use crate::model::Model;
+use crate::solver::linear::{LinearSolverError, SparseSolver};
+use crate::solver::newton::NewtonError;
+use crate::state::SimState;
+
+/// What one converged output step did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepReport {
+    pub step: usize,
+    pub time: f64,
+    pub load_factor: f64,
+    /// Newton iterations summed over sub-steps.
+    pub iterations: usize,
+    pub cutbacks: usize,
+    /// Final relative residual.
+    pub residual: f64,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum AnalysisError {
+    #[error(transparent)]
+    Newton(#[from] NewtonError),
+    #[error("setting up the linear solver: {0}")]
+    Setup(#[from] LinearSolverError),
+    #[error("step {step}: {msg}")]
+    Observer { step: usize, msg: String },
+}
+
+pub struct StaticAnalysis<'m> {
+    model: &'m Model,
+    assembler: Assembler,
+    solver: SparseSolver,
+    values: Vec<f64>,
+    /// Linear models: has the constant stiffness been factored?
+    factored: bool,
+    parallel: bool,
+    // Trial buffers (committed into SimState only on convergence).
+    trial_history: Vec<PlasticState>,
+    trial_stress: Vec<Stress4>,
+    trial_f_int: Vec<f64>,
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+impl<'m> StaticAnalysis<'m> {
+    /// Builds the sparsity pattern and the symbolic factorisation (once per topology).
+    pub fn new(model: &'m Model) -> Result<Self, AnalysisError> {
+        let pattern = SparsityPattern::new(model.num_nodes(), &model.elements, &model.dofs);
+        let solver = SparseSolver::new(&pattern.symbolic, model.linear_solver)?;
+        let nnz = pattern.nnz();
+        tracing::info!(
+            dofs = model.dofs.num_dofs,
+            free = model.dofs.num_free,
+            nnz,
+            "sparsity pattern and symbolic factorisation ready"
+        );
+        Ok(StaticAnalysis {
+            model,
+            assembler: Assembler::new(pattern, &model.elements),
+            solver,
+            values: vec![0.0; nnz],
+            factored: false,
+            parallel: true,
+            trial_history: vec![PlasticState::default(); model.elements.num_states()],
+            trial_stress: vec![Stress4::zeros(); model.elements.num_points()],
+            trial_f_int: vec![0.0; model.dofs.num_dofs],
+        })
+    }
+
+    /// Serial element loop (for testing that serial and parallel runs agree).
+    pub fn set_parallel(&mut self, parallel: bool) {
+        self.parallel = parallel;
+    }
+
+    /// The unloaded, virgin state.
+    pub fn initial_state(&self) -> SimState {
+        let m = self.model;
+        SimState {
+            step: 0,
+            time: m.load_path.points[0].0,
+            load_factor: m.load_path.factor(m.load_path.points[0].0),
+            u: vec![0.0; m.dofs.num_dofs],
+            history: vec![PlasticState::default(); m.elements.num_states()],
+            stress: vec![Stress4::zeros(); m.elements.num_points()],
+            f_int: vec![0.0; m.dofs.num_dofs],
+        }
+    }
+
+    /// Runs every remaining output step of the model, calling `observer` after each.
+    pub fn run<F>(&mut self, state: &mut SimState, mut observer: F) -> Result<(), AnalysisError>
+    where
+        F: FnMut(&StepReport, &SimState) -> Result<(), String>,
+    {
+        let times = self.model.times.clone();
+        for (k, &t) in times.iter().enumerate().skip(state.step) {
+            let report = self.advance_to(state, k + 1, t)?;
+            observer(&report, state).map_err(|msg| AnalysisError::Observer { step: k + 1, msg })?;
+        }
+        Ok(())
+    }
+
+    /// Advances `state` to time `t_end` (output step `step`), with cut-backs if needed.
+    pub fn advance_to(
+        &mut self,
+        state: &mut SimState,
+        step: usize,
+        t_end: f64,
+    ) -> Result<StepReport, AnalysisError> {
+        let params = self.model.newton;
+        let mut report = StepReport {
+            step,
+            time: t_end,
+            load_factor: 0.0,
+            iterations: 0,
+            cutbacks: 0,
+            residual: 0.0,
+        };
+        let mut dt = t_end - state.time;
+        while state.time < t_end || dt == 0.0 {
+            let t_try = if state.time + dt >= t_end {
+                t_end
+            } else {
+                state.time + dt
+            };
+            match self.newton(state, step, t_try)? {
+                Ok((its, res)) => {
+                    report.iterations += its;
+                    report.residual = res;
+                    if dt == 0.0 || t_try >= t_end {
+                        break;
+                    }
+                }
+                Err((its, res)) => {
+                    report.iterations += its;
+                    report.cutbacks += 1;
+                    if report.cutbacks > params.max_cutbacks {
+                        return Err(NewtonError::NotConverged {
+                            step,
+                            time: t_try,
+                            load_factor: self.model.load_path.factor(t_try),
+                            iteration: its,
+                            residual: res,
+                            rtol: params.rtol,
+                            cutbacks: report.cutbacks - 1,
+                        }
+                        .into());
+                    }
+                    tracing::warn!(
+                        step,
+                        time = t_try,
+                        residual = res,
+                        "Newton failed; cutting the increment in half"
+                    );
+                    dt *= 0.5;
+                }
+            }
+        }
+        state.step = step;
+        report.load_factor = state.load_factor;
+        Ok(report)
+    }
+
+    /// One Newton solve from the converged `state` to time `t`. On success commits and returns
+    /// `Ok((iterations, residual))`; on non-convergence leaves `state` untouched and returns
+    /// `Err((iterations, residual))` so the caller can cut back. Linear-solver failures are errors.
+    #[allow(clippy::type_complexity)]
+    fn newton(
+        &mut self,
+        state: &mut SimState,
+        step: usize,
+        t: f64,
+    ) -> Result<Result<(usize, f64), (usize, f64)>, AnalysisError> {
+        let m = self.model;
+        let p = m.newton;
+        let lambda = m.load_path.factor(t);
+        let mut u = state.u.clone();
+        for &(d, v) in &m.prescribed {
+            u[d] = lambda * v;
+        }
+        let linear = m.is_linear();
+        let nf = m.dofs.num_free;
+        let mut r = vec![0.0; nf];
+        let mut first_res = f64::NAN;
+        let mut res = f64::INFINITY;
+        for it in 0..=p.max_iterations {
+            let need_tangent = !linear || !self.factored;
+            self.assembler.assemble(
+                &AssemblyInput {
+                    coords: &m.coords,
+                    elements: &m.elements,
+                    materials: &m.materials,
+                    rules: &m.rules,
+                    u: &u,
+                    state_old: &state.history,
+                },
+                AssemblyOutput {
+                    values: if need_tangent {
+                        Some(&mut self.values)
+                    } else {
+                        None
+                    },
+                    f_int: &mut self.trial_f_int,
+                    stress: &mut self.trial_stress,
+                    state_new: &mut self.trial_history,
+                },
+                self.parallel,
+            );
+            for (i, &g) in m.dofs.free.iter().enumerate() {
+                r[i] = lambda * m.f_ext[g] - self.trial_f_int[g];
+            }
+            let f_ext_norm = lambda.abs() * norm(&m.f_ext);
+            let scale = f_ext_norm.max(norm(&self.trial_f_int));
+            let rn = norm(&r);
+            res = if scale > 0.0 { rn / scale } else { rn };
+            if it == 0 {
+                first_res = res;
+            }
+            tracing::debug!(step, t, it, residual = res, "Newton iteration");
+            if !res.is_finite() || (it > 0 && res > p.divergence_factor * first_res.max(p.rtol)) {
+                return Ok(Err((it, res)));
+            }
+            if res <= p.rtol || rn == 0.0 {
+                state.u = u;
+                state.time = t;
+                state.load_factor = lambda;
+                std::mem::swap(&mut state.history, &mut self.trial_history);
+                self.trial_history.copy_from_slice(&state.history);
+                state.stress.copy_from_slice(&self.trial_stress);
+                state.f_int.copy_from_slice(&self.trial_f_int);
+                return Ok(Ok((it, res)));
+            }
+            if it == p.max_iterations {
+                break;
+            }
+            if need_tangent {
+                self.solver
+                    .factor(&self.values)
+                    .map_err(|source| NewtonError::Linear {
+                        step,
+                        iteration: it,
+                        source,
+                    })?;
+                self.factored = true;
+            }
+            self.solver
+                .solve(&mut r)
+                .map_err(|source| NewtonError::Linear {
+                    step,
+                    iteration: it,
+                    source,
+                })?;
+            for (i, &g) in m.dofs.free.iter().enumerate() {
+                u[g] += r[i];
+            }
+        }
+        Ok(Err((p.max_iterations, res)))
+    }
+
+    /// Reactions (internal force) at constrained DOFs of the current state, zero elsewhere.
+    pub fn reactions(&self, state: &SimState) -> Vec<f64> {
+        let m = self.model;
+        let lambda = state.load_factor;
+        (0..m.dofs.num_dofs)
+            .map(|d| {
+                if m.dofs.eq[d] == CONSTRAINED {
+                    state.f_int[d] - lambda * m.f_ext[d]
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    }
+}

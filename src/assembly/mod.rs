@@ -1,0 +1,303 @@
+//! Global assembly: degree-of-freedom map (Dirichlet DOFs eliminated), a CSC sparsity pattern
+//! over the free DOFs built once with a per-element scatter table, and an assembler that
+//! evaluates element kernels in parallel (rayon, contiguous element blocks writing into
+//! caller-owned buffers) and scatters them serially in element order. Because the scatter
+//! order never depends on the thread count, serial and parallel assembly are bit-identical.
+
+use crate::fem::kernel::{element_kernel, ElementInput, ElementOutput, Formulation};
+use crate::fem::material::{Material, PlasticState, Stress4};
+use crate::fem::quadrature::QuadratureRule;
+use crate::mesh::CellKind;
+use faer::sparse::SymbolicSparseColMat;
+use nalgebra::Point2;
+use rayon::prelude::*;
+
+/// Marks a constrained DOF in [`DofMap::eq`].
+pub const CONSTRAINED: usize = usize::MAX;
+
+/// Two DOFs per node (`2 n`, `2 n + 1`); free DOFs numbered in increasing global order.
+#[derive(Debug, Clone)]
+pub struct DofMap {
+    pub num_dofs: usize,
+    pub num_free: usize,
+    /// Global DOF -> free equation number, or [`CONSTRAINED`].
+    pub eq: Vec<usize>,
+    /// Free equation number -> global DOF.
+    pub free: Vec<usize>,
+}
+
+impl DofMap {
+    pub fn new(num_nodes: usize, constrained: &[usize]) -> Self {
+        let num_dofs = 2 * num_nodes;
+        let mut is_c = vec![false; num_dofs];
+        for &d in constrained {
+            is_c[d] = true;
+        }
+        let mut eq = vec![CONSTRAINED; num_dofs];
+        let mut free = Vec::with_capacity(num_dofs);
+        for d in 0..num_dofs {
+            if !is_c[d] {
+                eq[d] = free.len();
+                free.push(d);
+            }
+        }
+        DofMap {
+            num_dofs,
+            num_free: free.len(),
+            eq,
+            free,
+        }
+    }
+}
+
+/// Everything the element loop needs per element, in flat arrays (one entry per element).
+#[derive(Debug, Clone, Default)]
+pub struct ElementTable {
+    pub kind: Vec<CellKind>,
+    /// Global node ids (a `Tri3` uses the first three).
+    pub nodes: Vec<[usize; 4]>,
+    pub material: Vec<usize>,
+    pub formulation: Vec<Formulation>,
+    pub thickness: Vec<f64>,
+    /// Index into the rule table.
+    pub rule: Vec<usize>,
+    /// Offsets into the point arrays (stress): `point_offset[e]..point_offset[e + 1]`.
+    pub point_offset: Vec<usize>,
+    /// Offsets into the history array (empty range for materials without state).
+    pub state_offset: Vec<usize>,
+}
+
+impl ElementTable {
+    pub fn len(&self) -> usize {
+        self.kind.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.kind.is_empty()
+    }
+    pub fn num_points(&self) -> usize {
+        self.point_offset.last().copied().unwrap_or(0)
+    }
+    pub fn num_states(&self) -> usize {
+        self.state_offset.last().copied().unwrap_or(0)
+    }
+}
+
+/// CSC pattern of the free-DOF matrix (both triangles) and the element scatter table.
+pub struct SparsityPattern {
+    pub symbolic: SymbolicSparseColMat<usize>,
+    /// For element `e`, local entry `i * 8 + j` goes to `values[scatter[64 e + i * 8 + j]]`
+    /// (row `i`, column `j`), or nowhere if [`CONSTRAINED`].
+    scatter: Vec<usize>,
+}
+
+impl SparsityPattern {
+    /// Builds the pattern from node adjacency (no triplet sort): column `j` of node `n` holds the
+    /// free DOFs of all nodes sharing a cell with `n`, in increasing order.
+    pub fn new(num_nodes: usize, elements: &ElementTable, dofs: &DofMap) -> Self {
+        let mut adj: Vec<Vec<usize>> = vec![Vec::new(); num_nodes];
+        for (e, nodes) in elements.nodes.iter().enumerate() {
+            let nn = elements.kind[e].num_nodes();
+            for &a in &nodes[..nn] {
+                adj[a].extend_from_slice(&nodes[..nn]);
+            }
+        }
+        adj.par_iter_mut().for_each(|v| {
+            v.sort_unstable();
+            v.dedup();
+        });
+        let n = dofs.num_free;
+        let mut col_ptr = Vec::with_capacity(n + 1);
+        col_ptr.push(0usize);
+        let mut row_idx = Vec::new();
+        for &g in &dofs.free {
+            let node = g / 2;
+            for &m in &adj[node] {
+                for d in [2 * m, 2 * m + 1] {
+                    let r = dofs.eq[d];
+                    if r != CONSTRAINED {
+                        row_idx.push(r);
+                    }
+                }
+            }
+            col_ptr.push(row_idx.len());
+        }
+        let mut scatter = vec![CONSTRAINED; 64 * elements.len()];
+        scatter.par_chunks_mut(64).enumerate().for_each(|(e, sc)| {
+            let nn = elements.kind[e].num_nodes();
+            let nodes = &elements.nodes[e];
+            for j in 0..2 * nn {
+                let cj = dofs.eq[2 * nodes[j / 2] + j % 2];
+                if cj == CONSTRAINED {
+                    continue;
+                }
+                let col = &row_idx[col_ptr[cj]..col_ptr[cj + 1]];
+                for i in 0..2 * nn {
+                    let ri = dofs.eq[2 * nodes[i / 2] + i % 2];
+                    if ri == CONSTRAINED {
+                        continue;
+                    }
+                    // Rows of a column are sorted: binary search.
+                    if let Ok(p) = col.binary_search(&ri) {
+                        sc[i * 8 + j] = col_ptr[cj] + p;
+                    }
+                }
+            }
+        });
+        let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
+        SparsityPattern { symbolic, scatter }
+    }
+
+    pub fn nnz(&self) -> usize {
+        self.symbolic.row_idx().len()
+    }
+}
+
+/// Read-only inputs of one assembly.
+pub struct AssemblyInput<'a> {
+    pub coords: &'a [Point2<f64>],
+    pub elements: &'a ElementTable,
+    pub materials: &'a [Material],
+    pub rules: &'a [QuadratureRule],
+    /// Global displacement vector (constrained DOFs hold their prescribed values).
+    pub u: &'a [f64],
+    pub state_old: &'a [PlasticState],
+}
+
+/// Outputs of one assembly, all caller-owned.
+pub struct AssemblyOutput<'a> {
+    /// Matrix values in pattern order (`None`: internal force only).
+    pub values: Option<&'a mut [f64]>,
+    /// Internal force over all global DOFs.
+    pub f_int: &'a mut [f64],
+    pub stress: &'a mut [Stress4],
+    pub state_new: &'a mut [PlasticState],
+}
+
+/// Element-local buffers reused across assemblies.
+pub struct Assembler {
+    pub pattern: SparsityPattern,
+    ke: Vec<[f64; 64]>,
+    fe: Vec<[f64; 8]>,
+    /// Element block boundaries for the parallel loop.
+    blocks: Vec<usize>,
+}
+
+const BLOCK: usize = 512;
+
+fn split_mut<'a, T>(mut s: &'a mut [T], bounds: impl Iterator<Item = usize>) -> Vec<&'a mut [T]> {
+    let mut out = Vec::new();
+    let mut start = 0;
+    for b in bounds {
+        let (head, tail) = s.split_at_mut(b - start);
+        out.push(head);
+        s = tail;
+        start = b;
+    }
+    out
+}
+
+impl Assembler {
+    pub fn new(pattern: SparsityPattern, elements: &ElementTable) -> Self {
+        let ne = elements.len();
+        let mut blocks: Vec<usize> = (0..ne).step_by(BLOCK).collect();
+        blocks.push(ne);
+        Assembler {
+            pattern,
+            ke: vec![[0.0; 64]; ne],
+            fe: vec![[0.0; 8]; ne],
+            blocks,
+        }
+    }
+
+    /// Evaluates all element kernels (in parallel if `parallel`) and scatters them.
+    pub fn assemble(&mut self, inp: &AssemblyInput, out: AssemblyOutput, parallel: bool) {
+        let el = inp.elements;
+        let with_tangent = out.values.is_some();
+        let ends = self.blocks[1..].to_vec();
+        let ke_blocks = split_mut(&mut self.ke, ends.iter().copied());
+        let fe_blocks = split_mut(&mut self.fe, ends.iter().copied());
+        let st_blocks = split_mut(out.stress, ends.iter().map(|&b| el.point_offset[b]));
+        let hs_blocks = split_mut(out.state_new, ends.iter().map(|&b| el.state_offset[b]));
+        let starts = &self.blocks[..self.blocks.len() - 1];
+        let work = |(((((&b0, ke), fe), st), hs), b1): (
+            (
+                (
+                    ((&usize, &mut [[f64; 64]]), &mut [[f64; 8]]),
+                    &mut [Stress4],
+                ),
+                &mut [PlasticState],
+            ),
+            usize,
+        )| {
+            let p0 = el.point_offset[b0];
+            let s0 = el.state_offset[b0];
+            for e in b0..b1 {
+                let k = e - b0;
+                let kind = el.kind[e];
+                let nn = kind.num_nodes();
+                let nodes = &el.nodes[e];
+                let mut coords = [Point2::origin(); 4];
+                let mut u = [0.0; 8];
+                for a in 0..nn {
+                    coords[a] = inp.coords[nodes[a]];
+                    u[2 * a] = inp.u[2 * nodes[a]];
+                    u[2 * a + 1] = inp.u[2 * nodes[a] + 1];
+                }
+                let (pa, pb) = (el.point_offset[e] - p0, el.point_offset[e + 1] - p0);
+                let (sa, sb) = (el.state_offset[e] - s0, el.state_offset[e + 1] - s0);
+                let input = ElementInput {
+                    kind,
+                    coords,
+                    u,
+                    rule: &inp.rules[el.rule[e]],
+                    formulation: el.formulation[e],
+                    material: &inp.materials[el.material[e]],
+                    thickness: el.thickness[e],
+                    state_old: &inp.state_old[el.state_offset[e]..el.state_offset[e + 1]],
+                };
+                let mut output = ElementOutput {
+                    ke: if with_tangent { Some(&mut ke[k]) } else { None },
+                    fe: &mut fe[k],
+                    stress: &mut st[pa..pb],
+                    state_new: &mut hs[sa..sb],
+                };
+                element_kernel(&input, &mut output);
+            }
+        };
+        let jobs: Vec<_> = starts
+            .iter()
+            .zip(ke_blocks)
+            .zip(fe_blocks)
+            .zip(st_blocks)
+            .zip(hs_blocks)
+            .zip(ends.iter().copied())
+            .collect();
+        if parallel {
+            jobs.into_par_iter().for_each(work);
+        } else {
+            jobs.into_iter().for_each(work);
+        }
+        // Serial scatter in element order: deterministic.
+        out.f_int.iter_mut().for_each(|v| *v = 0.0);
+        for e in 0..el.len() {
+            let nn = el.kind[e].num_nodes();
+            let nodes = &el.nodes[e];
+            for i in 0..2 * nn {
+                out.f_int[2 * nodes[i / 2] + i % 2] += self.fe[e][i];
+            }
+        }
+        if let Some(values) = out.values {
+            values.iter_mut().for_each(|v| *v = 0.0);
+            for e in 0..el.len() {
+                let sc = &self.pattern.scatter[64 * e..64 * e + 64];
+                let ke = &self.ke[e];
+                for k in 0..64 {
+                    let p = sc[k];
+                    if p != CONSTRAINED {
+                        values[p] += ke[k];
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,605 @@
+//! Case files: TOML read with serde into plain data (`deny_unknown_fields`), then validated
+//! once into a typed [`Model`]. Every error names the file, the key and what is wrong.
+//!
+//! Units are the user's, consistent; the shipped cases use mm, N, MPa (so stiffness in MPa,
+//! pressure in MPa, forces in N, distributed loads in N/mm, plane-strain forces per mm of depth).
+//!
+//! ```toml
+//! [problem]
+//! hypothesis = "plane_strain"          # or "plane_stress"
+//!
+//! [[materials]]
+//! name = "steel"
+//! model = "elastic"                    # or "j2_plastic" (plane strain only)
+//! young = 210000.0
+//! poisson = 0.3
+//!
+//! [[bodies]]
+//! name = "block"
+//! material = "steel"
+//! mesh = { type = "rectangle", origin = [0.0, 0.0], size = [10.0, 2.0], divisions = [20, 4] }
+//!
+//! [[bcs]]
+//! body = "block"
+//! set = "left"
+//! ux = 0.0
+//! uy = 0.0
+//!
+//! [[loads]]
+//! body = "block"
+//! set = "right"
+//! traction = [0.0, -1.0]
+//!
+//! [steps]
+//! path = [[0.0, 0.0], [1.0, 1.0]]      # (pseudo-time, load factor)
+//! increments = 4
+//! ```
+
+use crate::fem::kernel::Formulation;
+use crate::fem::material::{Elastic, J2Plastic, Material, PlaneHypothesis};
+use crate::mesh::{generate, gmsh, CellKind, Mesh2};
+use crate::model::{LoadPath, Model, ModelBuilder, ModelError};
+use crate::solver::linear::LinearSolverKind;
+use crate::solver::newton::NewtonParams;
+use nalgebra::{Point2, Vector2};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, thiserror::Error)]
+pub enum CaseError {
+    #[error("{path}: cannot read case file: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}: invalid TOML: {message}")]
+    Toml { path: String, message: String },
+    #[error("{path}: key '{key}': {message}")]
+    Invalid {
+        path: String,
+        key: String,
+        message: String,
+    },
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CaseFile {
+    pub problem: ProblemSpec,
+    pub materials: Vec<MaterialSpec>,
+    pub bodies: Vec<BodySpec>,
+    #[serde(default)]
+    pub bcs: Vec<BcSpec>,
+    #[serde(default)]
+    pub loads: Vec<LoadSpec>,
+    #[serde(default)]
+    pub steps: StepsSpec,
+    #[serde(default)]
+    pub solver: SolverSpec,
+    #[serde(default)]
+    pub output: OutputSpec,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProblemSpec {
+    pub hypothesis: PlaneHypothesis,
+    #[serde(default)]
+    pub description: String,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum MaterialModel {
+    Elastic,
+    J2Plastic,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    pub name: String,
+    pub model: MaterialModel,
+    pub young: f64,
+    pub poisson: f64,
+    pub yield_stress: Option<f64>,
+    #[serde(default)]
+    pub isotropic_hardening: f64,
+    #[serde(default)]
+    pub kinematic_hardening: f64,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    pub name: String,
+    pub material: String,
+    pub mesh: MeshSpec,
+    pub thickness: Option<f64>,
+    pub formulation: Option<Formulation>,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum CellSpec {
+    #[default]
+    Quad4,
+    Tri3,
+}
+
+fn one() -> f64 {
+    1.0
+}
+fn ones() -> [f64; 2] {
+    [1.0, 1.0]
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum MeshSpec {
+    Rectangle {
+        #[serde(default)]
+        origin: [f64; 2],
+        size: [f64; 2],
+        divisions: [usize; 2],
+        #[serde(default = "ones")]
+        grading: [f64; 2],
+        #[serde(default)]
+        cell: CellSpec,
+    },
+    AnnulusSector {
+        inner_radius: f64,
+        outer_radius: f64,
+        /// Start and end angle in degrees.
+        angles: [f64; 2],
+        divisions: [usize; 2],
+        #[serde(default = "one")]
+        radial_grading: f64,
+    },
+    HalfDisc {
+        centre: [f64; 2],
+        radius: f64,
+        divisions: [usize; 2],
+        #[serde(default = "one")]
+        radial_grading: f64,
+        #[serde(default = "one")]
+        angular_grading: f64,
+    },
+    Gmsh {
+        /// Path of a MSH 4.1 ASCII file, relative to the case file.
+        file: PathBuf,
+    },
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BcSpec {
+    pub body: String,
+    pub set: String,
+    pub ux: Option<f64>,
+    pub uy: Option<f64>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LoadSpec {
+    pub body: String,
+    pub set: String,
+    /// Uniform pressure on an edge set (positive pushes into the body).
+    pub pressure: Option<f64>,
+    /// Uniform traction vector on an edge set (force per unit length).
+    pub traction: Option<[f64; 2]>,
+    /// Force applied at every node of a node set.
+    pub force: Option<[f64; 2]>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StepsSpec {
+    #[serde(default = "default_path")]
+    pub path: Vec<[f64; 2]>,
+    /// Equally spaced output steps over the whole path (ignored if `times` is given).
+    #[serde(default = "default_increments")]
+    pub increments: usize,
+    /// Explicit output times.
+    pub times: Option<Vec<f64>>,
+}
+
+fn default_path() -> Vec<[f64; 2]> {
+    vec![[0.0, 0.0], [1.0, 1.0]]
+}
+fn default_increments() -> usize {
+    1
+}
+impl Default for StepsSpec {
+    fn default() -> Self {
+        StepsSpec {
+            path: default_path(),
+            increments: 1,
+            times: None,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct SolverSpec {
+    #[serde(default)]
+    pub linear: LinearSolverKind,
+    #[serde(default)]
+    pub newton: NewtonParams,
+    /// Serial element loop (default: parallel).
+    #[serde(default)]
+    pub serial: bool,
+}
+
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// Output HDF5 file (relative to the working directory); default `results/<case>.h5`.
+    pub file: Option<PathBuf>,
+}
+
+/// A validated case: the model plus run options.
+pub struct Case {
+    pub name: String,
+    pub source: PathBuf,
+    pub model: Model,
+    pub output: PathBuf,
+    pub serial: bool,
+}
+
+struct Ctx<'a> {
+    path: &'a str,
+}
+
+impl Ctx<'_> {
+    fn err(&self, key: impl Into<String>, message: impl Into<String>) -> CaseError {
+        CaseError::Invalid {
+            path: self.path.to_string(),
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+    fn finite(&self, key: &str, v: f64) -> Result<f64, CaseError> {
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(self.err(key, format!("must be a finite number, got {v}")))
+        }
+    }
+    fn positive(&self, key: &str, v: f64) -> Result<f64, CaseError> {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(self.err(key, format!("must be positive and finite, got {v}")))
+        }
+    }
+}
+
+/// Reads and validates a case file.
+pub fn load(path: &Path) -> Result<Case, CaseError> {
+    let p = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| CaseError::Io {
+        path: p.clone(),
+        source: e,
+    })?;
+    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "case".into());
+    parse(&text, &p, &base, &name)
+}
+
+/// Parses and validates case text; `path` names the file in errors, relative mesh files are
+/// resolved against `base`.
+pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, CaseError> {
+    let raw: CaseFile = toml::from_str(text).map_err(|e| CaseError::Toml {
+        path: path.to_string(),
+        message: e.to_string(),
+    })?;
+    let cx = Ctx { path };
+    let hyp = raw.problem.hypothesis;
+    let mut b = ModelBuilder::new(hyp);
+
+    // Materials.
+    let mut mat_names: Vec<&str> = vec![];
+    let mut mat_models = vec![];
+    for (i, m) in raw.materials.iter().enumerate() {
+        let k = |f: &str| format!("materials[{i}].{f}");
+        if mat_names.contains(&m.name.as_str()) {
+            return Err(cx.err(k("name"), format!("duplicate material name '{}'", m.name)));
+        }
+        let young = cx.positive(&k("young"), m.young)?;
+        let nu = cx.finite(&k("poisson"), m.poisson)?;
+        if !(nu > -1.0 && nu < 0.5) {
+            return Err(cx.err(
+                k("poisson"),
+                format!("Poisson ratio must satisfy -1 < nu < 0.5, got {nu} (nu = 0.5 is incompressible: the {} law needs a finite bulk modulus)", match hyp { PlaneHypothesis::PlaneStrain => "plane-strain", PlaneHypothesis::PlaneStress => "plane-stress" }),
+            ));
+        }
+        let elastic = Elastic {
+            young,
+            poisson: nu,
+            hypothesis: hyp,
+        };
+        let mat = match m.model {
+            MaterialModel::Elastic => {
+                if m.yield_stress.is_some() {
+                    return Err(cx.err(
+                        k("yield_stress"),
+                        "only a j2_plastic material takes a yield stress",
+                    ));
+                }
+                Material::Elastic(elastic)
+            }
+            MaterialModel::J2Plastic => {
+                if hyp != PlaneHypothesis::PlaneStrain {
+                    return Err(cx.err(k("model"), "j2_plastic is implemented for plane strain only (problem.hypothesis = \"plane_strain\")"));
+                }
+                let sy = m.yield_stress.ok_or_else(|| {
+                    cx.err(
+                        k("yield_stress"),
+                        "missing: a j2_plastic material needs a yield stress",
+                    )
+                })?;
+                let sy = cx.positive(&k("yield_stress"), sy)?;
+                for (f, v) in [
+                    ("isotropic_hardening", m.isotropic_hardening),
+                    ("kinematic_hardening", m.kinematic_hardening),
+                ] {
+                    if !(v.is_finite() && v >= 0.0) {
+                        return Err(cx.err(
+                            k(f),
+                            format!(
+                                "must be finite and >= 0 (softening is not supported), got {v}"
+                            ),
+                        ));
+                    }
+                }
+                Material::J2Plastic(J2Plastic {
+                    elastic,
+                    yield_stress: sy,
+                    isotropic_hardening: m.isotropic_hardening,
+                    kinematic_hardening: m.kinematic_hardening,
+                })
+            }
+        };
+        mat_names.push(&m.name);
+        mat_models.push(m.model);
+        b.add_material(&m.name, mat);
+    }
+
+    // Bodies.
+    if raw.bodies.is_empty() {
+        return Err(cx.err("bodies", "the case defines no body"));
+    }
+    let mut body_names: Vec<&str> = vec![];
+    for (i, bs) in raw.bodies.iter().enumerate() {
+        let k = |f: &str| format!("bodies[{i}].{f}");
+        if body_names.contains(&bs.name.as_str()) {
+            return Err(cx.err(k("name"), format!("duplicate body name '{}'", bs.name)));
+        }
+        body_names.push(&bs.name);
+        let mi = mat_names
+            .iter()
+            .position(|&n| n == bs.material)
+            .ok_or_else(|| {
+                cx.err(
+                    k("material"),
+                    format!(
+                        "no material named '{}' (defined: {})",
+                        bs.material,
+                        mat_names.join(", ")
+                    ),
+                )
+            })?;
+        let thickness = match (bs.thickness, hyp) {
+            (None, _) => 1.0,
+            (Some(t), PlaneHypothesis::PlaneStress) => cx.positive(&k("thickness"), t)?,
+            (Some(_), PlaneHypothesis::PlaneStrain) => return Err(cx.err(
+                k("thickness"),
+                "plane-strain results are per unit depth; thickness applies to plane stress only",
+            )),
+        };
+        let formulation = match bs.formulation {
+            Some(Formulation::BBar) if hyp == PlaneHypothesis::PlaneStress => {
+                return Err(cx.err(k("formulation"), "B-bar treats the plane-strain volumetric constraint; use \"standard\" in plane stress"))
+            }
+            Some(f) => f,
+            None if mat_models[mi] == MaterialModel::J2Plastic => Formulation::BBar,
+            None => Formulation::Standard,
+        };
+        let mesh = build_mesh(&bs.mesh, base).map_err(|msg| cx.err(k("mesh"), msg))?;
+        b.add_body(&bs.name, mesh, mi, formulation, thickness);
+    }
+
+    // Boundary conditions.
+    for (i, bc) in raw.bcs.iter().enumerate() {
+        let k = |f: &str| format!("bcs[{i}].{f}");
+        let bi = b.body_index(&bc.body).map_err(|_| {
+            cx.err(
+                k("body"),
+                format!(
+                    "no body named '{}' (defined: {})",
+                    bc.body,
+                    body_names.join(", ")
+                ),
+            )
+        })?;
+        if bc.ux.is_none() && bc.uy.is_none() {
+            return Err(cx.err(format!("bcs[{i}]"), "give ux, uy or both"));
+        }
+        for (comp, v, f) in [(0, bc.ux, "ux"), (1, bc.uy, "uy")] {
+            if let Some(v) = v {
+                let v = cx.finite(&k(f), v)?;
+                b.fix(bi, &bc.set, comp, v)
+                    .map_err(|e| model_err(&cx, k("set"), e))?;
+            }
+        }
+    }
+
+    // Loads.
+    for (i, l) in raw.loads.iter().enumerate() {
+        let k = |f: &str| format!("loads[{i}].{f}");
+        let bi = b.body_index(&l.body).map_err(|_| {
+            cx.err(
+                k("body"),
+                format!(
+                    "no body named '{}' (defined: {})",
+                    l.body,
+                    body_names.join(", ")
+                ),
+            )
+        })?;
+        let given = [
+            l.pressure.is_some(),
+            l.traction.is_some(),
+            l.force.is_some(),
+        ]
+        .iter()
+        .filter(|&&x| x)
+        .count();
+        if given != 1 {
+            return Err(cx.err(
+                format!("loads[{i}]"),
+                "give exactly one of pressure, traction, force",
+            ));
+        }
+        if let Some(p) = l.pressure {
+            b.pressure(bi, &l.set, cx.finite(&k("pressure"), p)?)
+                .map_err(|e| model_err(&cx, k("set"), e))?;
+        }
+        if let Some(t) = l.traction {
+            let t = Vector2::new(
+                cx.finite(&k("traction"), t[0])?,
+                cx.finite(&k("traction"), t[1])?,
+            );
+            b.traction(bi, &l.set, t)
+                .map_err(|e| model_err(&cx, k("set"), e))?;
+        }
+        if let Some(f) = l.force {
+            let f = Vector2::new(cx.finite(&k("force"), f[0])?, cx.finite(&k("force"), f[1])?);
+            b.point_load(bi, &l.set, f)
+                .map_err(|e| model_err(&cx, k("set"), e))?;
+        }
+    }
+
+    // Steps.
+    let path_pts: Vec<(f64, f64)> = raw.steps.path.iter().map(|p| (p[0], p[1])).collect();
+    let load_path = LoadPath::new(path_pts).map_err(|e| model_err(&cx, "steps.path".into(), e))?;
+    let (t0, t1) = (load_path.points[0].0, load_path.end_time());
+    let times = match &raw.steps.times {
+        Some(ts) => {
+            if ts.is_empty()
+                || ts.windows(2).any(|w| w[1] <= w[0])
+                || ts.iter().any(|t| !t.is_finite() || *t <= t0)
+            {
+                return Err(cx.err("steps.times", format!("output times must be finite, strictly increasing and after the path start {t0}")));
+            }
+            ts.clone()
+        }
+        None => {
+            let n = raw.steps.increments;
+            if n == 0 {
+                return Err(cx.err("steps.increments", "must be at least 1"));
+            }
+            (1..=n)
+                .map(|i| t0 + (t1 - t0) * i as f64 / n as f64)
+                .collect()
+        }
+    };
+    let np = raw.solver.newton;
+    if !(np.rtol > 0.0 && np.rtol < 1.0) {
+        return Err(cx.err(
+            "solver.newton.rtol",
+            format!("must be in (0, 1), got {}", np.rtol),
+        ));
+    }
+    if np.max_iterations == 0 {
+        return Err(cx.err("solver.newton.max_iterations", "must be at least 1"));
+    }
+    let model = b
+        .build(load_path, times, np, raw.solver.linear)
+        .map_err(|e| model_err(&cx, "bcs".into(), e))?;
+    let output = raw
+        .output
+        .file
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("results").join(format!("{name}.h5")));
+    Ok(Case {
+        name: name.to_string(),
+        source: PathBuf::from(path),
+        model,
+        output,
+        serial: raw.solver.serial,
+    })
+}
+
+fn model_err(cx: &Ctx, key: String, e: ModelError) -> CaseError {
+    cx.err(key, e.to_string())
+}
+
+fn build_mesh(spec: &MeshSpec, base: &Path) -> Result<Mesh2, String> {
+    let m = match spec {
+        MeshSpec::Rectangle {
+            origin,
+            size,
+            divisions,
+            grading,
+            cell,
+        } => generate::rectangle(
+            origin[0],
+            origin[1],
+            size[0],
+            size[1],
+            divisions[0],
+            divisions[1],
+            grading[0],
+            grading[1],
+            match cell {
+                CellSpec::Quad4 => CellKind::Quad4,
+                CellSpec::Tri3 => CellKind::Tri3,
+            },
+        ),
+        MeshSpec::AnnulusSector {
+            inner_radius,
+            outer_radius,
+            angles,
+            divisions,
+            radial_grading,
+        } => generate::annulus_sector(
+            *inner_radius,
+            *outer_radius,
+            angles[0].to_radians(),
+            angles[1].to_radians(),
+            divisions[0],
+            divisions[1],
+            *radial_grading,
+        ),
+        MeshSpec::HalfDisc {
+            centre,
+            radius,
+            divisions,
+            radial_grading,
+            angular_grading,
+        } => generate::half_disc(
+            Point2::new(centre[0], centre[1]),
+            *radius,
+            divisions[0],
+            divisions[1],
+            *radial_grading,
+            *angular_grading,
+        ),
+        MeshSpec::Gmsh { file } => {
+            let p = if file.is_absolute() {
+                file.clone()
+            } else {
+                base.join(file)
+            };
+            return gmsh::read_msh(&p).map_err(|e| e.to_string());
+        }
+    };
+    m.map_err(|e| e.to_string())
+}

@@ -1,0 +1,260 @@
+//! `mortex` command line: run, check and bench.
+
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use mortex::analysis::StaticAnalysis;
+use mortex::case;
+use mortex::io::ResultWriter;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "mortex",
+    version,
+    about = "MorteX wear simulation engine (2D FE, mortar, X-FEM surfaces)"
+)]
+struct Cli {
+    /// More log output (-v info, -vv debug); RUST_LOG overrides.
+    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
+    verbose: u8,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a case and write <output>.h5 + .xdmf.
+    Run {
+        case: PathBuf,
+        /// Output file (default: the case's [output] file, else results/<case>.h5).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// No progress bar.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Validate a case without running it and summarise what it defines.
+    Check { case: PathBuf },
+    /// Time assembly, factorisation and solve of an n x n Quad4 plane-strain block.
+    Bench {
+        /// Cells per side (300 gives about 181k DOFs).
+        #[arg(short, long, default_value_t = 300)]
+        n: usize,
+        /// Repetitions (the best time of each phase is reported).
+        #[arg(short, long, default_value_t = 3)]
+        repeat: usize,
+        /// Serial element loop.
+        #[arg(long)]
+        serial: bool,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let level = match cli.verbose {
+        0 => "warn",
+        1 => "info",
+        _ => "debug",
+    };
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .init();
+    let result = match cli.command {
+        Command::Run {
+            case,
+            output,
+            quiet,
+        } => run(case, output, quiet),
+        Command::Check { case } => check(case),
+        Command::Bench { n, repeat, serial } => bench(n, repeat, serial),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(msg) => {
+            eprintln!("error: {msg}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn check(path: PathBuf) -> Result<(), String> {
+    let c = case::load(&path).map_err(|e| e.to_string())?;
+    let m = &c.model;
+    println!("case '{}' ({}): valid", c.name, path.display());
+    println!("  hypothesis: {:?}", m.hypothesis);
+    for (i, mat) in m.materials.iter().enumerate() {
+        println!("  material '{}': {:?}", m.material_names[i], mat);
+    }
+    for b in &m.bodies {
+        let nq = b
+            .mesh
+            .cells
+            .iter()
+            .filter(|c| c.kind == mortex::mesh::CellKind::Quad4)
+            .count();
+        println!(
+            "  body '{}': {} nodes, {} cells ({} Quad4, {} Tri3), {:?}, material '{}'",
+            b.name,
+            b.mesh.num_nodes(),
+            b.mesh.num_cells(),
+            nq,
+            b.mesh.num_cells() - nq,
+            b.formulation,
+            m.material_names[b.material]
+        );
+        for (name, v) in &b.mesh.node_sets {
+            println!("    node set '{name}': {} nodes", v.len());
+        }
+        for (name, v) in &b.mesh.edge_sets {
+            println!("    edge set '{name}': {} edges", v.len());
+        }
+        for (name, v) in &b.mesh.cell_sets {
+            println!("    cell set '{name}': {} cells", v.len());
+        }
+    }
+    println!(
+        "  DOFs: {} total, {} free, {} prescribed",
+        m.dofs.num_dofs,
+        m.dofs.num_free,
+        m.prescribed.len()
+    );
+    println!(
+        "  integration points: {} ({} with history)",
+        m.elements.num_points(),
+        m.elements.num_states()
+    );
+    println!(
+        "  steps: {} output steps to t = {}, {}",
+        m.times.len(),
+        m.load_path.end_time(),
+        if m.is_linear() {
+            "linear (one factorisation)"
+        } else {
+            "nonlinear (Newton)"
+        }
+    );
+    println!("  output: {}", c.output.display());
+    Ok(())
+}
+
+fn run(path: PathBuf, output: Option<PathBuf>, quiet: bool) -> Result<(), String> {
+    let c = case::load(&path).map_err(|e| e.to_string())?;
+    let out = output.unwrap_or_else(|| c.output.clone());
+    let model = &c.model;
+    let mut analysis = StaticAnalysis::new(model).map_err(|e| e.to_string())?;
+    analysis.set_parallel(!c.serial);
+    let mut state = analysis.initial_state();
+    let mut writer = ResultWriter::create(&out, model, &c.name).map_err(|e| e.to_string())?;
+    let bar = if quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(model.times.len() as u64)
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:40} step {pos}/{len} {msg}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let started = std::time::Instant::now();
+    let mut total_its = 0;
+    let res = {
+        let mut observer =
+            |r: &mortex::analysis::StepReport, s: &mortex::state::SimState| -> Result<(), String> {
+                total_its += r.iterations;
+                let reactions = analysis_reactions(model, s);
+                writer
+                    .write_step(model, r, s, &reactions)
+                    .map_err(|e| e.to_string())?;
+                bar.set_message(format!(
+                    "t = {:.4}, lambda = {:.4}, {} it, res {:.1e}",
+                    r.time, r.load_factor, r.iterations, r.residual
+                ));
+                bar.inc(1);
+                Ok(())
+            };
+        analysis.run(&mut state, &mut observer)
+    };
+    bar.finish_and_clear();
+    let completed = res.is_ok();
+    let file = writer.finish(completed).map_err(|e| e.to_string())?;
+    match res {
+        Ok(()) => {
+            println!(
+                "{}: {} steps, {} Newton iterations, {:.2} s -> {} (+ {})",
+                c.name,
+                model.times.len(),
+                total_its,
+                started.elapsed().as_secs_f64(),
+                file.display(),
+                file.with_extension("xdmf").display()
+            );
+            Ok(())
+        }
+        Err(e) => Err(format!(
+            "{e} (converged steps up to {} kept in {})",
+            state.step,
+            file.display()
+        )),
+    }
+}
+
+fn analysis_reactions(model: &mortex::model::Model, s: &mortex::state::SimState) -> Vec<f64> {
+    (0..model.dofs.num_dofs)
+        .map(|d| {
+            if model.dofs.eq[d] == mortex::assembly::CONSTRAINED {
+                s.f_int[d] - s.load_factor * model.f_ext[d]
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
+fn bench(n: usize, repeat: usize, serial: bool) -> Result<(), String> {
+    if n == 0 || repeat == 0 {
+        return Err("bench: n and repeat must be at least 1".into());
+    }
+    let mut best: Option<mortex::bench::LinearSolveTimes> = None;
+    for _ in 0..repeat {
+        let t = mortex::bench::time_linear_solve(n, !serial).map_err(|e| e.to_string())?;
+        best = Some(match best {
+            None => t,
+            Some(b) => mortex::bench::LinearSolveTimes {
+                pattern: b.pattern.min(t.pattern),
+                assembly: b.assembly.min(t.assembly),
+                symbolic: b.symbolic.min(t.symbolic),
+                numeric: b.numeric.min(t.numeric),
+                solve: b.solve.min(t.solve),
+                refill: b.refill.min(t.refill),
+                refactor: b.refactor.min(t.refactor),
+                ..t
+            },
+        });
+    }
+    let Some(t) = best else {
+        return Err("no repetition ran".into());
+    };
+    println!("{n} x {n} Quad4 plane-strain block: {} DOFs, {} non-zeros (best of {repeat}, {} element loop, {} rayon threads)", t.dofs, t.nnz, if serial { "serial" } else { "parallel" }, rayon::current_num_threads());
+    println!("  sparsity pattern      {:8.4} s", t.pattern);
+    println!("  assembly              {:8.4} s", t.assembly);
+    println!("  symbolic Cholesky     {:8.4} s", t.symbolic);
+    println!("  numeric Cholesky      {:8.4} s", t.numeric);
+    println!("  solve                 {:8.4} s", t.solve);
+    println!(
+        "  whole linear solve    {:8.4} s  (pattern + assembly + symbolic + numeric + solve)",
+        t.whole()
+    );
+    println!(
+        "  refill + refactor     {:8.4} s  ({:.4} + {:.4})",
+        t.refill + t.refactor,
+        t.refill,
+        t.refactor
+    );
+    println!("  relative residual     {:8.1e}", t.residual);
+    Ok(())
+}

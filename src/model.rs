@@ -1,0 +1,403 @@
+//! `Model`: the immutable problem data of a static analysis (bodies, materials, element and
+//! rule tables, DOF map, prescribed displacements, unit external load, load path).
+//! Built once by [`ModelBuilder`]; the mutable part of a run lives in `SimState`.
+//!
+//! Loading: every prescribed displacement and every external force is scaled by one load
+//! factor `lambda(t)`, a piecewise-linear function of pseudo-time given by the load path.
+
+use crate::assembly::{DofMap, ElementTable};
+use crate::fem::element::ReferenceElement;
+use crate::fem::element::Seg2;
+use crate::fem::kernel::Formulation;
+use crate::fem::material::{Material, PlaneHypothesis};
+use crate::fem::quadrature::QuadratureRule;
+use crate::mesh::{CellKind, Mesh2};
+use crate::solver::linear::LinearSolverKind;
+use crate::solver::newton::NewtonParams;
+use nalgebra::{Point2, Vector2};
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ModelError {
+    #[error("body '{body}' has no set named '{set}' (available: {available})")]
+    UnknownSet {
+        body: String,
+        set: String,
+        available: String,
+    },
+    #[error("body '{body}': set '{set}' is a node set; '{what}' needs an edge set")]
+    NotAnEdgeSet {
+        body: String,
+        set: String,
+        what: String,
+    },
+    #[error("no body named '{0}'")]
+    UnknownBody(String),
+    #[error("load path: {0}")]
+    LoadPath(String),
+    #[error("the model has no free degree of freedom")]
+    NoFreeDofs,
+}
+
+/// One body: its mesh and where its nodes and elements sit in the global numbering.
+#[derive(Debug, Clone)]
+pub struct Body {
+    pub name: String,
+    pub mesh: Mesh2,
+    pub material: usize,
+    pub formulation: Formulation,
+    pub thickness: f64,
+    pub node_offset: usize,
+    pub element_offset: usize,
+}
+
+/// Piecewise-linear load factor `lambda(t)`; constant beyond its ends.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoadPath {
+    pub points: Vec<(f64, f64)>,
+}
+
+impl LoadPath {
+    pub fn new(points: Vec<(f64, f64)>) -> Result<Self, ModelError> {
+        if points.is_empty() {
+            return Err(ModelError::LoadPath(
+                "needs at least one (time, factor) point".into(),
+            ));
+        }
+        for w in points.windows(2) {
+            if w[1].0 <= w[0].0 {
+                return Err(ModelError::LoadPath(format!(
+                    "times must increase strictly ({} then {})",
+                    w[0].0, w[1].0
+                )));
+            }
+        }
+        if points.iter().any(|p| !p.0.is_finite() || !p.1.is_finite()) {
+            return Err(ModelError::LoadPath(
+                "times and factors must be finite".into(),
+            ));
+        }
+        Ok(LoadPath { points })
+    }
+    pub fn factor(&self, t: f64) -> f64 {
+        let p = &self.points;
+        if t <= p[0].0 {
+            return p[0].1;
+        }
+        for w in p.windows(2) {
+            if t <= w[1].0 {
+                let s = (t - w[0].0) / (w[1].0 - w[0].0);
+                return w[0].1 + s * (w[1].1 - w[0].1);
+            }
+        }
+        p[p.len() - 1].1
+    }
+    pub fn end_time(&self) -> f64 {
+        self.points[self.points.len() - 1].0
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct Model {
+    pub hypothesis: PlaneHypothesis,
+    pub bodies: Vec<Body>,
+    pub materials: Vec<Material>,
+    pub material_names: Vec<String>,
+    /// Reference coordinates of all nodes (bodies concatenated).
+    pub coords: Vec<Point2<f64>>,
+    pub elements: ElementTable,
+    pub rules: Vec<QuadratureRule>,
+    pub dofs: DofMap,
+    /// `(global dof, value at unit load factor)`.
+    pub prescribed: Vec<(usize, f64)>,
+    /// External force at unit load factor, over all DOFs.
+    pub f_ext: Vec<f64>,
+    pub load_path: LoadPath,
+    /// Output times (each a converged step).
+    pub times: Vec<f64>,
+    pub newton: NewtonParams,
+    pub linear_solver: LinearSolverKind,
+}
+
+impl Model {
+    /// True when every material is linear: the stiffness is then factored once for the whole run.
+    pub fn is_linear(&self) -> bool {
+        self.materials.iter().all(|m| !m.has_state())
+    }
+    pub fn num_nodes(&self) -> usize {
+        self.coords.len()
+    }
+    /// Physical coordinates of every integration point, in point order.
+    pub fn point_coords(&self) -> Vec<Point2<f64>> {
+        let el = &self.elements;
+        let mut out = Vec::with_capacity(el.num_points());
+        for e in 0..el.len() {
+            let mut c = [Point2::origin(); 4];
+            for a in 0..el.kind[e].num_nodes() {
+                c[a] = self.coords[el.nodes[e][a]];
+            }
+            let m = crate::fem::element::MappedElement::new(el.kind[e], c);
+            for xi in &self.rules[el.rule[e]].points {
+                out.push(m.map(*xi));
+            }
+        }
+        out
+    }
+    /// Body index of a global element.
+    pub fn body_of_element(&self, e: usize) -> usize {
+        self.bodies
+            .iter()
+            .rposition(|b| b.element_offset <= e)
+            .unwrap_or(0)
+    }
+}
+
+/// Builds a [`Model`] body by body, then boundary conditions and loads by set name.
+pub struct ModelBuilder {
+    hypothesis: PlaneHypothesis,
+    bodies: Vec<Body>,
+    materials: Vec<Material>,
+    material_names: Vec<String>,
+    prescribed: Vec<(usize, f64)>,
+    f_ext: Vec<f64>,
+}
+
+impl ModelBuilder {
+    pub fn new(hypothesis: PlaneHypothesis) -> Self {
+        ModelBuilder {
+            hypothesis,
+            bodies: vec![],
+            materials: vec![],
+            material_names: vec![],
+            prescribed: vec![],
+            f_ext: vec![],
+        }
+    }
+
+    pub fn add_material(&mut self, name: &str, m: Material) -> usize {
+        self.materials.push(m);
+        self.material_names.push(name.to_string());
+        self.materials.len() - 1
+    }
+
+    pub fn add_body(
+        &mut self,
+        name: &str,
+        mesh: Mesh2,
+        material: usize,
+        formulation: Formulation,
+        thickness: f64,
+    ) -> usize {
+        let node_offset = self
+            .bodies
+            .last()
+            .map(|b| b.node_offset + b.mesh.num_nodes())
+            .unwrap_or(0);
+        let element_offset = self
+            .bodies
+            .last()
+            .map(|b| b.element_offset + b.mesh.num_cells())
+            .unwrap_or(0);
+        self.f_ext.resize(2 * (node_offset + mesh.num_nodes()), 0.0);
+        self.bodies.push(Body {
+            name: name.to_string(),
+            mesh,
+            material,
+            formulation,
+            thickness,
+            node_offset,
+            element_offset,
+        });
+        self.bodies.len() - 1
+    }
+
+    pub fn body_index(&self, name: &str) -> Result<usize, ModelError> {
+        self.bodies
+            .iter()
+            .position(|b| b.name == name)
+            .ok_or_else(|| ModelError::UnknownBody(name.to_string()))
+    }
+
+    fn node_set(&self, body: usize, set: &str) -> Result<Vec<usize>, ModelError> {
+        let b = &self.bodies[body];
+        if let Some(v) = b.mesh.node_sets.get(set) {
+            return Ok(v.iter().map(|n| n + b.node_offset).collect());
+        }
+        if let Some(cells) = b.mesh.cell_sets.get(set) {
+            let mut v: Vec<usize> = cells
+                .iter()
+                .flat_map(|&c| b.mesh.cells[c].nodes().to_vec())
+                .map(|n| n + b.node_offset)
+                .collect();
+            v.sort_unstable();
+            v.dedup();
+            return Ok(v);
+        }
+        Err(self.unknown_set(body, set))
+    }
+
+    fn unknown_set(&self, body: usize, set: &str) -> ModelError {
+        let b = &self.bodies[body];
+        ModelError::UnknownSet {
+            body: b.name.clone(),
+            set: set.to_string(),
+            available: b.mesh.set_names().join(", "),
+        }
+    }
+
+    fn edge_set(&self, body: usize, set: &str, what: &str) -> Result<Vec<[usize; 2]>, ModelError> {
+        let b = &self.bodies[body];
+        match b.mesh.edge_sets.get(set) {
+            Some(v) => Ok(v.clone()),
+            None if b.mesh.node_sets.contains_key(set) => Err(ModelError::NotAnEdgeSet {
+                body: b.name.clone(),
+                set: set.to_string(),
+                what: what.to_string(),
+            }),
+            None => Err(self.unknown_set(body, set)),
+        }
+    }
+
+    /// Prescribes displacement component `comp` (0 = x, 1 = y) to `value` on a node set.
+    pub fn fix(
+        &mut self,
+        body: usize,
+        set: &str,
+        comp: usize,
+        value: f64,
+    ) -> Result<(), ModelError> {
+        for n in self.node_set(body, set)? {
+            self.prescribed.push((2 * n + comp, value));
+        }
+        Ok(())
+    }
+
+    /// Uniform pressure `p` (positive pushes into the body: traction `-p n`) on an edge set.
+    pub fn pressure(&mut self, body: usize, set: &str, p: f64) -> Result<(), ModelError> {
+        let b = &self.bodies[body];
+        let edges = self.edge_set(body, set, "pressure")?;
+        let (off, t) = (b.node_offset, b.thickness);
+        for e in edges {
+            let (n, len) = b.mesh.edge_normal(e);
+            let f = -p * n * len * t * 0.5;
+            for &a in &e {
+                self.f_ext[2 * (a + off)] += f.x;
+                self.f_ext[2 * (a + off) + 1] += f.y;
+            }
+        }
+        Ok(())
+    }
+
+    /// Uniform traction vector (force per unit length) on an edge set.
+    pub fn traction(&mut self, body: usize, set: &str, tr: Vector2<f64>) -> Result<(), ModelError> {
+        let b = &self.bodies[body];
+        let edges = self.edge_set(body, set, "traction")?;
+        let (off, t) = (b.node_offset, b.thickness);
+        for e in edges {
+            let seg = Seg2 {
+                a: b.mesh.nodes[e[0]],
+                b: b.mesh.nodes[e[1]],
+            };
+            let f = tr * seg.length() * t * 0.5;
+            for &a in &e {
+                self.f_ext[2 * (a + off)] += f.x;
+                self.f_ext[2 * (a + off) + 1] += f.y;
+            }
+        }
+        Ok(())
+    }
+
+    /// Point force applied at every node of a node set.
+    pub fn point_load(
+        &mut self,
+        body: usize,
+        set: &str,
+        f: Vector2<f64>,
+    ) -> Result<(), ModelError> {
+        for n in self.node_set(body, set)? {
+            self.f_ext[2 * n] += f.x;
+            self.f_ext[2 * n + 1] += f.y;
+        }
+        Ok(())
+    }
+
+    /// Finishes the model: element table (one fixed rule per element kind), DOF map.
+    /// A DOF prescribed twice keeps its last value.
+    pub fn build(
+        self,
+        load_path: LoadPath,
+        times: Vec<f64>,
+        newton: NewtonParams,
+        linear_solver: LinearSolverKind,
+    ) -> Result<Model, ModelError> {
+        let rules = vec![
+            CellKind::Tri3.stiffness_rule(),
+            CellKind::Quad4.stiffness_rule(),
+        ];
+        let rule_of = |k: CellKind| match k {
+            CellKind::Tri3 => 0,
+            CellKind::Quad4 => 1,
+        };
+        let mut el = ElementTable::default();
+        el.point_offset.push(0);
+        el.state_offset.push(0);
+        let mut coords = Vec::new();
+        for b in &self.bodies {
+            coords.extend_from_slice(&b.mesh.nodes);
+            let stateful = self.materials[b.material].has_state();
+            for c in &b.mesh.cells {
+                let mut nodes = [usize::MAX; 4];
+                for (k, &n) in c.nodes().iter().enumerate() {
+                    nodes[k] = n + b.node_offset;
+                }
+                let r = rule_of(c.kind);
+                let np = rules[r].len();
+                el.kind.push(c.kind);
+                el.nodes.push(nodes);
+                el.material.push(b.material);
+                // B-bar on a triangle is the identity (constant strain): keep it standard.
+                el.formulation.push(if c.kind == CellKind::Tri3 {
+                    Formulation::Standard
+                } else {
+                    b.formulation
+                });
+                el.thickness.push(b.thickness);
+                el.rule.push(r);
+                let p = el.point_offset[el.point_offset.len() - 1];
+                el.point_offset.push(p + np);
+                let s = el.state_offset[el.state_offset.len() - 1];
+                el.state_offset.push(s + if stateful { np } else { 0 });
+            }
+        }
+        let mut prescribed = self.prescribed;
+        // Last value wins for duplicates; keep one entry per DOF.
+        let mut seen = std::collections::HashMap::new();
+        for (i, (d, _)) in prescribed.iter().enumerate() {
+            seen.insert(*d, i);
+        }
+        let mut keep: Vec<usize> = seen.into_values().collect();
+        keep.sort_unstable();
+        prescribed = keep.into_iter().map(|i| prescribed[i]).collect();
+        prescribed.sort_by_key(|p| p.0);
+        let constrained: Vec<usize> = prescribed.iter().map(|p| p.0).collect();
+        let dofs = DofMap::new(coords.len(), &constrained);
+        if dofs.num_free == 0 {
+            return Err(ModelError::NoFreeDofs);
+        }
+        Ok(Model {
+            hypothesis: self.hypothesis,
+            bodies: self.bodies,
+            materials: self.materials,
+            material_names: self.material_names,
+            coords,
+            elements: el,
+            rules,
+            dofs,
+            prescribed,
+            f_ext: self.f_ext,
+            load_path,
+            times,
+            newton,
+            linear_solver,
+        })
+    }
+}

@@ -1,0 +1,90 @@
+//! Derived output fields: nodal projection of point stresses (lumped L2 projection,
+//! `sigma_i = int N_i sigma dV / int N_i dV`), von Mises stress, equivalent plastic strain,
+//! cell averages. Pure functions of the model and a state.
+
+use crate::fem::element::{MappedElement, ShapeEval};
+use crate::fem::material::{von_mises, Stress4};
+use crate::model::Model;
+use crate::state::SimState;
+use nalgebra::Point2;
+
+#[derive(Debug, Clone)]
+pub struct NodalFields {
+    /// `[s_xx, s_yy, s_zz, s_xy]` per node.
+    pub stress: Vec<[f64; 4]>,
+    pub von_mises: Vec<f64>,
+    pub eqps: Vec<f64>,
+    /// Per cell: average stress and equivalent plastic strain.
+    pub cell_stress: Vec<[f64; 4]>,
+    pub cell_eqps: Vec<f64>,
+}
+
+pub fn nodal_fields(model: &Model, state: &SimState) -> NodalFields {
+    let n = model.num_nodes();
+    let el = &model.elements;
+    let mut wsum = vec![0.0; n];
+    let mut s = vec![[0.0; 4]; n];
+    let mut a = vec![0.0; n];
+    let mut cell_stress = vec![[0.0; 4]; el.len()];
+    let mut cell_eqps = vec![0.0; el.len()];
+    let mut ev = ShapeEval::default();
+    for e in 0..el.len() {
+        let kind = el.kind[e];
+        let nn = kind.num_nodes();
+        let mut c = [Point2::origin(); 4];
+        for k in 0..nn {
+            c[k] = model.coords[el.nodes[e][k]];
+        }
+        let mapped = MappedElement::new(kind, c);
+        let rule = &model.rules[el.rule[e]];
+        let stateful = el.state_offset[e + 1] > el.state_offset[e];
+        let mut vol = 0.0;
+        for (q, (xi, w)) in rule.points.iter().zip(&rule.weights).enumerate() {
+            mapped.eval(*xi, &mut ev);
+            let dv = w * ev.det_j;
+            vol += dv;
+            let sig: Stress4 = state.stress[el.point_offset[e] + q];
+            let alpha = if stateful {
+                state.history[el.state_offset[e] + q].alpha
+            } else {
+                0.0
+            };
+            for comp in 0..4 {
+                cell_stress[e][comp] += sig[comp] * dv;
+            }
+            cell_eqps[e] += alpha * dv;
+            for k in 0..nn {
+                let node = el.nodes[e][k];
+                let wk = ev.n[k] * dv;
+                wsum[node] += wk;
+                for comp in 0..4 {
+                    s[node][comp] += wk * sig[comp];
+                }
+                a[node] += wk * alpha;
+            }
+        }
+        for comp in 0..4 {
+            cell_stress[e][comp] /= vol;
+        }
+        cell_eqps[e] /= vol;
+    }
+    for i in 0..n {
+        if wsum[i] > 0.0 {
+            for comp in 0..4 {
+                s[i][comp] /= wsum[i];
+            }
+            a[i] /= wsum[i];
+        }
+    }
+    let vm = s
+        .iter()
+        .map(|x| von_mises(&Stress4::new(x[0], x[1], x[2], x[3])))
+        .collect();
+    NodalFields {
+        stress: s,
+        von_mises: vm,
+        eqps: a,
+        cell_stress,
+        cell_eqps,
+    }
+}

@@ -1,0 +1,4 @@
+//! Linear solvers and the Newton driver's parameters and errors.
+
+pub mod linear;
+pub mod newton;

@@ -1,0 +1,49 @@
+//! Newton-Raphson parameters and errors for the load-stepping driver (see `analysis`).
+//!
+//! Convergence: `|r_free| <= rtol * max(|lambda f_ext|, |f_int|)`, with `f_int` over all DOFs so
+//! that displacement-driven problems (no external force) are measured against their reactions.
+//! A step that does not converge in `max_iterations`, or whose residual grows by
+//! `divergence_factor` or becomes non-finite, is cut back (the increment halved) from the last
+//! converged state, at most `max_cutbacks` times.
+
+use crate::solver::linear::LinearSolverError;
+
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NewtonParams {
+    pub max_iterations: usize,
+    pub rtol: f64,
+    pub max_cutbacks: usize,
+    pub divergence_factor: f64,
+}
+
+impl Default for NewtonParams {
+    fn default() -> Self {
+        NewtonParams {
+            max_iterations: 25,
+            rtol: 1e-9,
+            max_cutbacks: 8,
+            divergence_factor: 1e8,
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum NewtonError {
+    #[error("Newton did not converge in step {step} (time {time}, load factor {load_factor}) after {cutbacks} cut-backs: iteration {iteration}, relative residual {residual:.3e} (tolerance {rtol:.1e})")]
+    NotConverged {
+        step: usize,
+        time: f64,
+        load_factor: f64,
+        iteration: usize,
+        residual: f64,
+        rtol: f64,
+        cutbacks: usize,
+    },
+    #[error("linear solve failed in step {step}, iteration {iteration}: {source}")]
+    Linear {
+        step: usize,
+        iteration: usize,
+        source: LinearSolverError,
+    },
+}

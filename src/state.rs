@@ -1,0 +1,22 @@
+//! `SimState`: the one mutable struct of a simulation, everything a checkpoint must hold to
+//! resume bit for bit. All problem data (meshes, materials, loads) lives in the immutable
+//! `Model`. History advances only from converged steps: the analysis computes trial values in
+//! its own buffers and commits them here when a step converges.
+
+use crate::fem::material::{PlasticState, Stress4};
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimState {
+    /// Index of the last converged output step (0: initial state).
+    pub step: usize,
+    pub time: f64,
+    pub load_factor: f64,
+    /// Global displacements, two per node.
+    pub u: Vec<f64>,
+    /// History of every stateful integration point (fixed material points).
+    pub history: Vec<PlasticState>,
+    /// Stress at every integration point (derived from `u` and `history`, kept for output).
+    pub stress: Vec<Stress4>,
+    /// Internal force at every DOF (reactions at constrained DOFs).
+    pub f_int: Vec<f64>,
+}
