@@ -271,6 +271,12 @@ impl ModelBuilder {
         Ok(())
     }
 
+    /// Prescribes component `comp` of one node (body-local index) to `value`.
+    pub fn fix_node(&mut self, body: usize, node: usize, comp: usize, value: f64) {
+        let off = self.bodies[body].node_offset;
+        self.prescribed.push((2 * (node + off) + comp, value));
+    }
+
     /// Uniform pressure `p` (positive pushes into the body: traction `-p n`) on an edge set.
     pub fn pressure(&mut self, body: usize, set: &str, p: f64) -> Result<(), ModelError> {
         let b = &self.bodies[body];
