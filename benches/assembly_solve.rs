@@ -1,1 +1,74 @@
-fn main() {}
+//! Criterion benches of the FE core on the 300 x 300 Quad4 plane-strain block (181k DOFs):
+//! sparsity pattern, assembly (serial and parallel), symbolic and numeric Cholesky, solve.
+//! `MORTEX_BENCH_N` overrides the size.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use mortex::assembly::{Assembler, AssemblyInput, AssemblyOutput, SparsityPattern};
+use mortex::bench::block_model;
+use mortex::fem::material::{PlasticState, Stress4};
+use mortex::solver::linear::{LinearSolverKind, SparseSolver};
+use std::hint::black_box;
+
+fn size() -> usize {
+    std::env::var("MORTEX_BENCH_N").ok().and_then(|s| s.parse().ok()).unwrap_or(300)
+}
+
+fn benches(c: &mut Criterion) {
+    let n = size();
+    let model = block_model(n);
+    let el = &model.elements;
+    let mut g = c.benchmark_group(format!("block_{n}x{n}"));
+    g.sample_size(10);
+    g.bench_function("sparsity_pattern", |b| {
+        b.iter(|| black_box(SparsityPattern::new(model.num_nodes(), el, &model.dofs)))
+    });
+    let pattern = SparsityPattern::new(model.num_nodes(), el, &model.dofs);
+    g.bench_function("symbolic_cholesky", |b| {
+        b.iter(|| black_box(SparseSolver::new(&pattern.symbolic, LinearSolverKind::Cholesky).ok()))
+    });
+    let mut solver = match SparseSolver::new(&pattern.symbolic, LinearSolverKind::Cholesky) {
+        Ok(s) => s,
+        Err(e) => panic!("symbolic factorisation: {e}"),
+    };
+    let mut asm = Assembler::new(pattern, el);
+    let mut values = vec![0.0; asm.pattern.nnz()];
+    let mut f = vec![0.0; model.dofs.num_dofs];
+    let mut stress = vec![Stress4::zeros(); el.num_points()];
+    let mut hist: Vec<PlasticState> = vec![];
+    let u = vec![0.0; model.dofs.num_dofs];
+    for (name, parallel) in [("assembly_parallel", true), ("assembly_serial", false)] {
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                asm.assemble(
+                    &AssemblyInput {
+                        coords: &model.coords,
+                        elements: el,
+                        materials: &model.materials,
+                        rules: &model.rules,
+                        u: &u,
+                        state_old: &[],
+                    },
+                    AssemblyOutput {
+                        values: Some(&mut values),
+                        f_int: &mut f,
+                        stress: &mut stress,
+                        state_new: &mut hist,
+                    },
+                    parallel,
+                )
+            })
+        });
+    }
+    g.bench_function("numeric_cholesky", |b| b.iter(|| solver.factor(&values).is_ok()));
+    let rhs: Vec<f64> = model.dofs.free.iter().map(|&d| model.f_ext[d]).collect();
+    g.bench_function("solve", |b| {
+        b.iter(|| {
+            let mut x = rhs.clone();
+            solver.solve(&mut x).is_ok()
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(fe_core, benches);
+criterion_main!(fe_core);

@@ -114,28 +114,12 @@ impl<'m> StaticAnalysis<'m> {
     }
 
     /// Advances `state` to time `t_end` (output step `step`), with cut-backs if needed.
-    pub fn advance_to(
-        &mut self,
-        state: &mut SimState,
-        step: usize,
-        t_end: f64,
-    ) -> Result<StepReport, AnalysisError> {
+    pub fn advance_to(&mut self, state: &mut SimState, step: usize, t_end: f64) -> Result<StepReport, AnalysisError> {
         let params = self.model.newton;
-        let mut report = StepReport {
-            step,
-            time: t_end,
-            load_factor: 0.0,
-            iterations: 0,
-            cutbacks: 0,
-            residual: 0.0,
-        };
+        let mut report = StepReport { step, time: t_end, load_factor: 0.0, iterations: 0, cutbacks: 0, residual: 0.0 };
         let mut dt = t_end - state.time;
         while state.time < t_end || dt == 0.0 {
-            let t_try = if state.time + dt >= t_end {
-                t_end
-            } else {
-                state.time + dt
-            };
+            let t_try = if state.time + dt >= t_end { t_end } else { state.time + dt };
             match self.newton(state, step, t_try)? {
                 Ok((its, res)) => {
                     report.iterations += its;
@@ -159,12 +143,7 @@ impl<'m> StaticAnalysis<'m> {
                         }
                         .into());
                     }
-                    tracing::warn!(
-                        step,
-                        time = t_try,
-                        residual = res,
-                        "Newton failed; cutting the increment in half"
-                    );
+                    tracing::warn!(step, time = t_try, residual = res, "Newton failed; cutting the increment in half");
                     dt *= 0.5;
                 }
             }
@@ -208,11 +187,7 @@ impl<'m> StaticAnalysis<'m> {
                     state_old: &state.history,
                 },
                 AssemblyOutput {
-                    values: if need_tangent {
-                        Some(&mut self.values)
-                    } else {
-                        None
-                    },
+                    values: if need_tangent { Some(&mut self.values) } else { None },
                     f_int: &mut self.trial_f_int,
                     stress: &mut self.trial_stress,
                     state_new: &mut self.trial_history,
@@ -247,22 +222,19 @@ impl<'m> StaticAnalysis<'m> {
                 break;
             }
             if need_tangent {
-                self.solver
-                    .factor(&self.values)
-                    .map_err(|source| NewtonError::Linear {
-                        step,
-                        iteration: it,
-                        source,
-                    })?;
-                self.factored = true;
+                match self.solver.factor(&self.values) {
+                    Ok(()) => self.factored = true,
+                    // A nonlinear tangent can lose definiteness when the trial state is beyond a
+                    // limit load: retry with a smaller increment. A linear model's stiffness
+                    // never changes, so there the failure is final (insufficient supports).
+                    Err(e) if !linear => {
+                        tracing::warn!(step, t, it, error = %e, "tangent factorisation failed");
+                        return Ok(Err((it, res)));
+                    }
+                    Err(source) => return Err(NewtonError::Linear { step, iteration: it, source }.into()),
+                }
             }
-            self.solver
-                .solve(&mut r)
-                .map_err(|source| NewtonError::Linear {
-                    step,
-                    iteration: it,
-                    source,
-                })?;
+            self.solver.solve(&mut r).map_err(|source| NewtonError::Linear { step, iteration: it, source })?;
             for (i, &g) in m.dofs.free.iter().enumerate() {
                 u[g] += r[i];
             }
@@ -275,13 +247,7 @@ impl<'m> StaticAnalysis<'m> {
         let m = self.model;
         let lambda = state.load_factor;
         (0..m.dofs.num_dofs)
-            .map(|d| {
-                if m.dofs.eq[d] == CONSTRAINED {
-                    state.f_int[d] - lambda * m.f_ext[d]
-                } else {
-                    0.0
-                }
-            })
+            .map(|d| if m.dofs.eq[d] == CONSTRAINED { state.f_int[d] - lambda * m.f_ext[d] } else { 0.0 })
             .collect()
     }
 }

@@ -19,11 +19,7 @@ pub fn block_model(n: usize) -> Model {
     let mut b = ModelBuilder::new(PlaneHypothesis::PlaneStrain);
     let m = b.add_material(
         "steel",
-        Material::Elastic(Elastic {
-            young: 210_000.0,
-            poisson: 0.3,
-            hypothesis: PlaneHypothesis::PlaneStrain,
-        }),
+        Material::Elastic(Elastic { young: 210_000.0, poisson: 0.3, hypothesis: PlaneHypothesis::PlaneStrain }),
     );
     let body = b.add_body("block", mesh, m, Formulation::Standard, 1.0);
     let setup = (|| {
@@ -31,12 +27,7 @@ pub fn block_model(n: usize) -> Model {
         b.fix(body, "bottom", 1, 0.0)?;
         b.pressure(body, "top", 100.0)?;
         let path = LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)])?;
-        b.build(
-            path,
-            vec![1.0],
-            NewtonParams::default(),
-            LinearSolverKind::Cholesky,
-        )
+        b.build(path, vec![1.0], NewtonParams::default(), LinearSolverKind::Cholesky)
     })();
     match setup {
         Ok(model) => model,
@@ -71,10 +62,7 @@ impl LinearSolveTimes {
 /// Times one linear solve of the `n x n` block, then a refill and a refactorisation.
 pub fn time_linear_solve(n: usize, parallel: bool) -> Result<LinearSolveTimes, LinearSolverError> {
     let model = block_model(n);
-    let mut t = LinearSolveTimes {
-        dofs: model.dofs.num_dofs,
-        ..Default::default()
-    };
+    let mut t = LinearSolveTimes { dofs: model.dofs.num_dofs, ..Default::default() };
     let el = &model.elements;
     let t0 = Instant::now();
     let pattern = SparsityPattern::new(model.num_nodes(), el, &model.dofs);
@@ -99,12 +87,7 @@ pub fn time_linear_solve(n: usize, parallel: bool) -> Result<LinearSolveTimes, L
                 u: &u,
                 state_old: &[],
             },
-            AssemblyOutput {
-                values: Some(values),
-                f_int,
-                stress: &mut stress,
-                state_new: &mut hist,
-            },
+            AssemblyOutput { values: Some(values), f_int, stress: &mut stress, state_new: &mut hist },
             parallel,
         )
     };
@@ -127,12 +110,7 @@ pub fn time_linear_solve(n: usize, parallel: bool) -> Result<LinearSolveTimes, L
     t.refactor = t0.elapsed().as_secs_f64();
     let mut kx = vec![0.0; x.len()];
     crate::solver::linear::spmv(&asm.pattern.symbolic, &values, &x, &mut kx);
-    let num: f64 = kx
-        .iter()
-        .zip(&rhs)
-        .map(|(a, b)| (a - b) * (a - b))
-        .sum::<f64>()
-        .sqrt();
+    let num: f64 = kx.iter().zip(&rhs).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
     let den: f64 = rhs.iter().map(|b| b * b).sum::<f64>().sqrt();
     t.residual = num / den;
     Ok(t)

@@ -9,11 +9,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(
-    name = "mortex",
-    version,
-    about = "MorteX wear simulation engine (2D FE, mortar, X-FEM surfaces)"
-)]
+#[command(name = "mortex", version, about = "MorteX wear simulation engine (2D FE, mortar, X-FEM surfaces)")]
 struct Cli {
     /// More log output (-v info, -vv debug); RUST_LOG overrides.
     #[arg(short, long, action = clap::ArgAction::Count, global = true)]
@@ -59,16 +55,9 @@ fn main() -> ExitCode {
     };
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .init();
+    tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).init();
     let result = match cli.command {
-        Command::Run {
-            case,
-            output,
-            quiet,
-        } => run(case, output, quiet),
+        Command::Run { case, output, quiet } => run(case, output, quiet),
         Command::Check { case } => check(case),
         Command::Bench { n, repeat, serial } => bench(n, repeat, serial),
     };
@@ -90,12 +79,7 @@ fn check(path: PathBuf) -> Result<(), String> {
         println!("  material '{}': {:?}", m.material_names[i], mat);
     }
     for b in &m.bodies {
-        let nq = b
-            .mesh
-            .cells
-            .iter()
-            .filter(|c| c.kind == mortex::mesh::CellKind::Quad4)
-            .count();
+        let nq = b.mesh.cells.iter().filter(|c| c.kind == mortex::mesh::CellKind::Quad4).count();
         println!(
             "  body '{}': {} nodes, {} cells ({} Quad4, {} Tri3), {:?}, material '{}'",
             b.name,
@@ -116,26 +100,13 @@ fn check(path: PathBuf) -> Result<(), String> {
             println!("    cell set '{name}': {} cells", v.len());
         }
     }
-    println!(
-        "  DOFs: {} total, {} free, {} prescribed",
-        m.dofs.num_dofs,
-        m.dofs.num_free,
-        m.prescribed.len()
-    );
-    println!(
-        "  integration points: {} ({} with history)",
-        m.elements.num_points(),
-        m.elements.num_states()
-    );
+    println!("  DOFs: {} total, {} free, {} prescribed", m.dofs.num_dofs, m.dofs.num_free, m.prescribed.len());
+    println!("  integration points: {} ({} with history)", m.elements.num_points(), m.elements.num_states());
     println!(
         "  steps: {} output steps to t = {}, {}",
         m.times.len(),
         m.load_path.end_time(),
-        if m.is_linear() {
-            "linear (one factorisation)"
-        } else {
-            "nonlinear (Newton)"
-        }
+        if m.is_linear() { "linear (one factorisation)" } else { "nonlinear (Newton)" }
     );
     println!("  output: {}", c.output.display());
     Ok(())
@@ -149,34 +120,25 @@ fn run(path: PathBuf, output: Option<PathBuf>, quiet: bool) -> Result<(), String
     analysis.set_parallel(!c.serial);
     let mut state = analysis.initial_state();
     let mut writer = ResultWriter::create(&out, model, &c.name).map_err(|e| e.to_string())?;
-    let bar = if quiet {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(model.times.len() as u64)
-    };
+    let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(model.times.len() as u64) };
     bar.set_style(
-        ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {bar:40} step {pos}/{len} {msg}",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} step {pos}/{len} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let started = std::time::Instant::now();
     let mut total_its = 0;
     let res = {
-        let mut observer =
-            |r: &mortex::analysis::StepReport, s: &mortex::state::SimState| -> Result<(), String> {
-                total_its += r.iterations;
-                let reactions = analysis_reactions(model, s);
-                writer
-                    .write_step(model, r, s, &reactions)
-                    .map_err(|e| e.to_string())?;
-                bar.set_message(format!(
-                    "t = {:.4}, lambda = {:.4}, {} it, res {:.1e}",
-                    r.time, r.load_factor, r.iterations, r.residual
-                ));
-                bar.inc(1);
-                Ok(())
-            };
+        let mut observer = |r: &mortex::analysis::StepReport, s: &mortex::state::SimState| -> Result<(), String> {
+            total_its += r.iterations;
+            let reactions = analysis_reactions(model, s);
+            writer.write_step(model, r, s, &reactions).map_err(|e| e.to_string())?;
+            bar.set_message(format!(
+                "t = {:.4}, lambda = {:.4}, {} it, res {:.1e}",
+                r.time, r.load_factor, r.iterations, r.residual
+            ));
+            bar.inc(1);
+            Ok(())
+        };
         analysis.run(&mut state, &mut observer)
     };
     bar.finish_and_clear();
@@ -195,11 +157,7 @@ fn run(path: PathBuf, output: Option<PathBuf>, quiet: bool) -> Result<(), String
             );
             Ok(())
         }
-        Err(e) => Err(format!(
-            "{e} (converged steps up to {} kept in {})",
-            state.step,
-            file.display()
-        )),
+        Err(e) => Err(format!("{e} (converged steps up to {} kept in {})", state.step, file.display())),
     }
 }
 
@@ -245,16 +203,8 @@ fn bench(n: usize, repeat: usize, serial: bool) -> Result<(), String> {
     println!("  symbolic Cholesky     {:8.4} s", t.symbolic);
     println!("  numeric Cholesky      {:8.4} s", t.numeric);
     println!("  solve                 {:8.4} s", t.solve);
-    println!(
-        "  whole linear solve    {:8.4} s  (pattern + assembly + symbolic + numeric + solve)",
-        t.whole()
-    );
-    println!(
-        "  refill + refactor     {:8.4} s  ({:.4} + {:.4})",
-        t.refill + t.refactor,
-        t.refill,
-        t.refactor
-    );
+    println!("  whole linear solve    {:8.4} s  (pattern + assembly + symbolic + numeric + solve)", t.whole());
+    println!("  refill + refactor     {:8.4} s  ({:.4} + {:.4})", t.refill + t.refactor, t.refill, t.refactor);
     println!("  relative residual     {:8.1e}", t.residual);
     Ok(())
 }

@@ -19,17 +19,9 @@ use nalgebra::{Point2, Vector2};
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum ModelError {
     #[error("body '{body}' has no set named '{set}' (available: {available})")]
-    UnknownSet {
-        body: String,
-        set: String,
-        available: String,
-    },
+    UnknownSet { body: String, set: String, available: String },
     #[error("body '{body}': set '{set}' is a node set; '{what}' needs an edge set")]
-    NotAnEdgeSet {
-        body: String,
-        set: String,
-        what: String,
-    },
+    NotAnEdgeSet { body: String, set: String, what: String },
     #[error("no body named '{0}'")]
     UnknownBody(String),
     #[error("load path: {0}")]
@@ -59,22 +51,15 @@ pub struct LoadPath {
 impl LoadPath {
     pub fn new(points: Vec<(f64, f64)>) -> Result<Self, ModelError> {
         if points.is_empty() {
-            return Err(ModelError::LoadPath(
-                "needs at least one (time, factor) point".into(),
-            ));
+            return Err(ModelError::LoadPath("needs at least one (time, factor) point".into()));
         }
         for w in points.windows(2) {
             if w[1].0 <= w[0].0 {
-                return Err(ModelError::LoadPath(format!(
-                    "times must increase strictly ({} then {})",
-                    w[0].0, w[1].0
-                )));
+                return Err(ModelError::LoadPath(format!("times must increase strictly ({} then {})", w[0].0, w[1].0)));
             }
         }
         if points.iter().any(|p| !p.0.is_finite() || !p.1.is_finite()) {
-            return Err(ModelError::LoadPath(
-                "times and factors must be finite".into(),
-            ));
+            return Err(ModelError::LoadPath("times and factors must be finite".into()));
         }
         Ok(LoadPath { points })
     }
@@ -144,10 +129,7 @@ impl Model {
     }
     /// Body index of a global element.
     pub fn body_of_element(&self, e: usize) -> usize {
-        self.bodies
-            .iter()
-            .rposition(|b| b.element_offset <= e)
-            .unwrap_or(0)
+        self.bodies.iter().rposition(|b| b.element_offset <= e).unwrap_or(0)
     }
 }
 
@@ -187,16 +169,8 @@ impl ModelBuilder {
         formulation: Formulation,
         thickness: f64,
     ) -> usize {
-        let node_offset = self
-            .bodies
-            .last()
-            .map(|b| b.node_offset + b.mesh.num_nodes())
-            .unwrap_or(0);
-        let element_offset = self
-            .bodies
-            .last()
-            .map(|b| b.element_offset + b.mesh.num_cells())
-            .unwrap_or(0);
+        let node_offset = self.bodies.last().map(|b| b.node_offset + b.mesh.num_nodes()).unwrap_or(0);
+        let element_offset = self.bodies.last().map(|b| b.element_offset + b.mesh.num_cells()).unwrap_or(0);
         self.f_ext.resize(2 * (node_offset + mesh.num_nodes()), 0.0);
         self.bodies.push(Body {
             name: name.to_string(),
@@ -211,10 +185,7 @@ impl ModelBuilder {
     }
 
     pub fn body_index(&self, name: &str) -> Result<usize, ModelError> {
-        self.bodies
-            .iter()
-            .position(|b| b.name == name)
-            .ok_or_else(|| ModelError::UnknownBody(name.to_string()))
+        self.bodies.iter().position(|b| b.name == name).ok_or_else(|| ModelError::UnknownBody(name.to_string()))
     }
 
     fn node_set(&self, body: usize, set: &str) -> Result<Vec<usize>, ModelError> {
@@ -223,11 +194,8 @@ impl ModelBuilder {
             return Ok(v.iter().map(|n| n + b.node_offset).collect());
         }
         if let Some(cells) = b.mesh.cell_sets.get(set) {
-            let mut v: Vec<usize> = cells
-                .iter()
-                .flat_map(|&c| b.mesh.cells[c].nodes().to_vec())
-                .map(|n| n + b.node_offset)
-                .collect();
+            let mut v: Vec<usize> =
+                cells.iter().flat_map(|&c| b.mesh.cells[c].nodes().to_vec()).map(|n| n + b.node_offset).collect();
             v.sort_unstable();
             v.dedup();
             return Ok(v);
@@ -237,34 +205,22 @@ impl ModelBuilder {
 
     fn unknown_set(&self, body: usize, set: &str) -> ModelError {
         let b = &self.bodies[body];
-        ModelError::UnknownSet {
-            body: b.name.clone(),
-            set: set.to_string(),
-            available: b.mesh.set_names().join(", "),
-        }
+        ModelError::UnknownSet { body: b.name.clone(), set: set.to_string(), available: b.mesh.set_names().join(", ") }
     }
 
     fn edge_set(&self, body: usize, set: &str, what: &str) -> Result<Vec<[usize; 2]>, ModelError> {
         let b = &self.bodies[body];
         match b.mesh.edge_sets.get(set) {
             Some(v) => Ok(v.clone()),
-            None if b.mesh.node_sets.contains_key(set) => Err(ModelError::NotAnEdgeSet {
-                body: b.name.clone(),
-                set: set.to_string(),
-                what: what.to_string(),
-            }),
+            None if b.mesh.node_sets.contains_key(set) => {
+                Err(ModelError::NotAnEdgeSet { body: b.name.clone(), set: set.to_string(), what: what.to_string() })
+            }
             None => Err(self.unknown_set(body, set)),
         }
     }
 
     /// Prescribes displacement component `comp` (0 = x, 1 = y) to `value` on a node set.
-    pub fn fix(
-        &mut self,
-        body: usize,
-        set: &str,
-        comp: usize,
-        value: f64,
-    ) -> Result<(), ModelError> {
+    pub fn fix(&mut self, body: usize, set: &str, comp: usize, value: f64) -> Result<(), ModelError> {
         for n in self.node_set(body, set)? {
             self.prescribed.push((2 * n + comp, value));
         }
@@ -299,10 +255,7 @@ impl ModelBuilder {
         let edges = self.edge_set(body, set, "traction")?;
         let (off, t) = (b.node_offset, b.thickness);
         for e in edges {
-            let seg = Seg2 {
-                a: b.mesh.nodes[e[0]],
-                b: b.mesh.nodes[e[1]],
-            };
+            let seg = Seg2 { a: b.mesh.nodes[e[0]], b: b.mesh.nodes[e[1]] };
             let f = tr * seg.length() * t * 0.5;
             for &a in &e {
                 self.f_ext[2 * (a + off)] += f.x;
@@ -313,12 +266,7 @@ impl ModelBuilder {
     }
 
     /// Point force applied at every node of a node set.
-    pub fn point_load(
-        &mut self,
-        body: usize,
-        set: &str,
-        f: Vector2<f64>,
-    ) -> Result<(), ModelError> {
+    pub fn point_load(&mut self, body: usize, set: &str, f: Vector2<f64>) -> Result<(), ModelError> {
         for n in self.node_set(body, set)? {
             self.f_ext[2 * n] += f.x;
             self.f_ext[2 * n + 1] += f.y;
@@ -335,10 +283,7 @@ impl ModelBuilder {
         newton: NewtonParams,
         linear_solver: LinearSolverKind,
     ) -> Result<Model, ModelError> {
-        let rules = vec![
-            CellKind::Tri3.stiffness_rule(),
-            CellKind::Quad4.stiffness_rule(),
-        ];
+        let rules = vec![CellKind::Tri3.stiffness_rule(), CellKind::Quad4.stiffness_rule()];
         let rule_of = |k: CellKind| match k {
             CellKind::Tri3 => 0,
             CellKind::Quad4 => 1,
@@ -361,11 +306,7 @@ impl ModelBuilder {
                 el.nodes.push(nodes);
                 el.material.push(b.material);
                 // B-bar on a triangle is the identity (constant strain): keep it standard.
-                el.formulation.push(if c.kind == CellKind::Tri3 {
-                    Formulation::Standard
-                } else {
-                    b.formulation
-                });
+                el.formulation.push(if c.kind == CellKind::Tri3 { Formulation::Standard } else { b.formulation });
                 el.thickness.push(b.thickness);
                 el.rule.push(r);
                 let p = el.point_offset[el.point_offset.len() - 1];

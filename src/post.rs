@@ -44,11 +44,7 @@ pub fn nodal_fields(model: &Model, state: &SimState) -> NodalFields {
             let dv = w * ev.det_j;
             vol += dv;
             let sig: Stress4 = state.stress[el.point_offset[e] + q];
-            let alpha = if stateful {
-                state.history[el.state_offset[e] + q].alpha
-            } else {
-                0.0
-            };
+            let alpha = if stateful { state.history[el.state_offset[e] + q].alpha } else { 0.0 };
             for comp in 0..4 {
                 cell_stress[e][comp] += sig[comp] * dv;
             }
@@ -76,15 +72,6 @@ pub fn nodal_fields(model: &Model, state: &SimState) -> NodalFields {
             a[i] /= wsum[i];
         }
     }
-    let vm = s
-        .iter()
-        .map(|x| von_mises(&Stress4::new(x[0], x[1], x[2], x[3])))
-        .collect();
-    NodalFields {
-        stress: s,
-        von_mises: vm,
-        eqps: a,
-        cell_stress,
-        cell_eqps,
-    }
+    let vm = s.iter().map(|x| von_mises(&Stress4::new(x[0], x[1], x[2], x[3]))).collect();
+    NodalFields { stress: s, von_mises: vm, eqps: a, cell_stress, cell_eqps }
 }

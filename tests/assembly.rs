@@ -15,11 +15,7 @@ use nalgebra::Point2;
 /// Two bodies (Quad4 plastic, Tri3 elastic), random displacements so plastic points yield.
 fn mixed_model() -> (Model, Vec<f64>) {
     let hyp = PlaneHypothesis::PlaneStrain;
-    let el = Elastic {
-        young: 200_000.0,
-        poisson: 0.3,
-        hypothesis: hyp,
-    };
+    let el = Elastic { young: 200_000.0, poisson: 0.3, hypothesis: hyp };
     let mut b = ModelBuilder::new(hyp);
     let m0 = b.add_material(
         "pl",
@@ -48,17 +44,11 @@ fn mixed_model() -> (Model, Vec<f64>) {
         )
         .unwrap();
     let mut rng = Lcg(3);
-    let u: Vec<f64> = (0..model.dofs.num_dofs)
-        .map(|_| 5e-3 * rng.next())
-        .collect();
+    let u: Vec<f64> = (0..model.dofs.num_dofs).map(|_| 5e-3 * rng.next()).collect();
     (model, u)
 }
 
-fn assemble(
-    model: &Model,
-    u: &[f64],
-    parallel: bool,
-) -> (Vec<f64>, Vec<f64>, Vec<PlasticState>, Assembler) {
+fn assemble(model: &Model, u: &[f64], parallel: bool) -> (Vec<f64>, Vec<f64>, Vec<PlasticState>, Assembler) {
     let pattern = SparsityPattern::new(model.num_nodes(), &model.elements, &model.dofs);
     let mut asm = Assembler::new(pattern, &model.elements);
     let mut values = vec![0.0; asm.pattern.nnz()];
@@ -75,12 +65,7 @@ fn assemble(
             u,
             state_old: &old,
         },
-        AssemblyOutput {
-            values: Some(&mut values),
-            f_int: &mut f,
-            stress: &mut stress,
-            state_new: &mut new,
-        },
+        AssemblyOutput { values: Some(&mut values), f_int: &mut f, stress: &mut stress, state_new: &mut new },
         parallel,
     );
     (values, f, new, asm)
@@ -91,10 +76,7 @@ fn serial_and_parallel_assembly_are_bit_identical() {
     let (model, u) = mixed_model();
     let (vs, fs, hs, _) = assemble(&model, &u, false);
     let (vp, fp, hp, _) = assemble(&model, &u, true);
-    assert!(
-        hs.iter().any(|h| h.alpha > 0.0),
-        "the random state must yield somewhere"
-    );
+    assert!(hs.iter().any(|h| h.alpha > 0.0), "the random state must yield somewhere");
     assert_eq!(vs, vp);
     assert_eq!(fs, fp);
     assert_eq!(hs, hp);
@@ -162,26 +144,15 @@ fn sparse_assembly_equals_dense_reference() {
         }
     }
     let kmax = dense.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let diff = dense
-        .iter()
-        .zip(&from_sparse)
-        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    let diff = dense.iter().zip(&from_sparse).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
     // Same sums in a different order: round-off only (1e-13 relative).
-    assert!(
-        diff <= 1e-13 * kmax,
-        "max |K_sparse - K_dense| = {diff:e} (|K| = {kmax:e})"
-    );
+    assert!(diff <= 1e-13 * kmax, "max |K_sparse - K_dense| = {diff:e} (|K| = {kmax:e})");
     let fmax = fref.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let fdiff = fref
-        .iter()
-        .zip(&f)
-        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    let fdiff = fref.iter().zip(&f).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
     assert!(fdiff <= 1e-13 * fmax);
     // Symmetric tangent (associative J2 with the consistent tangent; elasticity).
     let asym = (0..n)
         .flat_map(|i| (0..n).map(move |j| (i, j)))
-        .fold(0.0f64, |m, (i, j)| {
-            m.max((from_sparse[i * n + j] - from_sparse[j * n + i]).abs())
-        });
+        .fold(0.0f64, |m, (i, j)| m.max((from_sparse[i * n + j] - from_sparse[j * n + i]).abs()));
     assert!(asym <= 1e-10 * kmax, "asymmetry {asym:e}");
 }

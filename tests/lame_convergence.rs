@@ -39,18 +39,10 @@ fn lame(x: f64, y: f64) -> ([f64; 2], [f64; 4]) {
 }
 
 fn model(nr: usize, nt: usize) -> Model {
-    let mesh = generate::annulus_sector(A_IN, B_OUT, 0.0, std::f64::consts::FRAC_PI_2, nr, nt, 1.0)
-        .unwrap();
+    let mesh = generate::annulus_sector(A_IN, B_OUT, 0.0, std::f64::consts::FRAC_PI_2, nr, nt, 1.0).unwrap();
     let hyp = PlaneHypothesis::PlaneStrain;
     let mut b = ModelBuilder::new(hyp);
-    let mi = b.add_material(
-        "steel",
-        Material::Elastic(Elastic {
-            young: E,
-            poisson: NU,
-            hypothesis: hyp,
-        }),
-    );
+    let mi = b.add_material("steel", Material::Elastic(Elastic { young: E, poisson: NU, hypothesis: hyp }));
     let body = b.add_body("cylinder", mesh, mi, Formulation::Standard, 1.0);
     b.fix(body, "start", 1, 0.0).unwrap();
     b.fix(body, "end", 0, 0.0).unwrap();
@@ -68,11 +60,7 @@ fn model(nr: usize, nt: usize) -> Model {
 fn errors(nr: usize, nt: usize) -> (f64, f64) {
     let m = model(nr, nt);
     let s = solve(&m);
-    let el = Elastic {
-        young: E,
-        poisson: NU,
-        hypothesis: PlaneHypothesis::PlaneStrain,
-    };
+    let el = Elastic { young: E, poisson: NU, hypothesis: PlaneHypothesis::PlaneStrain };
     let d = el.tangent();
     let c = d.try_inverse().unwrap();
     let (mut l2e, mut l2u, mut ene, mut enu) = (0.0, 0.0, 0.0, 0.0);
@@ -96,7 +84,10 @@ fn quad4_converges_at_optimal_rates_on_lame_cylinder() {
     for (k, w) in errs.windows(2).enumerate() {
         let p_l2 = (w[0].0 / w[1].0).log2();
         let p_en = (w[0].1 / w[1].1).log2();
-        eprintln!("refinement {k}: L2 {:.3e} -> {:.3e} (order {p_l2:.3}), energy {:.3e} -> {:.3e} (order {p_en:.3})", w[0].0, w[1].0, w[0].1, w[1].1);
+        eprintln!(
+            "refinement {k}: L2 {:.3e} -> {:.3e} (order {p_l2:.3}), energy {:.3e} -> {:.3e} (order {p_en:.3})",
+            w[0].0, w[1].0, w[0].1, w[1].1
+        );
         assert!(p_l2 >= 1.9, "L2 order {p_l2} < 1.9 at refinement {k}");
         assert!(p_en >= 0.9, "energy order {p_en} < 0.9 at refinement {k}");
     }
@@ -116,9 +107,6 @@ fn inner_wall_displacement_matches_lame() {
         let (u, _) = lame(p.x, p.y);
         let ur_h = (s.u[2 * n] * p.x + s.u[2 * n + 1] * p.y) / p.coords.norm();
         let ur = (u[0] * p.x + u[1] * p.y) / p.coords.norm();
-        assert!(
-            (ur_h - ur).abs() / ur < 1e-3,
-            "node {n}: u_r {ur_h} vs {ur}"
-        );
+        assert!((ur_h - ur).abs() / ur < 1e-3, "node {n}: u_r {ur_h} vs {ur}");
     }
 }

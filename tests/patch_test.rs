@@ -34,8 +34,7 @@ fn exact_u(x: f64, y: f64) -> [f64; 2] {
 
 fn distorted_mesh(kind: CellKind, seed: u64) -> Mesh2 {
     let mut m = generate::rectangle(0.0, 0.0, 2.0, 1.0, 5, 4, 1.0, 1.0, kind).unwrap();
-    let boundary: std::collections::HashSet<usize> =
-        m.node_sets.values().flatten().copied().collect();
+    let boundary: std::collections::HashSet<usize> = m.node_sets.values().flatten().copied().collect();
     let mut rng = Lcg(seed);
     let (hx, hy) = (2.0 / 5.0, 1.0 / 4.0);
     for (i, p) in m.nodes.iter_mut().enumerate() {
@@ -51,19 +50,13 @@ fn distorted_mesh(kind: CellKind, seed: u64) -> Mesh2 {
 fn run_patch(kind: CellKind, hypothesis: PlaneHypothesis, formulation: Formulation, seed: u64) {
     let mesh = distorted_mesh(kind, seed);
     let boundary: Vec<usize> = {
-        let mut v: Vec<usize> = ["left", "right", "top", "bottom"]
-            .iter()
-            .flat_map(|s| mesh.node_sets[*s].clone())
-            .collect();
+        let mut v: Vec<usize> =
+            ["left", "right", "top", "bottom"].iter().flat_map(|s| mesh.node_sets[*s].clone()).collect();
         v.sort_unstable();
         v.dedup();
         v
     };
-    let mat = Elastic {
-        young: E,
-        poisson: NU,
-        hypothesis,
-    };
+    let mat = Elastic { young: E, poisson: NU, hypothesis };
     let mut b = ModelBuilder::new(hypothesis);
     let mi = b.add_material("m", Material::Elastic(mat));
     let nodes = mesh.nodes.clone();
@@ -87,10 +80,7 @@ fn run_patch(kind: CellKind, hypothesis: PlaneHypothesis, formulation: Formulati
         let u = exact_u(p.x, p.y);
         for i in 0..2 {
             let err = (s.u[2 * n + i] - u[i]).abs() / scale;
-            assert!(
-                err < TOL,
-                "{kind:?} {hypothesis:?} {formulation:?}: node {n} comp {i} error {err:e}"
-            );
+            assert!(err < TOL, "{kind:?} {hypothesis:?} {formulation:?}: node {n} comp {i} error {err:e}");
         }
     }
     let eps = Strain4::new(A[1], B[2], 0.0, A[2] + B[1]);
@@ -98,61 +88,33 @@ fn run_patch(kind: CellKind, hypothesis: PlaneHypothesis, formulation: Formulati
     let smax = sig.amax();
     for (q, sq) in s.stress.iter().enumerate() {
         let err = (sq - sig).amax() / smax;
-        assert!(
-            err < TOL,
-            "{kind:?} {hypothesis:?} {formulation:?}: point {q} stress error {err:e}"
-        );
+        assert!(err < TOL, "{kind:?} {hypothesis:?} {formulation:?}: point {q} stress error {err:e}");
     }
 }
 
 #[test]
 fn quad4_plane_strain_patch() {
-    run_patch(
-        CellKind::Quad4,
-        PlaneHypothesis::PlaneStrain,
-        Formulation::Standard,
-        7,
-    );
+    run_patch(CellKind::Quad4, PlaneHypothesis::PlaneStrain, Formulation::Standard, 7);
 }
 
 #[test]
 fn quad4_plane_strain_bbar_patch() {
-    run_patch(
-        CellKind::Quad4,
-        PlaneHypothesis::PlaneStrain,
-        Formulation::BBar,
-        11,
-    );
+    run_patch(CellKind::Quad4, PlaneHypothesis::PlaneStrain, Formulation::BBar, 11);
 }
 
 #[test]
 fn quad4_plane_stress_patch() {
-    run_patch(
-        CellKind::Quad4,
-        PlaneHypothesis::PlaneStress,
-        Formulation::Standard,
-        13,
-    );
+    run_patch(CellKind::Quad4, PlaneHypothesis::PlaneStress, Formulation::Standard, 13);
 }
 
 #[test]
 fn tri3_plane_strain_patch() {
-    run_patch(
-        CellKind::Tri3,
-        PlaneHypothesis::PlaneStrain,
-        Formulation::Standard,
-        17,
-    );
+    run_patch(CellKind::Tri3, PlaneHypothesis::PlaneStrain, Formulation::Standard, 17);
 }
 
 #[test]
 fn tri3_plane_stress_patch() {
-    run_patch(
-        CellKind::Tri3,
-        PlaneHypothesis::PlaneStress,
-        Formulation::Standard,
-        19,
-    );
+    run_patch(CellKind::Tri3, PlaneHypothesis::PlaneStress, Formulation::Standard, 19);
 }
 
 /// Traction patch test: a uniform tension `sigma_xx = T` applied as a traction on the right
@@ -164,14 +126,7 @@ fn quad4_traction_patch() {
     let mesh = distorted_mesh(CellKind::Quad4, 23);
     let hyp = PlaneHypothesis::PlaneStrain;
     let mut b = ModelBuilder::new(hyp);
-    let mi = b.add_material(
-        "m",
-        Material::Elastic(Elastic {
-            young: E,
-            poisson: NU,
-            hypothesis: hyp,
-        }),
-    );
+    let mi = b.add_material("m", Material::Elastic(Elastic { young: E, poisson: NU, hypothesis: hyp }));
     let body = b.add_body("patch", mesh, mi, Formulation::Standard, 1.0);
     b.fix(body, "left", 0, 0.0).unwrap();
     b.fix(body, "bottom_left", 1, 0.0).unwrap();
@@ -186,10 +141,7 @@ fn quad4_traction_patch() {
         .unwrap();
     let s = solve(&model);
     for (q, sq) in s.stress.iter().enumerate() {
-        let err = [(sq[0] - T).abs(), sq[1].abs(), sq[3].abs()]
-            .into_iter()
-            .fold(0.0, f64::max)
-            / T;
+        let err = [(sq[0] - T).abs(), sq[1].abs(), sq[3].abs()].into_iter().fold(0.0, f64::max) / T;
         assert!(err < TOL, "point {q}: stress {sq:?}, error {err:e}");
     }
     // Plane strain: sigma_zz = nu sigma_xx.

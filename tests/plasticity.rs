@@ -13,8 +13,7 @@ mod common;
 use common::solve;
 use mortex::fem::kernel::Formulation;
 use mortex::fem::material::{
-    von_mises, Elastic, J2Plastic, Material, PlaneHypothesis, PlasticState, Strain4, Stress4,
-    Tangent4,
+    von_mises, Elastic, J2Plastic, Material, PlaneHypothesis, PlasticState, Strain4, Stress4, Tangent4,
 };
 use mortex::mesh::generate;
 use mortex::model::{LoadPath, ModelBuilder};
@@ -33,17 +32,12 @@ fn hill_pressure(c: f64) -> f64 {
 fn thick_cylinder_plastic_radius_matches_hill() {
     let hyp = PlaneHypothesis::PlaneStrain;
     let mat = J2Plastic {
-        elastic: Elastic {
-            young: 210_000.0,
-            poisson: 0.49,
-            hypothesis: hyp,
-        },
+        elastic: Elastic { young: 210_000.0, poisson: 0.49, hypothesis: hyp },
         yield_stress: SY,
         isotropic_hardening: 0.0,
         kinematic_hardening: 0.0,
     };
-    let mesh = generate::annulus_sector(A_IN, B_OUT, 0.0, std::f64::consts::FRAC_PI_2, 40, 10, 1.0)
-        .unwrap();
+    let mesh = generate::annulus_sector(A_IN, B_OUT, 0.0, std::f64::consts::FRAC_PI_2, 40, 10, 1.0).unwrap();
     let h = (B_OUT - A_IN) / 40.0;
     let mut b = ModelBuilder::new(hyp);
     let mi = b.add_material("steel", Material::J2Plastic(mat));
@@ -78,10 +72,8 @@ fn thick_cylinder_plastic_radius_matches_hill() {
         // Plastic radius estimate: in the elastic zone sigma_eq = sigma_y (c/r)^2 (Lame with the
         // yield condition at r = c), so each elastic point in the first elastic ring gives c.
         let r: Vec<f64> = pts.iter().map(|p| p.coords.norm()).collect();
-        let r_el_min = (0..pts.len())
-            .filter(|&q| st.history[q].alpha == 0.0)
-            .map(|q| r[q])
-            .fold(f64::INFINITY, f64::min);
+        let r_el_min =
+            (0..pts.len()).filter(|&q| st.history[q].alpha == 0.0).map(|q| r[q]).fold(f64::INFINITY, f64::min);
         let ring: Vec<f64> = (0..pts.len())
             .filter(|&q| st.history[q].alpha == 0.0 && r[q] < r_el_min + 0.25 * h)
             .map(|q| r[q] * (von_mises(&st.stress[q]) / SY).sqrt())
@@ -106,11 +98,7 @@ fn thick_cylinder_plastic_radius_matches_hill() {
 
 fn shear_material(k_iso: f64, h_kin: f64) -> J2Plastic {
     J2Plastic {
-        elastic: Elastic {
-            young: 200_000.0,
-            poisson: 0.3,
-            hypothesis: PlaneHypothesis::PlaneStrain,
-        },
+        elastic: Elastic { young: 200_000.0, poisson: 0.3, hypothesis: PlaneHypothesis::PlaneStrain },
         yield_stress: SY,
         isotropic_hardening: k_iso,
         kinematic_hardening: h_kin,
@@ -142,47 +130,21 @@ fn radial_return_matches_closed_form_in_one_step_and_many() {
         let exact = tau_monotonic(&m, g);
         // One step from the virgin state.
         let (mut s, mut d, mut st) = (Stress4::zeros(), Tangent4::zeros(), PlasticState::default());
-        m.update(
-            &Strain4::new(0.0, 0.0, 0.0, g),
-            &PlasticState::default(),
-            &mut st,
-            &mut s,
-            &mut d,
-        );
+        m.update(&Strain4::new(0.0, 0.0, 0.0, g), &PlasticState::default(), &mut st, &mut s, &mut d);
         // Round-off: 1e-12 relative to the stress.
-        assert!(
-            (s[3] - exact).abs() < 1e-12 * exact,
-            "one step, gamma = {g}: {} vs {exact}",
-            s[3]
-        );
-        assert!(
-            s[0].abs() < 1e-12 * exact && s[1].abs() < 1e-12 * exact && s[2].abs() < 1e-12 * exact
-        );
+        assert!((s[3] - exact).abs() < 1e-12 * exact, "one step, gamma = {g}: {} vs {exact}", s[3]);
+        assert!(s[0].abs() < 1e-12 * exact && s[1].abs() < 1e-12 * exact && s[2].abs() < 1e-12 * exact);
         // 50 steps.
         let mut old = PlasticState::default();
         for i in 1..=50 {
             let mut new = PlasticState::default();
-            m.update(
-                &Strain4::new(0.0, 0.0, 0.0, g * i as f64 / 50.0),
-                &old,
-                &mut new,
-                &mut s,
-                &mut d,
-            );
+            m.update(&Strain4::new(0.0, 0.0, 0.0, g * i as f64 / 50.0), &old, &mut new, &mut s, &mut d);
             old = new;
         }
-        assert!(
-            (s[3] - exact).abs() < 1e-12 * exact,
-            "50 steps, gamma = {g}: {} vs {exact}",
-            s[3]
-        );
+        assert!((s[3] - exact).abs() < 1e-12 * exact, "50 steps, gamma = {g}: {} vs {exact}", s[3]);
         // Equivalent plastic strain: alpha = gamma_p / sqrt 3 with gamma_p = gamma - tau/mu.
         let alpha = (g - exact / mu) / 3f64.sqrt();
-        assert!(
-            (old.alpha - alpha).abs() < 1e-12 * (alpha.abs() + gy),
-            "alpha {} vs {alpha}",
-            old.alpha
-        );
+        assert!((old.alpha - alpha).abs() < 1e-12 * (alpha.abs() + gy), "alpha {} vs {alpha}", old.alpha);
     }
 }
 
@@ -211,10 +173,7 @@ fn kinematic_hardening_loop() {
         }
     };
     let tmin = down(-gmax);
-    assert!(
-        (tmin + tmax).abs() < 1e-9 * tmax,
-        "symmetric loop expected: {tmin} vs {tmax}"
-    );
+    assert!((tmin + tmax).abs() < 1e-9 * tmax, "symmetric loop expected: {tmin} vs {tmax}");
     let up = |g: f64| {
         let t_el = tmin + mu * (g + gmax);
         let t_rev = tmin + 2.0 * ty;
@@ -245,39 +204,21 @@ fn kinematic_hardening_loop() {
     let mut prev = (0.0, 0.0);
     for (k, &(g, exact)) in path.iter().enumerate() {
         let mut new = PlasticState::default();
-        m.update(
-            &Strain4::new(0.0, 0.0, 0.0, g),
-            &old,
-            &mut new,
-            &mut s,
-            &mut d,
-        );
+        m.update(&Strain4::new(0.0, 0.0, 0.0, g), &old, &mut new, &mut s, &mut d);
         // Round-off: 1e-11 relative to tau_max over 200 accumulated steps.
-        assert!(
-            (s[3] - exact).abs() < 1e-11 * tmax,
-            "step {k}, gamma {g:.4e}: tau {} vs {exact}",
-            s[3]
-        );
+        assert!((s[3] - exact).abs() < 1e-11 * tmax, "step {k}, gamma {g:.4e}: tau {} vs {exact}", s[3]);
         if k >= n {
             dissipation += 0.5 * (s[3] + prev.1) * (g - prev.0);
         }
         prev = (g, s[3]);
         old = new;
     }
-    assert!(
-        (s[3] - tmax).abs() < 1e-11 * tmax,
-        "the loop closes at (g_max, tau_max)"
-    );
+    assert!((s[3] - tmax).abs() < 1e-11 * tmax, "the loop closes at (g_max, tau_max)");
     // Loop area (energy dissipated per cycle and unit volume) from the closed-form corners.
     let g_rev = gmax - 2.0 * ty / mu;
     let area_corners = {
         // Shoelace over the loop corners: (gmax, tmax) -> (g_rev, tmax-2ty) -> (-gmax, -tmax) -> (-g_rev, -tmax+2ty).
-        let pts = [
-            (gmax, tmax),
-            (g_rev, tmax - 2.0 * ty),
-            (-gmax, -tmax),
-            (-g_rev, -tmax + 2.0 * ty),
-        ];
+        let pts = [(gmax, tmax), (g_rev, tmax - 2.0 * ty), (-gmax, -tmax), (-g_rev, -tmax + 2.0 * ty)];
         let mut a = 0.0;
         for i in 0..4 {
             let (p, q) = (pts[i], pts[(i + 1) % 4]);
@@ -298,8 +239,7 @@ fn kinematic_hardening_loop() {
 fn serial_and_parallel_plastic_runs_are_identical() {
     let hyp = PlaneHypothesis::PlaneStrain;
     let mat = shear_material(1000.0, 1000.0);
-    let mesh = generate::annulus_sector(A_IN, B_OUT, 0.0, std::f64::consts::FRAC_PI_2, 12, 30, 1.0)
-        .unwrap();
+    let mesh = generate::annulus_sector(A_IN, B_OUT, 0.0, std::f64::consts::FRAC_PI_2, 12, 30, 1.0).unwrap();
     let mut b = ModelBuilder::new(hyp);
     let mi = b.add_material("steel", Material::J2Plastic(mat));
     let body = b.add_body("cylinder", mesh, mi, Formulation::BBar, 1.0);
@@ -319,10 +259,7 @@ fn serial_and_parallel_plastic_runs_are_identical() {
     an.set_parallel(false);
     let mut ser = an.initial_state();
     an.run(&mut ser, |_, _| Ok(())).unwrap();
-    assert!(
-        par.history.iter().any(|h| h.alpha > 0.0),
-        "the test must yield"
-    );
+    assert!(par.history.iter().any(|h| h.alpha > 0.0), "the test must yield");
     // Bit-identical: the scatter order never depends on threads.
     assert_eq!(par, ser);
 }

@@ -41,12 +41,7 @@ impl DofMap {
                 free.push(d);
             }
         }
-        DofMap {
-            num_dofs,
-            num_free: free.len(),
-            eq,
-            free,
-        }
+        DofMap { num_dofs, num_free: free.len(), eq, free }
     }
 }
 
@@ -201,12 +196,7 @@ impl Assembler {
         let ne = elements.len();
         let mut blocks: Vec<usize> = (0..ne).step_by(BLOCK).collect();
         blocks.push(ne);
-        Assembler {
-            pattern,
-            ke: vec![[0.0; 64]; ne],
-            fe: vec![[0.0; 8]; ne],
-            blocks,
-        }
+        Assembler { pattern, ke: vec![[0.0; 64]; ne], fe: vec![[0.0; 8]; ne], blocks }
     }
 
     /// Evaluates all element kernels (in parallel if `parallel`) and scatters them.
@@ -220,13 +210,7 @@ impl Assembler {
         let hs_blocks = split_mut(out.state_new, ends.iter().map(|&b| el.state_offset[b]));
         let starts = &self.blocks[..self.blocks.len() - 1];
         let work = |(((((&b0, ke), fe), st), hs), b1): (
-            (
-                (
-                    ((&usize, &mut [[f64; 64]]), &mut [[f64; 8]]),
-                    &mut [Stress4],
-                ),
-                &mut [PlasticState],
-            ),
+            ((((&usize, &mut [[f64; 64]]), &mut [[f64; 8]]), &mut [Stress4]), &mut [PlasticState]),
             usize,
         )| {
             let p0 = el.point_offset[b0];

@@ -48,18 +48,11 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, thiserror::Error)]
 pub enum CaseError {
     #[error("{path}: cannot read case file: {source}")]
-    Io {
-        path: String,
-        source: std::io::Error,
-    },
+    Io { path: String, source: std::io::Error },
     #[error("{path}: invalid TOML: {message}")]
     Toml { path: String, message: String },
     #[error("{path}: key '{key}': {message}")]
-    Invalid {
-        path: String,
-        key: String,
-        message: String,
-    },
+    Invalid { path: String, key: String, message: String },
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -213,11 +206,7 @@ fn default_increments() -> usize {
 }
 impl Default for StepsSpec {
     fn default() -> Self {
-        StepsSpec {
-            path: default_path(),
-            increments: 1,
-            times: None,
-        }
+        StepsSpec { path: default_path(), increments: 1, times: None }
     }
 }
 
@@ -255,11 +244,7 @@ struct Ctx<'a> {
 
 impl Ctx<'_> {
     fn err(&self, key: impl Into<String>, message: impl Into<String>) -> CaseError {
-        CaseError::Invalid {
-            path: self.path.to_string(),
-            key: key.into(),
-            message: message.into(),
-        }
+        CaseError::Invalid { path: self.path.to_string(), key: key.into(), message: message.into() }
     }
     fn finite(&self, key: &str, v: f64) -> Result<f64, CaseError> {
         if v.is_finite() {
@@ -280,25 +265,17 @@ impl Ctx<'_> {
 /// Reads and validates a case file.
 pub fn load(path: &Path) -> Result<Case, CaseError> {
     let p = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| CaseError::Io {
-        path: p.clone(),
-        source: e,
-    })?;
+    let text = std::fs::read_to_string(path).map_err(|e| CaseError::Io { path: p.clone(), source: e })?;
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let name = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "case".into());
+    let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "case".into());
     parse(&text, &p, &base, &name)
 }
 
 /// Parses and validates case text; `path` names the file in errors, relative mesh files are
 /// resolved against `base`.
 pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, CaseError> {
-    let raw: CaseFile = toml::from_str(text).map_err(|e| CaseError::Toml {
-        path: path.to_string(),
-        message: e.to_string(),
-    })?;
+    let raw: CaseFile =
+        toml::from_str(text).map_err(|e| CaseError::Toml { path: path.to_string(), message: e.to_string() })?;
     let cx = Ctx { path };
     let hyp = raw.problem.hypothesis;
     let mut b = ModelBuilder::new(hyp);
@@ -319,43 +296,32 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                 format!("Poisson ratio must satisfy -1 < nu < 0.5, got {nu} (nu = 0.5 is incompressible: the {} law needs a finite bulk modulus)", match hyp { PlaneHypothesis::PlaneStrain => "plane-strain", PlaneHypothesis::PlaneStress => "plane-stress" }),
             ));
         }
-        let elastic = Elastic {
-            young,
-            poisson: nu,
-            hypothesis: hyp,
-        };
+        let elastic = Elastic { young, poisson: nu, hypothesis: hyp };
         let mat = match m.model {
             MaterialModel::Elastic => {
                 if m.yield_stress.is_some() {
-                    return Err(cx.err(
-                        k("yield_stress"),
-                        "only a j2_plastic material takes a yield stress",
-                    ));
+                    return Err(cx.err(k("yield_stress"), "only a j2_plastic material takes a yield stress"));
                 }
                 Material::Elastic(elastic)
             }
             MaterialModel::J2Plastic => {
                 if hyp != PlaneHypothesis::PlaneStrain {
-                    return Err(cx.err(k("model"), "j2_plastic is implemented for plane strain only (problem.hypothesis = \"plane_strain\")"));
+                    return Err(cx.err(
+                        k("model"),
+                        "j2_plastic is implemented for plane strain only (problem.hypothesis = \"plane_strain\")",
+                    ));
                 }
-                let sy = m.yield_stress.ok_or_else(|| {
-                    cx.err(
-                        k("yield_stress"),
-                        "missing: a j2_plastic material needs a yield stress",
-                    )
-                })?;
+                let sy = m
+                    .yield_stress
+                    .ok_or_else(|| cx.err(k("yield_stress"), "missing: a j2_plastic material needs a yield stress"))?;
                 let sy = cx.positive(&k("yield_stress"), sy)?;
-                for (f, v) in [
-                    ("isotropic_hardening", m.isotropic_hardening),
-                    ("kinematic_hardening", m.kinematic_hardening),
-                ] {
+                for (f, v) in
+                    [("isotropic_hardening", m.isotropic_hardening), ("kinematic_hardening", m.kinematic_hardening)]
+                {
                     if !(v.is_finite() && v >= 0.0) {
-                        return Err(cx.err(
-                            k(f),
-                            format!(
-                                "must be finite and >= 0 (softening is not supported), got {v}"
-                            ),
-                        ));
+                        return Err(
+                            cx.err(k(f), format!("must be finite and >= 0 (softening is not supported), got {v}"))
+                        );
                     }
                 }
                 Material::J2Plastic(J2Plastic {
@@ -382,30 +348,25 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
             return Err(cx.err(k("name"), format!("duplicate body name '{}'", bs.name)));
         }
         body_names.push(&bs.name);
-        let mi = mat_names
-            .iter()
-            .position(|&n| n == bs.material)
-            .ok_or_else(|| {
-                cx.err(
-                    k("material"),
-                    format!(
-                        "no material named '{}' (defined: {})",
-                        bs.material,
-                        mat_names.join(", ")
-                    ),
-                )
-            })?;
+        let mi = mat_names.iter().position(|&n| n == bs.material).ok_or_else(|| {
+            cx.err(k("material"), format!("no material named '{}' (defined: {})", bs.material, mat_names.join(", ")))
+        })?;
         let thickness = match (bs.thickness, hyp) {
             (None, _) => 1.0,
             (Some(t), PlaneHypothesis::PlaneStress) => cx.positive(&k("thickness"), t)?,
-            (Some(_), PlaneHypothesis::PlaneStrain) => return Err(cx.err(
-                k("thickness"),
-                "plane-strain results are per unit depth; thickness applies to plane stress only",
-            )),
+            (Some(_), PlaneHypothesis::PlaneStrain) => {
+                return Err(cx.err(
+                    k("thickness"),
+                    "plane-strain results are per unit depth; thickness applies to plane stress only",
+                ))
+            }
         };
         let formulation = match bs.formulation {
             Some(Formulation::BBar) if hyp == PlaneHypothesis::PlaneStress => {
-                return Err(cx.err(k("formulation"), "B-bar treats the plane-strain volumetric constraint; use \"standard\" in plane stress"))
+                return Err(cx.err(
+                    k("formulation"),
+                    "B-bar treats the plane-strain volumetric constraint; use \"standard\" in plane stress",
+                ))
             }
             Some(f) => f,
             None if mat_models[mi] == MaterialModel::J2Plastic => Formulation::BBar,
@@ -419,14 +380,7 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
     for (i, bc) in raw.bcs.iter().enumerate() {
         let k = |f: &str| format!("bcs[{i}].{f}");
         let bi = b.body_index(&bc.body).map_err(|_| {
-            cx.err(
-                k("body"),
-                format!(
-                    "no body named '{}' (defined: {})",
-                    bc.body,
-                    body_names.join(", ")
-                ),
-            )
+            cx.err(k("body"), format!("no body named '{}' (defined: {})", bc.body, body_names.join(", ")))
         })?;
         if bc.ux.is_none() && bc.uy.is_none() {
             return Err(cx.err(format!("bcs[{i}]"), "give ux, uy or both"));
@@ -434,8 +388,7 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         for (comp, v, f) in [(0, bc.ux, "ux"), (1, bc.uy, "uy")] {
             if let Some(v) = v {
                 let v = cx.finite(&k(f), v)?;
-                b.fix(bi, &bc.set, comp, v)
-                    .map_err(|e| model_err(&cx, k("set"), e))?;
+                b.fix(bi, &bc.set, comp, v).map_err(|e| model_err(&cx, k("set"), e))?;
             }
         }
     }
@@ -444,45 +397,22 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
     for (i, l) in raw.loads.iter().enumerate() {
         let k = |f: &str| format!("loads[{i}].{f}");
         let bi = b.body_index(&l.body).map_err(|_| {
-            cx.err(
-                k("body"),
-                format!(
-                    "no body named '{}' (defined: {})",
-                    l.body,
-                    body_names.join(", ")
-                ),
-            )
+            cx.err(k("body"), format!("no body named '{}' (defined: {})", l.body, body_names.join(", ")))
         })?;
-        let given = [
-            l.pressure.is_some(),
-            l.traction.is_some(),
-            l.force.is_some(),
-        ]
-        .iter()
-        .filter(|&&x| x)
-        .count();
+        let given = [l.pressure.is_some(), l.traction.is_some(), l.force.is_some()].iter().filter(|&&x| x).count();
         if given != 1 {
-            return Err(cx.err(
-                format!("loads[{i}]"),
-                "give exactly one of pressure, traction, force",
-            ));
+            return Err(cx.err(format!("loads[{i}]"), "give exactly one of pressure, traction, force"));
         }
         if let Some(p) = l.pressure {
-            b.pressure(bi, &l.set, cx.finite(&k("pressure"), p)?)
-                .map_err(|e| model_err(&cx, k("set"), e))?;
+            b.pressure(bi, &l.set, cx.finite(&k("pressure"), p)?).map_err(|e| model_err(&cx, k("set"), e))?;
         }
         if let Some(t) = l.traction {
-            let t = Vector2::new(
-                cx.finite(&k("traction"), t[0])?,
-                cx.finite(&k("traction"), t[1])?,
-            );
-            b.traction(bi, &l.set, t)
-                .map_err(|e| model_err(&cx, k("set"), e))?;
+            let t = Vector2::new(cx.finite(&k("traction"), t[0])?, cx.finite(&k("traction"), t[1])?);
+            b.traction(bi, &l.set, t).map_err(|e| model_err(&cx, k("set"), e))?;
         }
         if let Some(f) = l.force {
             let f = Vector2::new(cx.finite(&k("force"), f[0])?, cx.finite(&k("force"), f[1])?);
-            b.point_load(bi, &l.set, f)
-                .map_err(|e| model_err(&cx, k("set"), e))?;
+            b.point_load(bi, &l.set, f).map_err(|e| model_err(&cx, k("set"), e))?;
         }
     }
 
@@ -492,11 +422,11 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
     let (t0, t1) = (load_path.points[0].0, load_path.end_time());
     let times = match &raw.steps.times {
         Some(ts) => {
-            if ts.is_empty()
-                || ts.windows(2).any(|w| w[1] <= w[0])
-                || ts.iter().any(|t| !t.is_finite() || *t <= t0)
-            {
-                return Err(cx.err("steps.times", format!("output times must be finite, strictly increasing and after the path start {t0}")));
+            if ts.is_empty() || ts.windows(2).any(|w| w[1] <= w[0]) || ts.iter().any(|t| !t.is_finite() || *t <= t0) {
+                return Err(cx.err(
+                    "steps.times",
+                    format!("output times must be finite, strictly increasing and after the path start {t0}"),
+                ));
             }
             ts.clone()
         }
@@ -505,36 +435,19 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
             if n == 0 {
                 return Err(cx.err("steps.increments", "must be at least 1"));
             }
-            (1..=n)
-                .map(|i| t0 + (t1 - t0) * i as f64 / n as f64)
-                .collect()
+            (1..=n).map(|i| t0 + (t1 - t0) * i as f64 / n as f64).collect()
         }
     };
     let np = raw.solver.newton;
     if !(np.rtol > 0.0 && np.rtol < 1.0) {
-        return Err(cx.err(
-            "solver.newton.rtol",
-            format!("must be in (0, 1), got {}", np.rtol),
-        ));
+        return Err(cx.err("solver.newton.rtol", format!("must be in (0, 1), got {}", np.rtol)));
     }
     if np.max_iterations == 0 {
         return Err(cx.err("solver.newton.max_iterations", "must be at least 1"));
     }
-    let model = b
-        .build(load_path, times, np, raw.solver.linear)
-        .map_err(|e| model_err(&cx, "bcs".into(), e))?;
-    let output = raw
-        .output
-        .file
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("results").join(format!("{name}.h5")));
-    Ok(Case {
-        name: name.to_string(),
-        source: PathBuf::from(path),
-        model,
-        output,
-        serial: raw.solver.serial,
-    })
+    let model = b.build(load_path, times, np, raw.solver.linear).map_err(|e| model_err(&cx, "bcs".into(), e))?;
+    let output = raw.output.file.clone().unwrap_or_else(|| PathBuf::from("results").join(format!("{name}.h5")));
+    Ok(Case { name: name.to_string(), source: PathBuf::from(path), model, output, serial: raw.solver.serial })
 }
 
 fn model_err(cx: &Ctx, key: String, e: ModelError) -> CaseError {
@@ -543,13 +456,7 @@ fn model_err(cx: &Ctx, key: String, e: ModelError) -> CaseError {
 
 fn build_mesh(spec: &MeshSpec, base: &Path) -> Result<Mesh2, String> {
     let m = match spec {
-        MeshSpec::Rectangle {
-            origin,
-            size,
-            divisions,
-            grading,
-            cell,
-        } => generate::rectangle(
+        MeshSpec::Rectangle { origin, size, divisions, grading, cell } => generate::rectangle(
             origin[0],
             origin[1],
             size[0],
@@ -563,28 +470,18 @@ fn build_mesh(spec: &MeshSpec, base: &Path) -> Result<Mesh2, String> {
                 CellSpec::Tri3 => CellKind::Tri3,
             },
         ),
-        MeshSpec::AnnulusSector {
-            inner_radius,
-            outer_radius,
-            angles,
-            divisions,
-            radial_grading,
-        } => generate::annulus_sector(
-            *inner_radius,
-            *outer_radius,
-            angles[0].to_radians(),
-            angles[1].to_radians(),
-            divisions[0],
-            divisions[1],
-            *radial_grading,
-        ),
-        MeshSpec::HalfDisc {
-            centre,
-            radius,
-            divisions,
-            radial_grading,
-            angular_grading,
-        } => generate::half_disc(
+        MeshSpec::AnnulusSector { inner_radius, outer_radius, angles, divisions, radial_grading } => {
+            generate::annulus_sector(
+                *inner_radius,
+                *outer_radius,
+                angles[0].to_radians(),
+                angles[1].to_radians(),
+                divisions[0],
+                divisions[1],
+                *radial_grading,
+            )
+        }
+        MeshSpec::HalfDisc { centre, radius, divisions, radial_grading, angular_grading } => generate::half_disc(
             Point2::new(centre[0], centre[1]),
             *radius,
             divisions[0],
@@ -593,11 +490,7 @@ fn build_mesh(spec: &MeshSpec, base: &Path) -> Result<Mesh2, String> {
             *angular_grading,
         ),
         MeshSpec::Gmsh { file } => {
-            let p = if file.is_absolute() {
-                file.clone()
-            } else {
-                base.join(file)
-            };
+            let p = if file.is_absolute() { file.clone() } else { base.join(file) };
             return gmsh::read_msh(&p).map_err(|e| e.to_string());
         }
     };

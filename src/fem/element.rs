@@ -149,12 +149,7 @@ impl<E: ReferenceElement> MappedElement<E> {
         let mut n = [0.0; 4];
         self.element.shape(xi, &mut n);
         let mut x = Vector2::zeros();
-        for (k, c) in self
-            .coords
-            .iter()
-            .take(self.element.num_nodes())
-            .enumerate()
-        {
+        for (k, c) in self.coords.iter().take(self.element.num_nodes()).enumerate() {
             x += n[k] * c.coords;
         }
         Point2::from(x)
@@ -165,12 +160,7 @@ impl<E: ReferenceElement> MappedElement<E> {
         let mut dn = [[0.0; 2]; 4];
         self.element.shape_grad(xi, &mut dn);
         let mut j = Matrix2::zeros();
-        for (k, c) in self
-            .coords
-            .iter()
-            .take(self.element.num_nodes())
-            .enumerate()
-        {
+        for (k, c) in self.coords.iter().take(self.element.num_nodes()).enumerate() {
             j[(0, 0)] += c.x * dn[k][0];
             j[(0, 1)] += c.x * dn[k][1];
             j[(1, 0)] += c.y * dn[k][0];
@@ -216,9 +206,7 @@ impl<E: ReferenceElement> MappedElement<E> {
         if self.element.num_nodes() == 3 {
             xi = [1.0 / 3.0, 1.0 / 3.0];
         }
-        let scale = (self.coords[1] - self.coords[0])
-            .norm()
-            .max(f64::MIN_POSITIVE);
+        let scale = (self.coords[1] - self.coords[0]).norm().max(f64::MIN_POSITIVE);
         for _ in 0..30 {
             let r = x - self.map(xi);
             let j = self.jacobian(xi);
@@ -282,12 +270,7 @@ mod tests {
 
     #[test]
     fn mapped_gradients_reproduce_linear_fields_and_inverse_map() {
-        let coords = [
-            Point2::new(0.1, 0.0),
-            Point2::new(1.3, 0.2),
-            Point2::new(1.1, 1.4),
-            Point2::new(-0.2, 0.9),
-        ];
+        let coords = [Point2::new(0.1, 0.0), Point2::new(1.3, 0.2), Point2::new(1.1, 1.4), Point2::new(-0.2, 0.9)];
         let e = MappedElement::new(Quad4, coords);
         let f = |p: &Point2<f64>| 2.0 * p.x - 3.0 * p.y + 0.5;
         let mut ev = ShapeEval::default();

@@ -60,10 +60,7 @@ fn b_matrix(ev: &ShapeEval, nn: usize, bbar_vol: Option<&[f64; 8]>, b: &mut [[f6
     }
     if let Some(bv) = bbar_vol {
         for k in 0..nn {
-            let d = [
-                (bv[2 * k] - ev.grad[k][0]) / 3.0,
-                (bv[2 * k + 1] - ev.grad[k][1]) / 3.0,
-            ];
+            let d = [(bv[2 * k] - ev.grad[k][0]) / 3.0, (bv[2 * k + 1] - ev.grad[k][1]) / 3.0];
             for row in b.iter_mut().take(3) {
                 row[2 * k] += d[0];
                 row[2 * k + 1] += d[1];
@@ -129,13 +126,7 @@ pub fn element_kernel(inp: &ElementInput, out: &mut ElementOutput) -> f64 {
                 sigma = d * eps;
             }
             (Material::J2Plastic(p), _) => {
-                p.update(
-                    &eps,
-                    &inp.state_old[q],
-                    &mut out.state_new[q],
-                    &mut sigma,
-                    &mut d,
-                );
+                p.update(&eps, &inp.state_old[q], &mut out.state_new[q], &mut sigma, &mut d);
             }
             (Material::Elastic(e), None) => {
                 d = e.tangent();

@@ -145,12 +145,7 @@ impl J2Plastic {
         let kappa = self.elastic.bulk_modulus();
         let (k_iso, h_kin) = (self.isotropic_hardening, self.kinematic_hardening);
         // Elastic trial strain, tensor components.
-        let ee = [
-            eps[0] - old.eps_p[0],
-            eps[1] - old.eps_p[1],
-            eps[2] - old.eps_p[2],
-            0.5 * eps[3] - old.eps_p[3],
-        ];
+        let ee = [eps[0] - old.eps_p[0], eps[1] - old.eps_p[1], eps[2] - old.eps_p[2], 0.5 * eps[3] - old.eps_p[3]];
         let tr = ee[0] + ee[1] + ee[2];
         let s_tr = [
             2.0 * mu * (ee[0] - tr / 3.0),
@@ -158,12 +153,7 @@ impl J2Plastic {
             2.0 * mu * (ee[2] - tr / 3.0),
             2.0 * mu * ee[3],
         ];
-        let xi = [
-            s_tr[0] - old.back[0],
-            s_tr[1] - old.back[1],
-            s_tr[2] - old.back[2],
-            s_tr[3] - old.back[3],
-        ];
+        let xi = [s_tr[0] - old.back[0], s_tr[1] - old.back[1], s_tr[2] - old.back[2], s_tr[3] - old.back[3]];
         let xi_norm = tnorm(&xi);
         let radius = (2.0f64 / 3.0).sqrt() * (self.yield_stress + k_iso * old.alpha);
         let f = xi_norm - radius;
@@ -177,12 +167,7 @@ impl J2Plastic {
         }
         let denom = 2.0 * mu * (1.0 + (k_iso + h_kin) / (3.0 * mu));
         let dgamma = f / denom;
-        let n = [
-            xi[0] / xi_norm,
-            xi[1] / xi_norm,
-            xi[2] / xi_norm,
-            xi[3] / xi_norm,
-        ];
+        let n = [xi[0] / xi_norm, xi[1] / xi_norm, xi[2] / xi_norm, xi[3] / xi_norm];
         for a in 0..4 {
             let vol = if a < 3 { kappa * tr } else { 0.0 };
             sigma[a] = vol + s_tr[a] - 2.0 * mu * dgamma * n[a];
@@ -204,8 +189,8 @@ impl J2Plastic {
                 } else {
                     0.0
                 };
-                d[(a, b)] = kappa * one_one + 2.0 * mu * theta * (i_sym - one_one / 3.0)
-                    - 2.0 * mu * theta_bar * n[a] * n[b];
+                d[(a, b)] =
+                    kappa * one_one + 2.0 * mu * theta * (i_sym - one_one / 3.0) - 2.0 * mu * theta_bar * n[a] * n[b];
             }
         }
         true
@@ -245,11 +230,7 @@ mod tests {
 
     fn steel() -> J2Plastic {
         J2Plastic {
-            elastic: Elastic {
-                young: 200_000.0,
-                poisson: 0.3,
-                hypothesis: PlaneHypothesis::PlaneStrain,
-            },
+            elastic: Elastic { young: 200_000.0, poisson: 0.3, hypothesis: PlaneHypothesis::PlaneStrain },
             yield_stress: 250.0,
             isotropic_hardening: 1000.0,
             kinematic_hardening: 3000.0,
@@ -259,11 +240,7 @@ mod tests {
     #[test]
     fn consistent_tangent_matches_finite_differences() {
         let m = steel();
-        let old = PlasticState {
-            eps_p: [1e-4, -2e-4, 1e-4, 3e-5],
-            back: [10.0, -20.0, 10.0, 5.0],
-            alpha: 2e-4,
-        };
+        let old = PlasticState { eps_p: [1e-4, -2e-4, 1e-4, 3e-5], back: [10.0, -20.0, 10.0, 5.0], alpha: 2e-4 };
         let eps = Strain4::new(2.1e-3, -1.3e-3, 0.0, 2.4e-3);
         let (mut s0, mut d) = (Stress4::zeros(), Tangent4::zeros());
         let mut new = PlasticState::default();
@@ -280,11 +257,7 @@ mod tests {
             for a in 0..4 {
                 let fd = (s1[a] - s2[a]) / (2.0 * h);
                 // Central differences with h = 1e-8 on stresses ~1e2: truncation + round-off ~1e-5 relative to |D| ~ 1e5.
-                assert!(
-                    (fd - d[(a, b)]).abs() < 1e-5 * 2e5,
-                    "D[{a}][{b}] = {} vs fd {fd}",
-                    d[(a, b)]
-                );
+                assert!((fd - d[(a, b)]).abs() < 1e-5 * 2e5, "D[{a}][{b}] = {} vs fd {fd}", d[(a, b)]);
             }
         }
     }
@@ -295,20 +268,9 @@ mod tests {
         let old = PlasticState::default();
         let mut new = PlasticState::default();
         let (mut s, mut d) = (Stress4::zeros(), Tangent4::zeros());
-        m.update(
-            &Strain4::new(0.0, 0.0, 0.0, 0.01),
-            &old,
-            &mut new,
-            &mut s,
-            &mut d,
-        );
+        m.update(&Strain4::new(0.0, 0.0, 0.0, 0.01), &old, &mut new, &mut s, &mut d);
         let p = (s[0] + s[1] + s[2]) / 3.0;
-        let xi = [
-            s[0] - p - new.back[0],
-            s[1] - p - new.back[1],
-            s[2] - p - new.back[2],
-            s[3] - new.back[3],
-        ];
+        let xi = [s[0] - p - new.back[0], s[1] - p - new.back[1], s[2] - p - new.back[2], s[3] - new.back[3]];
         let radius = (2.0f64 / 3.0).sqrt() * (m.yield_stress + m.isotropic_hardening * new.alpha);
         // Consistency condition f(sigma_{n+1}) = 0 to round-off (relative 1e-12).
         assert!((tnorm(&xi) - radius).abs() < 1e-12 * radius);

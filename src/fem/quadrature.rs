@@ -90,10 +90,7 @@ fn push_orbit(r: &mut QuadratureRule, a: f64, b: f64, w: f64) {
     let mut seen: Vec<[f64; 2]> = Vec::new();
     for (p, q) in [(a, b), (b, c), (c, a), (b, a), (c, b), (a, c)] {
         let pt = [p, q];
-        if !seen
-            .iter()
-            .any(|s| (s[0] - pt[0]).abs() < 1e-15 && (s[1] - pt[1]).abs() < 1e-15)
-        {
+        if !seen.iter().any(|s| (s[0] - pt[0]).abs() < 1e-15 && (s[1] - pt[1]).abs() < 1e-15) {
             seen.push(pt);
             r.points.push(pt);
             r.weights.push(0.5 * w);
@@ -103,26 +100,13 @@ fn push_orbit(r: &mut QuadratureRule, a: f64, b: f64, w: f64) {
 
 /// Rule on the reference triangle exact for polynomials of total degree `degree`.
 pub fn triangle_rule(degree: usize) -> QuadratureRule {
-    let mut r = QuadratureRule {
-        points: vec![],
-        weights: vec![],
-    };
+    let mut r = QuadratureRule { points: vec![], weights: vec![] };
     match degree {
         0 | 1 => push_orbit(&mut r, 1.0 / 3.0, 1.0 / 3.0, 1.0),
         2 => push_orbit(&mut r, 1.0 / 6.0, 1.0 / 6.0, 1.0 / 3.0),
         3 | 4 => {
-            push_orbit(
-                &mut r,
-                0.445_948_490_915_965,
-                0.445_948_490_915_965,
-                0.223_381_589_678_011,
-            );
-            push_orbit(
-                &mut r,
-                0.091_576_213_509_771,
-                0.091_576_213_509_771,
-                0.109_951_743_655_322,
-            );
+            push_orbit(&mut r, 0.445_948_490_915_965, 0.445_948_490_915_965, 0.223_381_589_678_011);
+            push_orbit(&mut r, 0.091_576_213_509_771, 0.091_576_213_509_771, 0.109_951_743_655_322);
         }
         5 => {
             let s15 = 15f64.sqrt();
@@ -133,24 +117,9 @@ pub fn triangle_rule(degree: usize) -> QuadratureRule {
             push_orbit(&mut r, b, b, (155.0 - s15) / 1200.0);
         }
         6 => {
-            push_orbit(
-                &mut r,
-                0.249_286_745_170_910,
-                0.249_286_745_170_910,
-                0.116_786_275_726_379,
-            );
-            push_orbit(
-                &mut r,
-                0.063_089_014_491_502,
-                0.063_089_014_491_502,
-                0.050_844_906_370_207,
-            );
-            push_orbit(
-                &mut r,
-                0.053_145_049_844_817,
-                0.310_352_451_033_784,
-                0.082_851_075_618_374,
-            );
+            push_orbit(&mut r, 0.249_286_745_170_910, 0.249_286_745_170_910, 0.116_786_275_726_379);
+            push_orbit(&mut r, 0.063_089_014_491_502, 0.063_089_014_491_502, 0.050_844_906_370_207);
+            push_orbit(&mut r, 0.053_145_049_844_817, 0.310_352_451_033_784, 0.082_851_075_618_374);
         }
         p => return collapsed_triangle_rule(p),
     }
@@ -161,10 +130,7 @@ pub fn triangle_rule(degree: usize) -> QuadratureRule {
 pub fn collapsed_triangle_rule(p: usize) -> QuadratureRule {
     let n = (p + 2).div_ceil(2);
     let (x, w) = gauss_legendre(n);
-    let mut r = QuadratureRule {
-        points: vec![],
-        weights: vec![],
-    };
+    let mut r = QuadratureRule { points: vec![], weights: vec![] };
     for j in 0..n {
         for i in 0..n {
             let s = 0.5 * (x[i] + 1.0);
@@ -192,11 +158,7 @@ mod tests {
             let (x, w) = gauss_legendre(n);
             for p in 0..(2 * n) as i32 {
                 let q: f64 = x.iter().zip(&w).map(|(x, w)| w * x.powi(p)).sum();
-                let exact = if p % 2 == 1 {
-                    0.0
-                } else {
-                    2.0 / (p as f64 + 1.0)
-                };
+                let exact = if p % 2 == 1 { 0.0 } else { 2.0 / (p as f64 + 1.0) };
                 // Round-off only: 1e-14 absolute on O(1) integrals.
                 assert!((q - exact).abs() < 1e-14, "n={n} p={p}: {q} vs {exact}");
             }
@@ -209,12 +171,7 @@ mod tests {
             let r = quad_gauss(n);
             for i in 0..(2 * n) as i32 {
                 for j in 0..(2 * n) as i32 {
-                    let q: f64 = r
-                        .points
-                        .iter()
-                        .zip(&r.weights)
-                        .map(|(p, w)| w * p[0].powi(i) * p[1].powi(j))
-                        .sum();
+                    let q: f64 = r.points.iter().zip(&r.weights).map(|(p, w)| w * p[0].powi(i) * p[1].powi(j)).sum();
                     let m = |k: i32| {
                         if k % 2 == 1 {
                             0.0
@@ -232,10 +189,7 @@ mod tests {
     fn triangle_rules_exact_to_their_degree_with_positive_weights() {
         for deg in 1..=10 {
             let r = triangle_rule(deg);
-            assert!(
-                r.weights.iter().all(|&w| w > 0.0),
-                "degree {deg} has a non-positive weight"
-            );
+            assert!(r.weights.iter().all(|&w| w > 0.0), "degree {deg} has a non-positive weight");
             for i in 0..=deg as u32 {
                 for j in 0..=(deg as u32 - i) {
                     let q: f64 = r
@@ -246,10 +200,7 @@ mod tests {
                         .sum();
                     let e = tri_moment(i, j);
                     // Dunavant's tables carry 15 significant digits: 1e-13 relative.
-                    assert!(
-                        (q - e).abs() <= 1e-13 * e.max(1e-3),
-                        "degree {deg}: x^{i} y^{j}: {q} vs {e}"
-                    );
+                    assert!((q - e).abs() <= 1e-13 * e.max(1e-3), "degree {deg}: x^{i} y^{j}: {q} vs {e}");
                 }
             }
         }

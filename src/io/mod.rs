@@ -28,16 +28,9 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
     #[error("{path}: HDF5 error while {what}: {msg}")]
-    Hdf5 {
-        path: String,
-        what: String,
-        msg: String,
-    },
+    Hdf5 { path: String, what: String, msg: String },
     #[error("{path}: {source}")]
-    Io {
-        path: String,
-        source: std::io::Error,
-    },
+    Io { path: String, source: std::io::Error },
 }
 
 pub struct ResultWriter {
@@ -51,20 +44,13 @@ pub struct ResultWriter {
 
 fn h5err<E: std::fmt::Display>(path: &Path, what: &str) -> impl FnOnce(E) -> OutputError {
     let (path, what) = (path.display().to_string(), what.to_string());
-    move |e| OutputError::Hdf5 {
-        path,
-        what,
-        msg: e.to_string(),
-    }
+    move |e| OutputError::Hdf5 { path, what, msg: e.to_string() }
 }
 
 fn write_str_attr(loc: &hdf5::Location, name: &str, value: &str) -> hdf5::Result<()> {
-    let v: VarLenUnicode = value
-        .parse()
-        .map_err(|e: hdf5::types::StringError| hdf5::Error::from(e.to_string().as_str()))?;
-    loc.new_attr::<VarLenUnicode>()
-        .create(name)?
-        .write_scalar(&v)
+    let v: VarLenUnicode =
+        value.parse().map_err(|e: hdf5::types::StringError| hdf5::Error::from(e.to_string().as_str()))?;
+    loc.new_attr::<VarLenUnicode>().create(name)?.write_scalar(&v)
 }
 
 fn write_attr<T: hdf5::H5Type>(loc: &hdf5::Location, name: &str, value: &T) -> hdf5::Result<()> {
@@ -81,16 +67,13 @@ impl ResultWriter {
     pub fn create(path: &Path, model: &Model, case_name: &str) -> Result<Self, OutputError> {
         if let Some(dir) = path.parent() {
             if !dir.as_os_str().is_empty() {
-                std::fs::create_dir_all(dir).map_err(|e| OutputError::Io {
-                    path: dir.display().to_string(),
-                    source: e,
-                })?;
+                std::fs::create_dir_all(dir)
+                    .map_err(|e| OutputError::Io { path: dir.display().to_string(), source: e })?;
             }
         }
         let partial_path = PathBuf::from(format!("{}.partial", path.display()));
         let xdmf_path = path.with_extension("xdmf");
-        let file =
-            hdf5::File::create(&partial_path).map_err(h5err(&partial_path, "creating the file"))?;
+        let file = hdf5::File::create(&partial_path).map_err(h5err(&partial_path, "creating the file"))?;
         let mut w = ResultWriter {
             file: None,
             final_path: path.to_path_buf(),
@@ -110,9 +93,7 @@ impl ResultWriter {
                 let g = mesh.create_group(&b.name)?;
                 let n = b.mesh.num_nodes();
                 let xy: Vec<f64> = b.mesh.nodes.iter().flat_map(|p| [p.x, p.y]).collect();
-                g.new_dataset_builder()
-                    .with_data(&array2(n, 2, xy))
-                    .create("nodes")?;
+                g.new_dataset_builder().with_data(&array2(n, 2, xy)).create("nodes")?;
                 let mut cells = Vec::with_capacity(4 * b.mesh.num_cells());
                 let mut topo: Vec<i64> = Vec::new();
                 for c in &b.mesh.cells {
@@ -123,20 +104,15 @@ impl ResultWriter {
                     topo.push(if ns.len() == 3 { 4 } else { 5 });
                     topo.extend(ns.iter().map(|&v| v as i64));
                 }
-                let cells = Array2::from_shape_vec((b.mesh.num_cells(), 4), cells)
-                    .unwrap_or_else(|_| Array2::zeros((0, 4)));
+                let cells =
+                    Array2::from_shape_vec((b.mesh.num_cells(), 4), cells).unwrap_or_else(|_| Array2::zeros((0, 4)));
                 g.new_dataset_builder().with_data(&cells).create("cells")?;
-                g.new_dataset_builder()
-                    .with_data(&Array1::from(topo.clone()))
-                    .create("topology")?;
-                w.body_meta
-                    .push((b.name.clone(), n, b.mesh.num_cells(), topo.len()));
+                g.new_dataset_builder().with_data(&Array1::from(topo.clone())).create("topology")?;
+                w.body_meta.push((b.name.clone(), n, b.mesh.num_cells(), topo.len()));
             }
             let pts = model.point_coords();
             let xy: Vec<f64> = pts.iter().flat_map(|p| [p.x, p.y]).collect();
-            mesh.new_dataset_builder()
-                .with_data(&array2(pts.len(), 2, xy))
-                .create("points")?;
+            mesh.new_dataset_builder().with_data(&array2(pts.len(), 2, xy)).create("points")?;
             file.create_group("steps")?;
             Ok(())
         })();
@@ -158,9 +134,7 @@ impl ResultWriter {
         };
         let fields = nodal_fields(model, state);
         let res: hdf5::Result<()> = (|| {
-            let g = file
-                .group("steps")?
-                .create_group(&format!("{:06}", report.step))?;
+            let g = file.group("steps")?.create_group(&format!("{:06}", report.step))?;
             write_attr(&g, "time", &report.time)?;
             write_attr(&g, "load_factor", &report.load_factor)?;
             write_attr(&g, "iterations", &(report.iterations as u64))?;
@@ -170,47 +144,26 @@ impl ResultWriter {
                 let bg = g.create_group(&b.name)?;
                 let (n0, n) = (b.node_offset, b.mesh.num_nodes());
                 let (c0, nc) = (b.element_offset, b.mesh.num_cells());
-                let disp: Vec<f64> = (n0..n0 + n)
-                    .flat_map(|i| [state.u[2 * i], state.u[2 * i + 1], 0.0])
-                    .collect();
-                bg.new_dataset_builder()
-                    .with_data(&array2(n, 3, disp))
-                    .create("displacement")?;
+                let disp: Vec<f64> = (n0..n0 + n).flat_map(|i| [state.u[2 * i], state.u[2 * i + 1], 0.0]).collect();
+                bg.new_dataset_builder().with_data(&array2(n, 3, disp)).create("displacement")?;
                 let s: Vec<f64> = fields.stress[n0..n0 + n].iter().flat_map(|s| *s).collect();
-                bg.new_dataset_builder()
-                    .with_data(&array2(n, 4, s))
-                    .create("stress")?;
+                bg.new_dataset_builder().with_data(&array2(n, 4, s)).create("stress")?;
                 bg.new_dataset_builder()
                     .with_data(&Array1::from(fields.von_mises[n0..n0 + n].to_vec()))
                     .create("von_mises")?;
-                bg.new_dataset_builder()
-                    .with_data(&Array1::from(fields.eqps[n0..n0 + n].to_vec()))
-                    .create("eqps")?;
+                bg.new_dataset_builder().with_data(&Array1::from(fields.eqps[n0..n0 + n].to_vec())).create("eqps")?;
                 let r: Vec<f64> = reactions[2 * n0..2 * (n0 + n)].to_vec();
-                bg.new_dataset_builder()
-                    .with_data(&array2(n, 2, r))
-                    .create("reaction")?;
-                let cs: Vec<f64> = fields.cell_stress[c0..c0 + nc]
-                    .iter()
-                    .flat_map(|s| *s)
-                    .collect();
-                bg.new_dataset_builder()
-                    .with_data(&array2(nc, 4, cs))
-                    .create("cell_stress")?;
+                bg.new_dataset_builder().with_data(&array2(n, 2, r)).create("reaction")?;
+                let cs: Vec<f64> = fields.cell_stress[c0..c0 + nc].iter().flat_map(|s| *s).collect();
+                bg.new_dataset_builder().with_data(&array2(nc, 4, cs)).create("cell_stress")?;
                 bg.new_dataset_builder()
                     .with_data(&Array1::from(fields.cell_eqps[c0..c0 + nc].to_vec()))
                     .create("cell_eqps")?;
             }
             let pg = g.create_group("points")?;
             let np = state.stress.len();
-            let s: Vec<f64> = state
-                .stress
-                .iter()
-                .flat_map(|s| [s[0], s[1], s[2], s[3]])
-                .collect();
-            pg.new_dataset_builder()
-                .with_data(&array2(np, 4, s))
-                .create("stress")?;
+            let s: Vec<f64> = state.stress.iter().flat_map(|s| [s[0], s[1], s[2], s[3]]).collect();
+            pg.new_dataset_builder().with_data(&array2(np, 4, s)).create("stress")?;
             let el = &model.elements;
             let mut eqps = vec![0.0; np];
             for e in 0..el.len() {
@@ -220,18 +173,12 @@ impl ResultWriter {
                     }
                 }
             }
-            pg.new_dataset_builder()
-                .with_data(&Array1::from(eqps))
-                .create("eqps")?;
+            pg.new_dataset_builder().with_data(&Array1::from(eqps)).create("eqps")?;
             file.flush()?;
             Ok(())
         })();
-        res.map_err(h5err(
-            &self.partial_path,
-            &format!("writing step {}", report.step),
-        ))?;
-        self.steps
-            .push((report.step, report.time, report.load_factor));
+        res.map_err(h5err(&self.partial_path, &format!("writing step {}", report.step)))?;
+        self.steps.push((report.step, report.time, report.load_factor));
         self.write_xdmf()
     }
 
@@ -241,12 +188,8 @@ impl ResultWriter {
             let res: hdf5::Result<()> = (|| {
                 let t: Vec<f64> = self.steps.iter().map(|s| s.1).collect();
                 let l: Vec<f64> = self.steps.iter().map(|s| s.2).collect();
-                file.new_dataset_builder()
-                    .with_data(&Array1::from(t))
-                    .create("time")?;
-                file.new_dataset_builder()
-                    .with_data(&Array1::from(l))
-                    .create("load_factor")?;
+                file.new_dataset_builder().with_data(&Array1::from(t)).create("time")?;
+                file.new_dataset_builder().with_data(&Array1::from(l)).create("load_factor")?;
                 file.attr("completed")?.write_scalar(&(completed as u8))?;
                 write_attr(&file, "num_steps", &(self.steps.len() as u64))?;
                 file.flush()?;
@@ -255,20 +198,14 @@ impl ResultWriter {
             res.map_err(h5err(&self.partial_path, "closing the file"))?;
             drop(file);
         }
-        std::fs::rename(&self.partial_path, &self.final_path).map_err(|e| OutputError::Io {
-            path: self.final_path.display().to_string(),
-            source: e,
-        })?;
+        std::fs::rename(&self.partial_path, &self.final_path)
+            .map_err(|e| OutputError::Io { path: self.final_path.display().to_string(), source: e })?;
         self.write_xdmf()?;
         Ok(self.final_path.clone())
     }
 
     fn write_xdmf(&self) -> Result<(), OutputError> {
-        let h5name = self
-            .final_path
-            .file_name()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
+        let h5name = self.final_path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
         let mut x = String::new();
         let _ = writeln!(x, "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n  <Grid Name=\"series\" GridType=\"Collection\" CollectionType=\"Temporal\">");
         let item = |dims: String, ty: &str, path: String| {
@@ -298,21 +235,19 @@ impl ResultWriter {
                     ("cell_stress", "Vector", 4, "Cell", nc),
                     ("cell_eqps", "Scalar", 1, "Cell", nc),
                 ] {
-                    let dims = if comps == 1 {
-                        format!("{count}")
-                    } else {
-                        format!("{count} {comps}")
-                    };
-                    let _ = writeln!(x, "     <Attribute Name=\"{attr}\" AttributeType=\"{kind}\" Center=\"{centre}\">{}</Attribute>", item(dims, "Float", format!("{sg}/{attr}")));
+                    let dims = if comps == 1 { format!("{count}") } else { format!("{count} {comps}") };
+                    let _ = writeln!(
+                        x,
+                        "     <Attribute Name=\"{attr}\" AttributeType=\"{kind}\" Center=\"{centre}\">{}</Attribute>",
+                        item(dims, "Float", format!("{sg}/{attr}"))
+                    );
                 }
                 let _ = writeln!(x, "    </Grid>");
             }
             let _ = writeln!(x, "   </Grid>");
         }
         let _ = writeln!(x, "  </Grid>\n </Domain>\n</Xdmf>");
-        std::fs::write(&self.xdmf_path, x).map_err(|e| OutputError::Io {
-            path: self.xdmf_path.display().to_string(),
-            source: e,
-        })
+        std::fs::write(&self.xdmf_path, x)
+            .map_err(|e| OutputError::Io { path: self.xdmf_path.display().to_string(), source: e })
     }
 }

@@ -67,14 +67,8 @@ pub fn rectangle(
     kind: CellKind,
 ) -> Result<Mesh2, MeshError> {
     check(lx > 0.0 && ly > 0.0, "rectangle size must be positive")?;
-    check(
-        nx >= 1 && ny >= 1,
-        "rectangle needs at least one division per direction",
-    )?;
-    check(
-        grading_x > 0.0 && grading_y > 0.0,
-        "grading ratios must be positive",
-    )?;
+    check(nx >= 1 && ny >= 1, "rectangle needs at least one division per direction")?;
+    check(grading_x > 0.0 && grading_y > 0.0, "grading ratios must be positive")?;
     let gx = graded(nx, grading_x);
     let gy = graded(ny, grading_y);
     let id = |i: usize, j: usize| j * (nx + 1) + i;
@@ -101,22 +95,10 @@ pub fn rectangle(
             }
         }
     }
-    m.edge_sets.insert(
-        "bottom".into(),
-        (0..nx).map(|i| [id(i, 0), id(i + 1, 0)]).collect(),
-    );
-    m.edge_sets.insert(
-        "right".into(),
-        (0..ny).map(|j| [id(nx, j), id(nx, j + 1)]).collect(),
-    );
-    m.edge_sets.insert(
-        "top".into(),
-        (0..nx).map(|i| [id(i + 1, ny), id(i, ny)]).collect(),
-    );
-    m.edge_sets.insert(
-        "left".into(),
-        (0..ny).map(|j| [id(0, j + 1), id(0, j)]).collect(),
-    );
+    m.edge_sets.insert("bottom".into(), (0..nx).map(|i| [id(i, 0), id(i + 1, 0)]).collect());
+    m.edge_sets.insert("right".into(), (0..ny).map(|j| [id(nx, j), id(nx, j + 1)]).collect());
+    m.edge_sets.insert("top".into(), (0..nx).map(|i| [id(i + 1, ny), id(i, ny)]).collect());
+    m.edge_sets.insert("left".into(), (0..ny).map(|j| [id(0, j + 1), id(0, j)]).collect());
     m.node_sets.insert("bottom_left".into(), vec![id(0, 0)]);
     m.node_sets.insert("bottom_right".into(), vec![id(nx, 0)]);
     m.node_sets.insert("top_left".into(), vec![id(0, ny)]);
@@ -143,10 +125,7 @@ pub fn annulus_sector(
         theta1 > theta0 && theta1 - theta0 <= std::f64::consts::TAU,
         "annulus needs theta0 < theta1 <= theta0 + 2 pi",
     )?;
-    check(
-        nr >= 1 && nt >= 1,
-        "annulus needs at least one division per direction",
-    )?;
+    check(nr >= 1 && nt >= 1, "annulus needs at least one division per direction")?;
     let gr = graded(nr, grading_r);
     let id = |i: usize, j: usize| j * (nr + 1) + i; // i radial, j angular
     let mut m = Mesh2::default();
@@ -159,30 +138,13 @@ pub fn annulus_sector(
     }
     for j in 0..nt {
         for i in 0..nr {
-            m.cells.push(Cell::quad4(
-                id(i, j),
-                id(i + 1, j),
-                id(i + 1, j + 1),
-                id(i, j + 1),
-            ));
+            m.cells.push(Cell::quad4(id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)));
         }
     }
-    m.edge_sets.insert(
-        "inner".into(),
-        (0..nt).map(|j| [id(0, j + 1), id(0, j)]).collect(),
-    );
-    m.edge_sets.insert(
-        "outer".into(),
-        (0..nt).map(|j| [id(nr, j), id(nr, j + 1)]).collect(),
-    );
-    m.edge_sets.insert(
-        "start".into(),
-        (0..nr).map(|i| [id(i, 0), id(i + 1, 0)]).collect(),
-    );
-    m.edge_sets.insert(
-        "end".into(),
-        (0..nr).map(|i| [id(i + 1, nt), id(i, nt)]).collect(),
-    );
+    m.edge_sets.insert("inner".into(), (0..nt).map(|j| [id(0, j + 1), id(0, j)]).collect());
+    m.edge_sets.insert("outer".into(), (0..nt).map(|j| [id(nr, j), id(nr, j + 1)]).collect());
+    m.edge_sets.insert("start".into(), (0..nr).map(|i| [id(i, 0), id(i + 1, 0)]).collect());
+    m.edge_sets.insert("end".into(), (0..nr).map(|i| [id(i + 1, nt), id(i, nt)]).collect());
     m.orient_edge_sets()?;
     m.validate()?;
     Ok(m)
@@ -205,10 +167,7 @@ pub fn half_disc(
 ) -> Result<Mesh2, MeshError> {
     check(radius > 0.0, "half-disc radius must be positive")?;
     check(nr >= 1 && nt >= 2, "half-disc needs nr >= 1 and nt >= 2")?;
-    check(
-        grading_r > 0.0 && grading_t > 0.0,
-        "grading ratios must be positive",
-    )?;
+    check(grading_r > 0.0 && grading_t > 0.0, "grading ratios must be positive")?;
     let rs = graded(nr, 1.0 / grading_r);
     let ts = graded_to_centre(nt, grading_t);
     let nt = ts.len() - 1;
@@ -219,8 +178,7 @@ pub fn half_disc(
         let r = radius * s;
         for &u in &ts {
             let t = std::f64::consts::PI * (1.0 + u);
-            m.nodes
-                .push(Point2::new(centre.x + r * t.cos(), centre.y + r * t.sin()));
+            m.nodes.push(Point2::new(centre.x + r * t.cos(), centre.y + r * t.sin()));
         }
     }
     for j in 0..nt {
@@ -228,18 +186,10 @@ pub fn half_disc(
     }
     for i in 1..nr {
         for j in 0..nt {
-            m.cells.push(Cell::quad4(
-                id(i, j),
-                id(i + 1, j),
-                id(i + 1, j + 1),
-                id(i, j + 1),
-            ));
+            m.cells.push(Cell::quad4(id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)));
         }
     }
-    m.edge_sets.insert(
-        "arc".into(),
-        (0..nt).map(|j| [id(nr, j), id(nr, j + 1)]).collect(),
-    );
+    m.edge_sets.insert("arc".into(), (0..nt).map(|j| [id(nr, j), id(nr, j + 1)]).collect());
     let mut top: Vec<[usize; 2]> = (1..nr).map(|i| [id(i + 1, 0), id(i, 0)]).collect();
     top.push([id(1, 0), 0]);
     top.push([0, id(1, nt)]);

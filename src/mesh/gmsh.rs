@@ -13,31 +13,15 @@ use std::collections::{BTreeMap, HashMap};
 #[derive(Debug, thiserror::Error)]
 pub enum GmshError {
     #[error("{path}: cannot read file: {source}")]
-    Io {
-        path: String,
-        source: std::io::Error,
-    },
+    Io { path: String, source: std::io::Error },
     #[error("{path}:{line}: {msg}")]
-    Parse {
-        path: String,
-        line: usize,
-        msg: String,
-    },
+    Parse { path: String, line: usize, msg: String },
     #[error("{path}: unsupported MSH format version '{version}' (only 4.1 ASCII is read)")]
     Version { path: String, version: String },
     #[error("{path}: element {element} has unsupported Gmsh type {gmsh_type} ({name}); supported: points (15), 2-node lines (1), 3-node triangles (2), 4-node quadrangles (3)")]
-    UnsupportedElement {
-        path: String,
-        element: usize,
-        gmsh_type: usize,
-        name: &'static str,
-    },
+    UnsupportedElement { path: String, element: usize, gmsh_type: usize, name: &'static str },
     #[error("{path}: element {element} references unknown node tag {node}")]
-    UnknownNode {
-        path: String,
-        element: usize,
-        node: usize,
-    },
+    UnknownNode { path: String, element: usize, node: usize },
     #[error("{path}: {source}")]
     Mesh { path: String, source: MeshError },
 }
@@ -64,23 +48,11 @@ struct Tokens<'a> {
 
 impl<'a> Tokens<'a> {
     fn err(&self, msg: impl Into<String>) -> GmshError {
-        let line = self
-            .lines
-            .get(self.pos.saturating_sub(1))
-            .map(|l| l.0)
-            .unwrap_or(0);
-        GmshError::Parse {
-            path: self.path.to_string(),
-            line,
-            msg: msg.into(),
-        }
+        let line = self.lines.get(self.pos.saturating_sub(1)).map(|l| l.0).unwrap_or(0);
+        GmshError::Parse { path: self.path.to_string(), line, msg: msg.into() }
     }
     fn next_line(&mut self) -> Result<&'a str, GmshError> {
-        let l = self
-            .lines
-            .get(self.pos)
-            .map(|l| l.1)
-            .ok_or_else(|| self.err("unexpected end of file"))?;
+        let l = self.lines.get(self.pos).map(|l| l.1).ok_or_else(|| self.err("unexpected end of file"))?;
         self.pos += 1;
         Ok(l)
     }
@@ -98,26 +70,15 @@ impl<'a> Tokens<'a> {
 /// Reads a mesh file from disk.
 pub fn read_msh(path: &std::path::Path) -> Result<Mesh2, GmshError> {
     let p = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| GmshError::Io {
-        path: p.clone(),
-        source: e,
-    })?;
+    let text = std::fs::read_to_string(path).map_err(|e| GmshError::Io { path: p.clone(), source: e })?;
     parse_msh(&text, &p)
 }
 
 /// Parses MSH 4.1 ASCII text; `path` is only used in error messages.
 pub fn parse_msh(text: &str, path: &str) -> Result<Mesh2, GmshError> {
-    let lines: Vec<(usize, &str)> = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.trim()))
-        .filter(|(_, l)| !l.is_empty())
-        .collect();
-    let mut tk = Tokens {
-        path,
-        lines,
-        pos: 0,
-    };
+    let lines: Vec<(usize, &str)> =
+        text.lines().enumerate().map(|(i, l)| (i + 1, l.trim())).filter(|(_, l)| !l.is_empty()).collect();
+    let mut tk = Tokens { path, lines, pos: 0 };
     let mut phys_names: HashMap<(usize, i64), String> = HashMap::new();
     // entity (dim, tag) -> physical tags
     let mut entity_phys: HashMap<(usize, i64), Vec<i64>> = HashMap::new();
@@ -133,10 +94,7 @@ pub fn parse_msh(text: &str, path: &str) -> Result<Mesh2, GmshError> {
                 let l = tk.next_line()?;
                 let f: Vec<&str> = l.split_whitespace().collect();
                 if f.len() < 3 || f[0] != "4.1" || f[1] != "0" {
-                    return Err(GmshError::Version {
-                        path: path.into(),
-                        version: l.to_string(),
-                    });
+                    return Err(GmshError::Version { path: path.into(), version: l.to_string() });
                 }
                 saw_format = true;
                 expect_end(&mut tk, "$EndMeshFormat")?;
@@ -172,8 +130,7 @@ pub fn parse_msh(text: &str, path: &str) -> Result<Mesh2, GmshError> {
                         if v.len() < k + 1 + np {
                             return Err(tk.err("truncated entity physical tags"));
                         }
-                        let phys: Vec<i64> =
-                            v[k + 1..k + 1 + np].iter().map(|&x| x as i64).collect();
+                        let phys: Vec<i64> = v[k + 1..k + 1 + np].iter().map(|&x| x as i64).collect();
                         entity_phys.insert((dim, v[0] as i64), phys);
                     }
                 }
@@ -228,12 +185,7 @@ pub fn parse_msh(text: &str, path: &str) -> Result<Mesh2, GmshError> {
                         .get(&(dim, ent))
                         .map(|ps| {
                             ps.iter()
-                                .map(|p| {
-                                    phys_names
-                                        .get(&(dim, *p))
-                                        .cloned()
-                                        .unwrap_or_else(|| p.to_string())
-                                })
+                                .map(|p| phys_names.get(&(dim, *p)).cloned().unwrap_or_else(|| p.to_string()))
                                 .collect()
                         })
                         .unwrap_or_default();
@@ -256,10 +208,7 @@ pub fn parse_msh(text: &str, path: &str) -> Result<Mesh2, GmshError> {
                             }
                             1 => {
                                 for nm in &names {
-                                    mesh.edge_sets
-                                        .entry(nm.clone())
-                                        .or_default()
-                                        .push([idx[0], idx[1]]);
+                                    mesh.edge_sets.entry(nm.clone()).or_default().push([idx[0], idx[1]]);
                                 }
                             }
                             2 => mesh.cells.push(Cell::tri3(idx[0], idx[1], idx[2])),
@@ -269,10 +218,7 @@ pub fn parse_msh(text: &str, path: &str) -> Result<Mesh2, GmshError> {
                     if dim == 2 {
                         reorient_if_clockwise(&mut mesh, first_cell);
                         for nm in &names {
-                            cell_sets
-                                .entry(nm.clone())
-                                .or_default()
-                                .extend(first_cell..mesh.cells.len());
+                            cell_sets.entry(nm.clone()).or_default().extend(first_cell..mesh.cells.len());
                         }
                     }
                 }
@@ -288,31 +234,17 @@ pub fn parse_msh(text: &str, path: &str) -> Result<Mesh2, GmshError> {
         }
     }
     if !saw_format {
-        return Err(GmshError::Parse {
-            path: path.into(),
-            line: 1,
-            msg: "missing $MeshFormat section".into(),
-        });
+        return Err(GmshError::Parse { path: path.into(), line: 1, msg: "missing $MeshFormat section".into() });
     }
     if !saw_elements {
-        return Err(GmshError::Parse {
-            path: path.into(),
-            line: 1,
-            msg: "missing $Elements section".into(),
-        });
+        return Err(GmshError::Parse { path: path.into(), line: 1, msg: "missing $Elements section".into() });
     }
     for set in mesh.node_sets.values_mut() {
         set.sort_unstable();
         set.dedup();
     }
-    mesh.orient_edge_sets().map_err(|e| GmshError::Mesh {
-        path: path.into(),
-        source: e,
-    })?;
-    mesh.validate().map_err(|e| GmshError::Mesh {
-        path: path.into(),
-        source: e,
-    })?;
+    mesh.orient_edge_sets().map_err(|e| GmshError::Mesh { path: path.into(), source: e })?;
+    mesh.validate().map_err(|e| GmshError::Mesh { path: path.into(), source: e })?;
     Ok(mesh)
 }
 
@@ -336,17 +268,11 @@ fn signed_area(mesh: &Mesh2, c: &Cell) -> f64 {
 }
 
 fn reorient_if_clockwise(mesh: &mut Mesh2, first: usize) {
-    let all_cw = mesh.cells[first..]
-        .iter()
-        .all(|c| signed_area(mesh, c) < 0.0);
+    let all_cw = mesh.cells[first..].iter().all(|c| signed_area(mesh, c) < 0.0);
     if all_cw && mesh.cells.len() > first {
         for c in mesh.cells[first..].iter_mut() {
             let n = c.nodes().to_vec();
-            *c = if n.len() == 3 {
-                Cell::tri3(n[0], n[2], n[1])
-            } else {
-                Cell::quad4(n[0], n[3], n[2], n[1])
-            };
+            *c = if n.len() == 3 { Cell::tri3(n[0], n[2], n[1]) } else { Cell::quad4(n[0], n[3], n[2], n[1]) };
         }
     }
 }
@@ -416,11 +342,7 @@ $EndElements
     fn rejects_second_order_triangles() {
         let t = UNIT_SQUARE.replace("2 1 3 2\n", "2 1 9 2\n");
         match parse_msh(&t, "t6.msh") {
-            Err(GmshError::UnsupportedElement {
-                gmsh_type: 9,
-                element: 4,
-                ..
-            }) => {}
+            Err(GmshError::UnsupportedElement { gmsh_type: 9, element: 4, .. }) => {}
             other => panic!("expected UnsupportedElement, got {other:?}"),
         }
     }

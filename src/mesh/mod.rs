@@ -36,16 +36,10 @@ pub struct Cell {
 
 impl Cell {
     pub fn tri3(a: usize, b: usize, c: usize) -> Self {
-        Cell {
-            kind: CellKind::Tri3,
-            conn: [a, b, c, usize::MAX],
-        }
+        Cell { kind: CellKind::Tri3, conn: [a, b, c, usize::MAX] }
     }
     pub fn quad4(a: usize, b: usize, c: usize, d: usize) -> Self {
-        Cell {
-            kind: CellKind::Quad4,
-            conn: [a, b, c, d],
-        }
+        Cell { kind: CellKind::Quad4, conn: [a, b, c, d] }
     }
     /// Node indices of the cell, counter-clockwise.
     pub fn nodes(&self) -> &[usize] {
@@ -61,27 +55,13 @@ impl Cell {
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum MeshError {
     #[error("cell {cell} references node {node}, but the mesh has only {num_nodes} nodes")]
-    NodeOutOfRange {
-        cell: usize,
-        node: usize,
-        num_nodes: usize,
-    },
+    NodeOutOfRange { cell: usize, node: usize, num_nodes: usize },
     #[error("cell {cell} ({kind:?}) is inverted or degenerate: Jacobian determinant {det_j:.3e} at corner {corner} (nodes {nodes:?})")]
-    InvertedCell {
-        cell: usize,
-        kind: CellKind,
-        corner: usize,
-        det_j: f64,
-        nodes: Vec<usize>,
-    },
+    InvertedCell { cell: usize, kind: CellKind, corner: usize, det_j: f64, nodes: Vec<usize> },
     #[error("edge ({a}, {b}) of edge set '{set}' is not an edge of any cell")]
     EdgeNotOnCell { set: String, a: usize, b: usize },
     #[error("set '{set}' references node {node}, but the mesh has only {num_nodes} nodes")]
-    SetNodeOutOfRange {
-        set: String,
-        node: usize,
-        num_nodes: usize,
-    },
+    SetNodeOutOfRange { set: String, node: usize, num_nodes: usize },
     #[error("mesh has no cells")]
     Empty,
     #[error("invalid mesh generator parameter: {0}")]
@@ -125,11 +105,7 @@ impl Mesh2 {
         for (c, cell) in self.cells.iter().enumerate() {
             for &n in cell.nodes() {
                 if n >= nn {
-                    return Err(MeshError::NodeOutOfRange {
-                        cell: c,
-                        node: n,
-                        num_nodes: nn,
-                    });
+                    return Err(MeshError::NodeOutOfRange { cell: c, node: n, num_nodes: nn });
                 }
             }
             let x: Vec<Point2<f64>> = cell.nodes().iter().map(|&n| self.nodes[n]).collect();
@@ -157,11 +133,7 @@ impl Mesh2 {
         }
         for (name, set) in &self.node_sets {
             if let Some(&n) = set.iter().find(|&&n| n >= nn) {
-                return Err(MeshError::SetNodeOutOfRange {
-                    set: name.clone(),
-                    node: n,
-                    num_nodes: nn,
-                });
+                return Err(MeshError::SetNodeOutOfRange { set: name.clone(), node: n, num_nodes: nn });
             }
         }
         Ok(())
@@ -181,13 +153,7 @@ impl Mesh2 {
                 let key = (e[0].min(e[1]), e[0].max(e[1]));
                 match owner.get(&key) {
                     Some(&oriented) => *e = oriented,
-                    None => {
-                        return Err(MeshError::EdgeNotOnCell {
-                            set: name.clone(),
-                            a: e[0],
-                            b: e[1],
-                        })
-                    }
+                    None => return Err(MeshError::EdgeNotOnCell { set: name.clone(), a: e[0], b: e[1] }),
                 }
             }
         }
@@ -232,13 +198,8 @@ impl Mesh2 {
 
     /// Names of all sets, for error messages.
     pub fn set_names(&self) -> Vec<String> {
-        let mut v: Vec<String> = self
-            .node_sets
-            .keys()
-            .chain(self.edge_sets.keys())
-            .chain(self.cell_sets.keys())
-            .cloned()
-            .collect();
+        let mut v: Vec<String> =
+            self.node_sets.keys().chain(self.edge_sets.keys()).chain(self.cell_sets.keys()).cloned().collect();
         v.sort();
         v.dedup();
         v
@@ -251,8 +212,7 @@ mod tests {
 
     #[test]
     fn inverted_quad_is_reported_with_its_index() {
-        let mut m =
-            generate::rectangle(0.0, 0.0, 1.0, 1.0, 2, 1, 1.0, 1.0, CellKind::Quad4).unwrap();
+        let mut m = generate::rectangle(0.0, 0.0, 1.0, 1.0, 2, 1, 1.0, 1.0, CellKind::Quad4).unwrap();
         let c = m.cells[1];
         let n = c.nodes();
         m.cells[1] = Cell::quad4(n[0], n[3], n[2], n[1]); // clockwise
@@ -265,18 +225,12 @@ mod tests {
     #[test]
     fn edge_normals_point_outward() {
         let m = generate::rectangle(0.0, 0.0, 2.0, 1.0, 3, 2, 1.0, 1.0, CellKind::Tri3).unwrap();
-        for (name, expect) in [
-            ("left", [-1.0, 0.0]),
-            ("right", [1.0, 0.0]),
-            ("bottom", [0.0, -1.0]),
-            ("top", [0.0, 1.0]),
-        ] {
+        for (name, expect) in
+            [("left", [-1.0, 0.0]), ("right", [1.0, 0.0]), ("bottom", [0.0, -1.0]), ("top", [0.0, 1.0])]
+        {
             for &e in &m.edge_sets[name] {
                 let (n, _) = m.edge_normal(e);
-                assert!(
-                    (n.x - expect[0]).abs() < 1e-14 && (n.y - expect[1]).abs() < 1e-14,
-                    "{name}"
-                );
+                assert!((n.x - expect[0]).abs() < 1e-14 && (n.y - expect[1]).abs() < 1e-14, "{name}");
             }
         }
         // Area exact to round-off: rectangle 2 x 1.

@@ -44,34 +44,17 @@ pub struct SparseSolver {
 
 impl SparseSolver {
     /// Symbolic factorisation of `pattern` (full pattern; Cholesky reads the lower triangle).
-    pub fn new(
-        pattern: &SymbolicSparseColMat<usize>,
-        kind: LinearSolverKind,
-    ) -> Result<Self, LinearSolverError> {
+    pub fn new(pattern: &SymbolicSparseColMat<usize>, kind: LinearSolverKind) -> Result<Self, LinearSolverError> {
         let n = pattern.nrows();
         let nnz = pattern.row_idx().len();
-        let err = |e: faer::sparse::FaerError| LinearSolverError::Symbolic {
-            n,
-            nnz,
-            msg: format!("{e:?}"),
-        };
+        let err = |e: faer::sparse::FaerError| LinearSolverError::Symbolic { n, nnz, msg: format!("{e:?}") };
         let (llt_symbolic, lu_symbolic) = match kind {
-            LinearSolverKind::Cholesky => (
-                Some(SymbolicLlt::try_new(pattern.as_ref(), Side::Lower).map_err(err)?),
-                None,
-            ),
-            LinearSolverKind::Lu => (
-                None,
-                Some(SymbolicLu::try_new(pattern.as_ref()).map_err(err)?),
-            ),
+            LinearSolverKind::Cholesky => {
+                (Some(SymbolicLlt::try_new(pattern.as_ref(), Side::Lower).map_err(err)?), None)
+            }
+            LinearSolverKind::Lu => (None, Some(SymbolicLu::try_new(pattern.as_ref()).map_err(err)?)),
         };
-        Ok(SparseSolver {
-            kind,
-            pattern: pattern.clone(),
-            llt_symbolic,
-            lu_symbolic,
-            numeric: Numeric::None,
-        })
+        Ok(SparseSolver { kind, pattern: pattern.clone(), llt_symbolic, lu_symbolic, numeric: Numeric::None })
     }
 
     pub fn kind(&self) -> LinearSolverKind {
@@ -84,21 +67,13 @@ impl SparseSolver {
         self.numeric = Numeric::None;
         self.numeric = match (&self.llt_symbolic, &self.lu_symbolic) {
             (Some(s), _) => Numeric::Llt(
-                Llt::try_new_with_symbolic(s.clone(), mat, Side::Lower).map_err(|e| {
-                    LinearSolverError::Numeric {
-                        kind: self.kind,
-                        msg: format!("{e:?}"),
-                    }
-                })?,
+                Llt::try_new_with_symbolic(s.clone(), mat, Side::Lower)
+                    .map_err(|e| LinearSolverError::Numeric { kind: self.kind, msg: format!("{e:?}") })?,
             ),
-            (None, Some(s)) => {
-                Numeric::Lu(Lu::try_new_with_symbolic(s.clone(), mat).map_err(|e| {
-                    LinearSolverError::Numeric {
-                        kind: self.kind,
-                        msg: format!("{e:?}"),
-                    }
-                })?)
-            }
+            (None, Some(s)) => Numeric::Lu(
+                Lu::try_new_with_symbolic(s.clone(), mat)
+                    .map_err(|e| LinearSolverError::Numeric { kind: self.kind, msg: format!("{e:?}") })?,
+            ),
             (None, None) => return Err(LinearSolverError::NotFactored),
         };
         Ok(())

@@ -19,12 +19,7 @@ pub struct NewtonParams {
 
 impl Default for NewtonParams {
     fn default() -> Self {
-        NewtonParams {
-            max_iterations: 25,
-            rtol: 1e-9,
-            max_cutbacks: 8,
-            divergence_factor: 1e8,
-        }
+        NewtonParams { max_iterations: 25, rtol: 1e-9, max_cutbacks: 8, divergence_factor: 1e8 }
     }
 }
 
@@ -41,9 +36,5 @@ pub enum NewtonError {
         cutbacks: usize,
     },
     #[error("linear solve failed in step {step}, iteration {iteration}: {source}")]
-    Linear {
-        step: usize,
-        iteration: usize,
-        source: LinearSolverError,
-    },
+    Linear { step: usize, iteration: usize, source: LinearSolverError },
 }

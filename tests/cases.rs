@@ -1,0 +1,120 @@
+//! Every shipped case in `wear_cases/` runs through the `mortex` binary, and its HDF5 result,
+//! read back both with the `hdf5` crate and with h5py (Python), matches the case's reference.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn run_case(name: &str) -> PathBuf {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = std::env::temp_dir().join(format!("mortex-cases-{}-{name}.h5", std::process::id()));
+    let status = Command::new(env!("CARGO_BIN_EXE_mortex"))
+        .args([
+            "run",
+            root.join("wear_cases").join(format!("{name}.toml")).to_str().unwrap(),
+            "--quiet",
+            "-o",
+            out.to_str().unwrap(),
+        ])
+        .status()
+        .unwrap();
+    assert!(status.success(), "case {name} failed");
+    out
+}
+
+fn read2(f: &hdf5::File, path: &str) -> ndarray::Array2<f64> {
+    f.dataset(path).unwrap().read_2d::<f64>().unwrap()
+}
+
+/// Lamé: inner-wall radial displacement `u_r(a) = ((1+nu)/E)[(1-2nu) A a + B/a]` = 9.1429e-4 mm.
+/// Tolerance 0.5%: 16 x 24 bilinear mesh (L2 error 1.2e-3 in tests/lame_convergence.rs).
+#[test]
+fn lame_cylinder_case() {
+    let out = run_case("lame_cylinder");
+    let f = hdf5::File::open(&out).unwrap();
+    let x = read2(&f, "mesh/cylinder/nodes");
+    let u = read2(&f, "steps/000001/cylinder/displacement");
+    let (e, nu, p, a, b) = (210000.0, 0.3, 100.0, 1.0f64, 2.0f64);
+    let ca = p * a * a / (b * b - a * a);
+    let cb = p * a * a * b * b / (b * b - a * a);
+    let ur_exact = (1.0 + nu) / e * ((1.0 - 2.0 * nu) * ca * a + cb / a);
+    let mut n_inner = 0;
+    for i in 0..x.nrows() {
+        let r = x[[i, 0]].hypot(x[[i, 1]]);
+        if (r - a).abs() < 1e-9 {
+            let ur = (u[[i, 0]] * x[[i, 0]] + u[[i, 1]] * x[[i, 1]]) / r;
+            assert!((ur - ur_exact).abs() / ur_exact < 5e-3, "node {i}: u_r = {ur}, Lame {ur_exact}");
+            n_inner += 1;
+        }
+    }
+    assert_eq!(n_inner, 25);
+    let completed: u8 = f.attr("completed").unwrap().read_scalar().unwrap();
+    assert_eq!(completed, 1);
+}
+
+/// Kirsch: hoop stress at the top of the hole = 3 x remote stress (infinite plate); with
+/// d/W = 0.1 Howland's finite-width factor gives 3.03. Tolerance 5%: nodal values are a lumped
+/// projection of Gauss-point stresses on a 0.05 mm mesh, which smooths the peak by a few percent.
+#[test]
+fn plate_hole_case() {
+    let out = run_case("plate_hole");
+    let f = hdf5::File::open(&out).unwrap();
+    let x = read2(&f, "mesh/plate/nodes");
+    let s = read2(&f, "steps/000001/plate/stress");
+    let i = (0..x.nrows()).min_by(|&i, &j| {
+        let d = |k: usize| x[[k, 0]].hypot(x[[k, 1]] - 1.0);
+        d(i).total_cmp(&d(j))
+    });
+    let i = i.unwrap();
+    let scf = s[[i, 0]] / 100.0;
+    eprintln!("plate with hole: stress concentration {scf:.4} (Howland 3.03)");
+    assert!((scf - 3.03).abs() / 3.03 < 0.05, "SCF {scf}");
+}
+
+/// Hill cylinder loaded to p = 187.64 MPa (c = 1.6) and unloaded: residual hoop stress in the
+/// plastic zone `sigma_t = -p + 2k (1 + ln(r/a)) - p a^2/(b^2 - a^2) (1 + b^2/r^2)`, `k = sigma_y/sqrt 3`
+/// (Hill 1950 ch. V; elastic unloading, no reverse yield since p < 2 p_e). Compared at the
+/// innermost ring of integration points. Tolerance 2% of 2k (issue: 2% for the plastic solution).
+#[test]
+fn plastic_cylinder_residual_stress() {
+    let out = run_case("plastic_cylinder");
+    let f = hdf5::File::open(&out).unwrap();
+    let pts = read2(&f, "mesh/points");
+    let last: u64 = f.attr("num_steps").unwrap().read_scalar().unwrap();
+    assert_eq!(last, 40);
+    let s = read2(&f, "steps/000040/points/stress");
+    let (p, a, b, k) = (187.64, 1.0f64, 2.0f64, 250.0 / 3f64.sqrt());
+    let rmin = (0..pts.nrows()).map(|q| pts[[q, 0]].hypot(pts[[q, 1]])).fold(f64::INFINITY, f64::min);
+    let mut checked = 0;
+    for q in 0..pts.nrows() {
+        let (x, y) = (pts[[q, 0]], pts[[q, 1]]);
+        let r = x.hypot(y);
+        if r > rmin + 1e-3 {
+            continue;
+        }
+        let (c, sn) = (x / r, y / r);
+        let st = s[[q, 0]] * sn * sn + s[[q, 1]] * c * c - 2.0 * s[[q, 3]] * sn * c;
+        let exact = -p + 2.0 * k * (1.0 + (r / a).ln()) - p * a * a / (b * b - a * a) * (1.0 + b * b / (r * r));
+        assert!((st - exact).abs() < 0.02 * 2.0 * k, "point {q} at r = {r}: residual hoop {st} vs {exact}");
+        checked += 1;
+    }
+    assert!(checked >= 20);
+    // h5py must read the same file (ParaView/h5py users). Required when CI is set.
+    let py = Command::new("python3")
+        .args([
+            "-c",
+            "import sys, h5py; f = h5py.File(sys.argv[1], 'r'); s = f['steps/000040/points/stress']; \
+             print(s.shape[0], s.shape[1], int(f.attrs['completed']), f['time'].shape[0])",
+            out.to_str().unwrap(),
+        ])
+        .output();
+    match py {
+        Ok(o) if o.status.success() => {
+            let text = String::from_utf8_lossy(&o.stdout).trim().to_string();
+            assert_eq!(text, format!("{} 4 1 40", s.nrows()), "h5py view of the file");
+        }
+        other => {
+            assert!(std::env::var_os("CI").is_none(), "h5py could not read the result: {other:?}");
+            eprintln!("h5py not available: skipped the Python read-back");
+        }
+    }
+}

@@ -1,0 +1,213 @@
+//! The `mortex` binary on good and bad input: bad input gives a clear message naming the file,
+//! key or element, a non-zero exit code, never a panic, and never damages an earlier result.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_mortex"))
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("mortex-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+const GOOD: &str = r#"
+[problem]
+hypothesis = "plane_strain"
+
+[[materials]]
+name = "steel"
+model = "elastic"
+young = 210000.0
+poisson = 0.3
+
+[[bodies]]
+name = "block"
+material = "steel"
+mesh = { type = "rectangle", size = [10.0, 2.0], divisions = [10, 2] }
+
+[[bcs]]
+body = "block"
+set = "left"
+ux = 0.0
+uy = 0.0
+
+[[loads]]
+body = "block"
+set = "right"
+traction = [0.0, -1.0]
+"#;
+
+/// Runs `mortex <args>` and returns (exit success, stderr + stdout).
+fn run(args: &[&str], dir: &Path) -> (bool, String) {
+    let out = bin().args(args).current_dir(dir).output().unwrap();
+    let text = format!("{}{}", String::from_utf8_lossy(&out.stderr), String::from_utf8_lossy(&out.stdout));
+    (out.status.success(), text)
+}
+
+fn expect_error(dir: &Path, name: &str, case: &str, needles: &[&str]) {
+    let p = dir.join(format!("{name}.toml"));
+    std::fs::write(&p, case).unwrap();
+    for cmd in ["check", "run"] {
+        let (ok, text) = run(
+            &[cmd, p.to_str().unwrap(), "--quiet"]
+                .into_iter()
+                .filter(|a| cmd == "run" || *a != "--quiet")
+                .collect::<Vec<_>>(),
+            dir,
+        );
+        assert!(!ok, "{name}: '{cmd}' should fail:\n{text}");
+        assert!(!text.contains("panicked"), "{name}: panic:\n{text}");
+        for n in needles {
+            assert!(text.contains(n), "{name}: '{cmd}' message should contain '{n}':\n{text}");
+        }
+    }
+}
+
+#[test]
+fn good_case_checks_and_runs() {
+    let d = tmpdir("good");
+    std::fs::write(d.join("good.toml"), GOOD).unwrap();
+    let (ok, text) = run(&["check", "good.toml"], &d);
+    assert!(ok, "{text}");
+    assert!(text.contains("33 nodes, 20 cells") && text.contains("edge set 'right'"), "{text}");
+    let (ok, text) = run(&["run", "good.toml", "--quiet"], &d);
+    assert!(ok, "{text}");
+    assert!(d.join("results/good.h5").exists() && d.join("results/good.xdmf").exists());
+}
+
+#[test]
+fn bad_inputs_give_clear_errors() {
+    let d = tmpdir("bad");
+    expect_error(&d, "malformed", "[problem\nhypothesis = 1", &["malformed.toml", "invalid TOML"]);
+    expect_error(
+        &d,
+        "unknown_key",
+        &GOOD.replace("poisson = 0.3", "poisson = 0.3\ndensity = 7.8"),
+        &["unknown_key.toml", "unknown field `density`"],
+    );
+    expect_error(&d, "nu_half", &GOOD.replace("poisson = 0.3", "poisson = 0.5"), &["materials[0].poisson", "nu < 0.5"]);
+    expect_error(
+        &d,
+        "negative_e",
+        &GOOD.replace("young = 210000.0", "young = -1.0"),
+        &["materials[0].young", "positive"],
+    );
+    expect_error(
+        &d,
+        "bad_tag",
+        &GOOD.replace("set = \"left\"", "set = \"clamped\""),
+        &["bcs[0].set", "no set named 'clamped'", "available: "],
+    );
+    expect_error(
+        &d,
+        "missing_mesh",
+        &GOOD.replace(
+            "{ type = \"rectangle\", size = [10.0, 2.0], divisions = [10, 2] }",
+            "{ type = \"gmsh\", file = \"nowhere.msh\" }",
+        ),
+        &["bodies[0].mesh", "nowhere.msh", "cannot read"],
+    );
+    expect_error(
+        &d,
+        "unknown_material",
+        &GOOD.replace("material = \"steel\"", "material = \"titanium\""),
+        &["bodies[0].material", "titanium"],
+    );
+    expect_error(&d, "no_load_kind", &GOOD.replace("traction = [0.0, -1.0]", ""), &["loads[0]", "exactly one of"]);
+    // Gmsh files: an inverted (bow-tie) quad and an unsupported second-order triangle.
+    let msh_head = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 5 1 5\n2 1 0 5\n1\n2\n3\n4\n5\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 0 0\n$EndNodes\n";
+    std::fs::write(
+        d.join("bowtie.msh"),
+        format!("{msh_head}$Elements\n1 2 1 2\n2 1 3 2\n1 1 2 3 4\n2 2 5 4 3\n$EndElements\n"),
+    )
+    .unwrap();
+    expect_error(
+        &d,
+        "inverted",
+        &GOOD.replace(
+            "{ type = \"rectangle\", size = [10.0, 2.0], divisions = [10, 2] }",
+            "{ type = \"gmsh\", file = \"bowtie.msh\" }",
+        ),
+        &["bowtie.msh", "cell 1", "inverted or degenerate"],
+    );
+    std::fs::write(d.join("t6.msh"), format!("{msh_head}$Elements\n1 1 1 1\n2 1 9 1\n7 1 2 3 4 5 1\n$EndElements\n"))
+        .unwrap();
+    expect_error(
+        &d,
+        "t6",
+        &GOOD.replace(
+            "{ type = \"rectangle\", size = [10.0, 2.0], divisions = [10, 2] }",
+            "{ type = \"gmsh\", file = \"t6.msh\" }",
+        ),
+        &["t6.msh", "element 7", "unsupported Gmsh type 9"],
+    );
+    // A missing case file.
+    let (ok, text) = run(&["check", "absent.toml"], &d);
+    assert!(!ok && text.contains("absent.toml") && text.contains("cannot read"), "{text}");
+}
+
+#[test]
+fn a_failed_run_never_damages_an_earlier_result() {
+    let d = tmpdir("keep");
+    std::fs::write(d.join("good.toml"), GOOD).unwrap();
+    let (ok, _) = run(&["run", "good.toml", "--quiet", "-o", "out.h5"], &d);
+    assert!(ok);
+    let before = std::fs::read(d.join("out.h5")).unwrap();
+    std::fs::write(d.join("bad.toml"), GOOD.replace("poisson = 0.3", "poisson = 0.7")).unwrap();
+    let (ok, _) = run(&["run", "bad.toml", "--quiet", "-o", "out.h5"], &d);
+    assert!(!ok);
+    assert_eq!(before, std::fs::read(d.join("out.h5")).unwrap(), "the earlier result must be untouched");
+}
+
+/// Beyond the limit load of a perfectly plastic cylinder (Hill: p_L = 2 sigma_y/sqrt(3) ln(b/a)
+/// = 200.1 MPa), Newton cannot converge: a typed error naming the step, a non-zero exit, and
+/// the converged steps kept in the output with `completed = 0`.
+#[test]
+fn newton_failure_beyond_limit_load_is_reported() {
+    let d = tmpdir("limit");
+    let case = r#"
+[problem]
+hypothesis = "plane_strain"
+[[materials]]
+name = "steel"
+model = "j2_plastic"
+young = 210000.0
+poisson = 0.3
+yield_stress = 250.0
+[[bodies]]
+name = "cyl"
+material = "steel"
+mesh = { type = "annulus_sector", inner_radius = 1.0, outer_radius = 2.0, angles = [0.0, 90.0], divisions = [8, 4] }
+[[bcs]]
+body = "cyl"
+set = "start"
+uy = 0.0
+[[bcs]]
+body = "cyl"
+set = "end"
+ux = 0.0
+[[loads]]
+body = "cyl"
+set = "inner"
+pressure = 1.0
+[steps]
+path = [[0.0, 0.0], [1.0, 260.0]]
+increments = 4
+[solver.newton]
+max_cutbacks = 4
+"#;
+    std::fs::write(d.join("limit.toml"), case).unwrap();
+    let (ok, text) = run(&["run", "limit.toml", "--quiet"], &d);
+    assert!(!ok, "{text}");
+    assert!(!text.contains("panicked"), "{text}");
+    assert!(text.contains("did not converge in step 4") && text.contains("kept in"), "{text}");
+    let f = hdf5::File::open(d.join("results/limit.h5")).unwrap();
+    let completed: u8 = f.attr("completed").unwrap().read_scalar().unwrap();
+    let steps: u64 = f.attr("num_steps").unwrap().read_scalar().unwrap();
+    assert_eq!((completed, steps), (0, 3), "steps 1-3 (p <= 195 MPa < 200.1) converge, step 4 (260) cannot");
+}
