@@ -1,0 +1,533 @@
+//! Cut-cell integration on fixed points.
+//!
+//! For each host cell, the material part left by an embedded surface (material on the left of
+//! the surface) is found exactly: the surface pieces inside the cell, plus the stretches of the
+//! cell boundary that lie in the material. Walking the cell boundary counter-clockwise, the
+//! stretch after a point where the surface *leaves* the cell is material, the stretch after a
+//! point where it *enters* is void. The material loops give exact polynomial moments by Green's
+//! theorem (`int_A x^p y^q dA = oint x^{p+1} y^q / (p+1) n_x ds`, Gauss-Legendre exact per edge)
+//! and an exact sub-triangulation (ear clipping).
+//!
+//! Integration points are fixed material points:
+//! * a cell cut when the model is built gets points from the sub-triangulation of its material
+//!   (degree-2 rule per triangle: exact for the `Quad4` stiffness on parallelograms); no state
+//!   exists yet, so creating points then transfers nothing;
+//! * when a surface later moves (wear), the points stay; points left outside the material are
+//!   switched off and the others get new non-negative weights by moment fitting
+//!   ([`fit_weights`], Lawson-Hanson NNLS on the monomials up to degree 2, falling back to
+//!   degree 1 and 0 when the points cannot carry more). Cells of a declared wear band carry the
+//!   richer [`band_rule`] from the start.
+//! * Small cut fractions: a node whose support keeps less than [`SMALL_FRACTION`] of its area
+//!   has its DOFs deactivated (fixed to zero) by the model builder; void cells get no points.
+
+use crate::fem::element::{MappedElement, ReferenceElement};
+use crate::fem::quadrature::{collapsed_triangle_rule, gauss_legendre, quad_gauss, triangle_rule, QuadratureRule};
+use crate::mesh::{CellKind, Mesh2};
+use crate::surface::{cell_polygon, cell_size, Embedding, Piece, SurfaceError, SNAP};
+use nalgebra::{DMatrix, DVector, Point2, Vector2};
+use std::collections::HashMap;
+
+/// Support fraction below which a host node is deactivated.
+pub const SMALL_FRACTION: f64 = 1e-8;
+/// Material fraction below which a cut cell counts as void, above `1 - CUT_TOL` as full.
+pub const CUT_TOL: f64 = 1e-12;
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum CellCut {
+    Material,
+    Void,
+    /// Material loops (CCW polygons) and their area.
+    Cut {
+        loops: Vec<Vec<Point2<f64>>>,
+        area: f64,
+    },
+}
+
+#[derive(Debug, Clone)]
+pub struct CutMesh {
+    pub cells: Vec<CellCut>,
+    /// Material fraction of each cell.
+    pub cell_fraction: Vec<f64>,
+    /// Material fraction of each node's support.
+    pub node_fraction: Vec<f64>,
+}
+
+fn cross(u: Vector2<f64>, v: Vector2<f64>) -> f64 {
+    u.x * v.y - u.y * v.x
+}
+
+/// Perimeter parameter (`k + s` on edge `k`) of a point on the boundary of a polygon, with its
+/// distance to the boundary.
+fn perimeter_param(poly: &[Point2<f64>], p: Point2<f64>) -> (f64, f64) {
+    let n = poly.len();
+    let mut best = (0.0, f64::INFINITY);
+    for k in 0..n {
+        let (a, b) = (poly[k], poly[(k + 1) % n]);
+        let e = b - a;
+        let s = ((p - a).dot(&e) / e.norm_squared()).clamp(0.0, 1.0);
+        let d = (a + e * s - p).norm();
+        if d < best.1 {
+            best = (k as f64 + s, d);
+        }
+    }
+    best
+}
+
+/// Exact moments `int x^p y^q dA` (`p + q <= degree`) of the region bounded by CCW loops,
+/// of the coordinates `(x - origin)/h` (scaled for conditioning), physical measure `dA`,, ordered `(0,0), (1,0), (0,1), (2,0), (1,1), (0,2)...`.
+pub fn loop_moments(loops: &[Vec<Point2<f64>>], degree: usize, origin: Point2<f64>, h: f64) -> Vec<f64> {
+    let exps = monomials(degree);
+    let (gx, gw) = gauss_legendre(degree / 2 + 2);
+    let mut m = vec![0.0; exps.len()];
+    for lp in loops {
+        let n = lp.len();
+        for k in 0..n {
+            let a = (lp[k] - origin) / h;
+            let b = (lp[(k + 1) % n] - origin) / h;
+            let d = b - a;
+            // n_x ds = dy along a CCW boundary.
+            for (x, w) in gx.iter().zip(&gw) {
+                let s = 0.5 * (x + 1.0);
+                let pt = a + d * s;
+                for (i, &(p, q)) in exps.iter().enumerate() {
+                    m[i] += 0.5 * w * pt.x.powi(p as i32 + 1) / (p as f64 + 1.0) * pt.y.powi(q as i32) * d.y;
+                }
+            }
+        }
+    }
+    // Green's theorem ran in scaled coordinates: back to the physical measure.
+    for v in m.iter_mut() {
+        *v *= h * h;
+    }
+    m
+}
+
+/// Monomial exponents of total degree `<= degree`.
+pub fn monomials(degree: usize) -> Vec<(usize, usize)> {
+    let mut v = Vec::new();
+    for d in 0..=degree {
+        for q in 0..=d {
+            v.push((d - q, q));
+        }
+    }
+    v
+}
+
+/// Signed area of a polygon.
+pub fn polygon_area(p: &[Point2<f64>]) -> f64 {
+    let mut a = 0.0;
+    for i in 0..p.len() {
+        let (u, v) = (p[i], p[(i + 1) % p.len()]);
+        a += u.x * v.y - v.x * u.y;
+    }
+    0.5 * a
+}
+
+/// Ear-clipping triangulation of a simple CCW polygon.
+pub fn triangulate(poly: &[Point2<f64>]) -> Vec<[Point2<f64>; 3]> {
+    let mut idx: Vec<usize> = (0..poly.len()).collect();
+    // Drop repeated points.
+    idx.dedup_by(|a, b| (poly[*a] - poly[*b]).norm() == 0.0);
+    let mut tris = Vec::new();
+    let scale = poly.iter().map(|p| p.coords.norm()).fold(0.0, f64::max).max(1.0);
+    let mut guard = 0;
+    while idx.len() > 3 && guard < 10 * poly.len() * poly.len() + 10 {
+        guard += 1;
+        let n = idx.len();
+        let mut clipped = false;
+        for i in 0..n {
+            let (ia, ib, ic) = (idx[(i + n - 1) % n], idx[i], idx[(i + 1) % n]);
+            let (a, b, c) = (poly[ia], poly[ib], poly[ic]);
+            let area2 = cross(b - a, c - a);
+            if area2 <= 1e-14 * scale * scale {
+                if area2.abs() <= 1e-14 * scale * scale {
+                    // Collinear vertex: drop it, it carries no area.
+                    idx.remove(i);
+                    clipped = true;
+                    break;
+                }
+                continue;
+            }
+            let inside = idx.iter().any(|&j| {
+                if j == ia || j == ib || j == ic {
+                    return false;
+                }
+                let p = poly[j];
+                cross(b - a, p - a) >= 0.0 && cross(c - b, p - b) >= 0.0 && cross(a - c, p - c) >= 0.0
+            });
+            if !inside {
+                tris.push([a, b, c]);
+                idx.remove(i);
+                clipped = true;
+                break;
+            }
+        }
+        if !clipped {
+            break;
+        }
+    }
+    if idx.len() == 3 {
+        let (a, b, c) = (poly[idx[0]], poly[idx[1]], poly[idx[2]]);
+        if cross(b - a, c - a) > 0.0 {
+            tris.push([a, b, c]);
+        }
+    }
+    tris
+}
+
+/// Material loops of one cell from its surface pieces.
+fn cell_loops(mesh: &Mesh2, c: usize, pieces: &[Piece]) -> Result<Vec<Vec<Point2<f64>>>, SurfaceError> {
+    let poly = cell_polygon(mesh, c);
+    let n = poly.len();
+    let h = cell_size(&poly);
+    let on_tol = 1e3 * SNAP * h;
+    // Chains: consecutive pieces joined at points inside the cell.
+    let mut chains: Vec<Vec<Point2<f64>>> = Vec::new();
+    let mut chain_ends: Vec<(Option<f64>, Option<f64>)> = Vec::new(); // perimeter params of start/end if on boundary
+    for p in pieces {
+        let (sa, da) = perimeter_param(&poly, p.a);
+        let (sb, db) = perimeter_param(&poly, p.b);
+        let start_on = da <= on_tol;
+        let end_on = db <= on_tol;
+        // A piece starting where the previous one (in polyline order) ended continues its
+        // chain, even on the cell boundary: the surface touches the boundary and goes on.
+        let continues = chains.last().map(|ch| (ch[ch.len() - 1] - p.a).norm() <= on_tol).unwrap_or(false);
+        if continues {
+            let ch = chains.last_mut().ok_or(SurfaceError::Inconsistent { cell: c, msg: "empty chain".into() })?;
+            ch.push(p.b);
+            if let Some(e) = chain_ends.last_mut() {
+                e.1 = if end_on { Some(sb) } else { None };
+            }
+        } else {
+            chains.push(vec![p.a, p.b]);
+            chain_ends.push((if start_on { Some(sa) } else { None }, if end_on { Some(sb) } else { None }));
+        }
+    }
+    // A closed polyline wraps around: join the last chain into the first if they meet inside.
+    if chains.len() > 1 {
+        let k = chains.len() - 1;
+        if (chains[k][chains[k].len() - 1] - chains[0][0]).norm() <= on_tol {
+            let last = chains.pop().unwrap_or_default();
+            let le = chain_ends.pop().unwrap_or((None, None));
+            let mut joined = last;
+            joined.extend_from_slice(&chains[0][1..]);
+            chains[0] = joined;
+            chain_ends[0].0 = le.0;
+        }
+    }
+    let mut loops = Vec::new();
+    // Chains without boundary events are closed loops inside the cell.
+    let mut events: Vec<(f64, bool, usize)> = Vec::new(); // (sigma, is_exit, chain)
+    let mut interior_loops_area = 0.0;
+    for (i, e) in chain_ends.iter().enumerate() {
+        match e {
+            (Some(s0), Some(s1)) => {
+                events.push((*s0, false, i));
+                events.push((*s1, true, i));
+            }
+            (None, None) => {
+                let mut lp = chains[i].clone();
+                if (lp[0] - lp[lp.len() - 1]).norm() <= on_tol {
+                    lp.pop();
+                }
+                interior_loops_area += polygon_area(&lp);
+                loops.push(lp);
+            }
+            _ => {
+                return Err(SurfaceError::Inconsistent {
+                    cell: c,
+                    msg: "a surface piece ends inside the cell (open surface ending in the host)".into(),
+                })
+            }
+        }
+    }
+    if events.is_empty() {
+        // Whole boundary material iff the interior loops are holes (clockwise).
+        if interior_loops_area < 0.0 || loops.is_empty() {
+            loops.push(poly.clone());
+        }
+        return Ok(loops);
+    }
+    events.sort_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)));
+    let ne = events.len();
+    let mut used = vec![false; ne];
+    for start in 0..ne {
+        if used[start] || !events[start].1 {
+            continue;
+        }
+        let mut lp: Vec<Point2<f64>> = Vec::new();
+        let mut k = start;
+        let mut guard = 0;
+        loop {
+            guard += 1;
+            if guard > 4 * ne + 4 {
+                return Err(SurfaceError::Inconsistent { cell: c, msg: "cannot close a material loop".into() });
+            }
+            used[k] = true;
+            // From exit event k, walk the boundary CCW to the next event (an entry).
+            let s_from = events[k].0;
+            let next = (k + 1) % ne;
+            let s_to = events[next].0 + if next <= k { n as f64 } else { 0.0 };
+            if events[next].1 {
+                return Err(SurfaceError::Inconsistent {
+                    cell: c,
+                    msg: "two exits in a row along the cell boundary (surface orientation?)".into(),
+                });
+            }
+            let mut corner = s_from.floor() + 1.0;
+            while corner < s_to - 1e-12 {
+                lp.push(poly[(corner as usize) % n]);
+                corner += 1.0;
+            }
+            used[next] = true;
+            let ch = &chains[events[next].2];
+            lp.extend_from_slice(ch);
+            // The chain ends at its exit event.
+            k = events
+                .iter()
+                .position(|e| e.1 && e.2 == events[next].2)
+                .ok_or(SurfaceError::Inconsistent { cell: c, msg: "chain without exit".into() })?;
+            if k == start {
+                break;
+            }
+        }
+        lp.dedup_by(|a, b| (*a - *b).norm() <= on_tol);
+        if lp.len() > 2 && (lp[0] - lp[lp.len() - 1]).norm() <= on_tol {
+            lp.pop();
+        }
+        if lp.len() >= 3 {
+            loops.push(lp);
+        }
+    }
+    Ok(loops)
+}
+
+/// Classifies every host cell and computes material loops of the cut ones.
+pub fn cut_mesh(mesh: &Mesh2, embeddings: &[&Embedding]) -> Result<CutMesh, SurfaceError> {
+    let nc = mesh.num_cells();
+    let mut per_cell: HashMap<usize, Vec<Piece>> = HashMap::new();
+    for emb in embeddings {
+        for p in &emb.cell_pieces {
+            per_cell.entry(p.cell).or_default().push(*p);
+        }
+    }
+    let mut cells: Vec<Option<CellCut>> = vec![None; nc];
+    let mut fraction = vec![f64::NAN; nc];
+    // Status of each (cell, edge) stretch next to a cut cell: Some(true) material.
+    let mut edge_status: Vec<(usize, usize, bool)> = Vec::new();
+    let mut keys: Vec<usize> = per_cell.keys().copied().collect();
+    keys.sort_unstable();
+    for c in keys {
+        let pieces = &per_cell[&c];
+        let loops = cell_loops(mesh, c, pieces)?;
+        let poly = cell_polygon(mesh, c);
+        let full = polygon_area(&poly);
+        let area: f64 = loops.iter().map(|l| polygon_area(l)).sum();
+        let f = area / full;
+        if !(-1e-9..=1.0 + 1e-9).contains(&f) {
+            return Err(SurfaceError::Inconsistent {
+                cell: c,
+                msg: format!("material fraction {f:.3e} outside [0, 1]"),
+            });
+        }
+        fraction[c] = f.clamp(0.0, 1.0);
+        cells[c] = Some(if f <= CUT_TOL {
+            CellCut::Void
+        } else if f >= 1.0 - CUT_TOL {
+            CellCut::Material
+        } else {
+            CellCut::Cut { loops: loops.clone(), area }
+        });
+        // Edge stretches for flood fill: the midpoint of each cell edge, material if inside a loop.
+        let n = poly.len();
+        for k in 0..n {
+            let mid = Point2::from((poly[k].coords + poly[(k + 1) % n].coords) * 0.5);
+            let inside = loops.iter().any(|l| point_on_loop_boundary(l, mid, 1e-9 * cell_size(&poly)));
+            edge_status.push((c, k, inside));
+        }
+    }
+    // Flood fill uncut cells across edges.
+    let mut edge_owner: HashMap<(usize, usize), Vec<(usize, usize)>> = HashMap::new();
+    for (c, cell) in mesh.cells.iter().enumerate() {
+        for (k, [a, b]) in cell.edges().enumerate() {
+            edge_owner.entry((a.min(b), a.max(b))).or_default().push((c, k));
+        }
+    }
+    let neighbour = |c: usize, k: usize| -> Option<usize> {
+        let cell = &mesh.cells[c];
+        let ns = cell.nodes();
+        let (a, b) = (ns[k], ns[(k + 1) % ns.len()]);
+        edge_owner.get(&(a.min(b), a.max(b))).and_then(|v| v.iter().find(|(o, _)| *o != c).map(|(o, _)| *o))
+    };
+    let mut queue: std::collections::VecDeque<(usize, bool)> = std::collections::VecDeque::new();
+    for &(c, k, mat) in &edge_status {
+        if let Some(nb) = neighbour(c, k) {
+            if cells[nb].is_none() {
+                queue.push_back((nb, mat));
+            }
+        }
+    }
+    while let Some((c, mat)) = queue.pop_front() {
+        if cells[c].is_some() {
+            continue;
+        }
+        cells[c] = Some(if mat { CellCut::Material } else { CellCut::Void });
+        fraction[c] = if mat { 1.0 } else { 0.0 };
+        for k in 0..mesh.cells[c].nodes().len() {
+            if let Some(nb) = neighbour(c, k) {
+                if cells[nb].is_none() {
+                    queue.push_back((nb, mat));
+                }
+            }
+        }
+    }
+    let cells: Vec<CellCut> = cells.into_iter().map(|c| c.unwrap_or(CellCut::Material)).collect();
+    for (c, f) in fraction.iter_mut().enumerate() {
+        if f.is_nan() {
+            *f = if cells[c] == CellCut::Void { 0.0 } else { 1.0 };
+        }
+    }
+    let mut num = vec![0.0; mesh.num_nodes()];
+    let mut den = vec![0.0; mesh.num_nodes()];
+    for (c, cell) in mesh.cells.iter().enumerate() {
+        let a = polygon_area(&cell_polygon(mesh, c));
+        for &nd in cell.nodes() {
+            num[nd] += fraction[c] * a;
+            den[nd] += a;
+        }
+    }
+    let node_fraction = num.iter().zip(&den).map(|(a, b)| if *b > 0.0 { a / b } else { 0.0 }).collect();
+    Ok(CutMesh { cells, cell_fraction: fraction, node_fraction })
+}
+
+/// Is `p` on the boundary or inside loop `l` (edge midpoints of the cell are either on a
+/// material loop's boundary or outside every loop)?
+fn point_on_loop_boundary(l: &[Point2<f64>], p: Point2<f64>, tol: f64) -> bool {
+    let n = l.len();
+    for k in 0..n {
+        let (a, b) = (l[k], l[(k + 1) % n]);
+        let e = b - a;
+        let s = ((p - a).dot(&e) / e.norm_squared()).clamp(0.0, 1.0);
+        if (a + e * s - p).norm() <= tol {
+            return true;
+        }
+    }
+    false
+}
+
+/// Fixed rule of a cell cut when the model is built: degree-2 triangle rule on every triangle of
+/// the material sub-triangulation, mapped to the host cell's reference coordinates.
+pub fn subtriangulation_rule(mesh: &Mesh2, c: usize, loops: &[Vec<Point2<f64>>]) -> QuadratureRule {
+    let tri = triangle_rule(2);
+    let mapped = MappedElement::new(mesh.cells[c].kind, mesh.cell_coords(c));
+    let mut rule = QuadratureRule { points: vec![], weights: vec![] };
+    for lp in loops {
+        for t in triangulate(lp) {
+            let area2 = cross(t[1] - t[0], t[2] - t[0]);
+            for (xi, w) in tri.points.iter().zip(&tri.weights) {
+                let x = t[0] + (t[1] - t[0]) * xi[0] + (t[2] - t[0]) * xi[1];
+                if let Some(r) = mapped.inverse_map(x) {
+                    let det = mapped.jacobian(r).determinant();
+                    rule.points.push(r);
+                    rule.weights.push(w * area2 / det);
+                }
+            }
+        }
+    }
+    rule
+}
+
+/// The richer fixed rule of a cell that may be cut later (wear band): 8 x 8 Gauss on `Quad4`,
+/// a 64-point collapsed Gauss rule on `Tri3`.
+pub fn band_rule(kind: CellKind) -> QuadratureRule {
+    match kind {
+        CellKind::Quad4 => quad_gauss(8),
+        CellKind::Tri3 => collapsed_triangle_rule(14),
+    }
+}
+
+/// Lawson-Hanson non-negative least squares: `min |A w - b|`, `w >= 0`.
+pub fn nnls(a: &DMatrix<f64>, b: &DVector<f64>) -> DVector<f64> {
+    let n = a.ncols();
+    let mut w = DVector::zeros(n);
+    let mut passive = vec![false; n];
+    let tol = 1e-14 * a.amax().max(1e-300) * b.amax().max(1e-300);
+    for _outer in 0..3 * n + 10 {
+        let grad = a.transpose() * (b - a * &w);
+        let cand = (0..n).filter(|&j| !passive[j]).max_by(|&i, &j| grad[i].total_cmp(&grad[j]));
+        let Some(j) = cand else { break };
+        if grad[j] <= tol {
+            break;
+        }
+        passive[j] = true;
+        for _inner in 0..3 * n + 10 {
+            let idx: Vec<usize> = (0..n).filter(|&k| passive[k]).collect();
+            let ap = DMatrix::from_fn(a.nrows(), idx.len(), |r, c| a[(r, idx[c])]);
+            let z = match ap.clone().svd(true, true).solve(b, 1e-14) {
+                Ok(z) => z,
+                Err(_) => break,
+            };
+            if z.iter().all(|&v| v > 0.0) {
+                for (c, &k) in idx.iter().enumerate() {
+                    w[k] = z[c];
+                }
+                break;
+            }
+            let mut alpha = f64::INFINITY;
+            for (c, &k) in idx.iter().enumerate() {
+                if z[c] <= 0.0 {
+                    alpha = alpha.min(w[k] / (w[k] - z[c]));
+                }
+            }
+            for (c, &k) in idx.iter().enumerate() {
+                w[k] += alpha * (z[c] - w[k]);
+                if w[k] <= 1e-15 * w.amax().max(1e-300) {
+                    w[k] = 0.0;
+                    passive[k] = false;
+                }
+            }
+        }
+    }
+    w
+}
+
+/// Moment-fitted non-negative weights (physical measure) for fixed points `x` (physical
+/// coordinates) of a cell whose material is bounded by `loops`. Points outside the material get
+/// weight zero. Tries degree 2, then 1, then 0; returns the weights and the degree reached
+/// (moments matched to `1e-12` relative), or `None` if not even the area can be matched.
+pub fn fit_weights(x: &[Point2<f64>], inside: &[bool], loops: &[Vec<Point2<f64>>]) -> (Vec<f64>, Option<usize>) {
+    let all: Vec<Point2<f64>> = loops.iter().flatten().copied().collect();
+    let k = all.len().max(1) as f64;
+    let origin = Point2::from(all.iter().fold(Vector2::zeros(), |a, p| a + p.coords) / k);
+    let h = all.iter().map(|p| (p - origin).norm()).fold(0.0, f64::max).max(1e-300);
+    let active: Vec<usize> = (0..x.len()).filter(|&i| inside[i]).collect();
+    for degree in [2usize, 1, 0] {
+        let exps = monomials(degree);
+        let m = DVector::from_vec(loop_moments(loops, degree, origin, h));
+        let a = DMatrix::from_fn(exps.len(), active.len(), |r, c| {
+            let p = (x[active[c]] - origin) / h;
+            p.x.powi(exps[r].0 as i32) * p.y.powi(exps[r].1 as i32)
+        });
+        let w = nnls(&a, &m);
+        let res = (&a * &w - &m).amax();
+        if res <= 1e-12 * m[0].abs() && m[0] > 0.0 {
+            let mut full = vec![0.0; x.len()];
+            for (c, &i) in active.iter().enumerate() {
+                full[i] = w[c];
+            }
+            return (full, Some(degree));
+        }
+    }
+    (vec![0.0; x.len()], None)
+}
+
+/// Physical points and reference weights of a rule in a cell (for fitting).
+pub fn rule_points(mesh: &Mesh2, c: usize, rule: &QuadratureRule) -> Vec<Point2<f64>> {
+    let m = MappedElement::new(mesh.cells[c].kind, mesh.cell_coords(c));
+    rule.points.iter().map(|xi| m.map(*xi)).collect()
+}
+
+/// Does a reference point of `kind` lie in the reference cell (helper for tests)?
+pub fn in_reference(kind: CellKind, xi: [f64; 2]) -> bool {
+    kind.contains(xi, 1e-12)
+}
