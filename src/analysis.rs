@@ -8,7 +8,7 @@
 //! stiffness is assembled and factored once for the whole run, and each step is one solve plus
 //! one residual check.
 
-use crate::assembly::{Assembler, AssemblyInput, AssemblyOutput, SparsityPattern, CONSTRAINED};
+use crate::assembly::{Assembler, AssemblyInput, AssemblyOutput, SparsityPattern};
 use crate::fem::material::{PlasticState, Stress4};
 use crate::model::Model;
 use crate::solver::linear::{LinearSolverError, SparseSolver};
@@ -43,6 +43,8 @@ pub struct StaticAnalysis<'m> {
     assembler: Assembler,
     solver: SparseSolver,
     values: Vec<f64>,
+    /// Scale of the constraint rows in the matrix.
+    alpha: f64,
     /// Linear models: has the constant stiffness been factored?
     factored: bool,
     parallel: bool,
@@ -59,7 +61,15 @@ fn norm(v: &[f64]) -> f64 {
 impl<'m> StaticAnalysis<'m> {
     /// Builds the sparsity pattern and the symbolic factorisation (once per topology).
     pub fn new(model: &'m Model) -> Result<Self, AnalysisError> {
-        let pattern = SparsityPattern::new(model.num_nodes(), &model.elements, &model.dofs);
+        // Constraint rows are scaled by `alpha ~ E / |C|` in the matrix so that both blocks of the
+        // saddle point have the same magnitude: the LU factorisation then keeps its accuracy.
+        let mean_coef = model.constraints.iter().flatten().map(|(_, c)| c.abs()).sum::<f64>()
+            / model.constraints.iter().map(|r| r.len()).sum::<usize>().max(1) as f64;
+        let e_max = model.materials.iter().map(|m| m.elastic().young).fold(0.0, f64::max);
+        let alpha = if mean_coef > 0.0 && e_max > 0.0 { e_max / mean_coef } else { 1.0 };
+        let scaled: Vec<Vec<(usize, f64)>> =
+            model.constraints.iter().map(|r| r.iter().map(|&(d, c)| (d, alpha * c)).collect()).collect();
+        let pattern = SparsityPattern::with_constraints(model.num_nodes(), &model.elements, &model.dofs, &scaled);
         let solver = SparseSolver::new(&pattern.symbolic, model.linear_solver)?;
         let nnz = pattern.nnz();
         tracing::info!(
@@ -73,6 +83,7 @@ impl<'m> StaticAnalysis<'m> {
             assembler: Assembler::new(pattern, &model.elements),
             solver,
             values: vec![0.0; nnz],
+            alpha,
             factored: false,
             parallel: true,
             trial_history: vec![PlasticState::default(); model.elements.num_states()],
@@ -97,6 +108,7 @@ impl<'m> StaticAnalysis<'m> {
             history: vec![PlasticState::default(); m.elements.num_states()],
             stress: vec![Stress4::zeros(); m.elements.num_points()],
             f_int: vec![0.0; m.dofs.num_dofs],
+            multipliers: vec![0.0; m.constraints.len()],
         }
     }
 
@@ -172,7 +184,10 @@ impl<'m> StaticAnalysis<'m> {
         }
         let linear = m.is_linear();
         let nf = m.dofs.num_free;
-        let mut r = vec![0.0; nf];
+        let nm = m.constraints.len();
+        let mut mu = state.multipliers.clone();
+        let mut r = vec![0.0; nf + nm];
+        let mut ct_mu = vec![0.0; m.dofs.num_dofs];
         let mut first_res = f64::NAN;
         let mut res = f64::INFINITY;
         for it in 0..=p.max_iterations {
@@ -194,13 +209,29 @@ impl<'m> StaticAnalysis<'m> {
                 },
                 self.parallel,
             );
+            // Constraint forces C^T mu and constraint residual -C u (with its scale |C| |u|).
+            ct_mu.iter_mut().for_each(|v| *v = 0.0);
+            let mut g_scale = 0.0;
+            for (k, row) in m.constraints.iter().enumerate() {
+                let (mut g, mut gs) = (0.0, 0.0);
+                for &(d, c) in row {
+                    ct_mu[d] += c * mu[k];
+                    g += c * u[d];
+                    gs += (c * u[d]).abs();
+                }
+                r[nf + k] = -self.alpha * g;
+                g_scale += gs * gs;
+            }
             for (i, &g) in m.dofs.free.iter().enumerate() {
-                r[i] = lambda * m.f_ext[g] - self.trial_f_int[g];
+                r[i] = lambda * m.f_ext[g] - self.trial_f_int[g] - ct_mu[g];
             }
             let f_ext_norm = lambda.abs() * norm(&m.f_ext);
-            let scale = f_ext_norm.max(norm(&self.trial_f_int));
-            let rn = norm(&r);
-            res = if scale > 0.0 { rn / scale } else { rn };
+            let scale = f_ext_norm.max(norm(&self.trial_f_int)).max(norm(&ct_mu));
+            let rn = norm(&r[..nf]);
+            let gn = norm(&r[nf..]) / self.alpha;
+            let res_u = if scale > 0.0 { rn / scale } else { rn };
+            let res_g = if gn == 0.0 { 0.0 } else { gn / g_scale.sqrt().max(f64::MIN_POSITIVE) };
+            res = res_u.max(res_g);
             if it == 0 {
                 first_res = res;
             }
@@ -208,8 +239,9 @@ impl<'m> StaticAnalysis<'m> {
             if !res.is_finite() || (it > 0 && res > p.divergence_factor * first_res.max(p.rtol)) {
                 return Ok(Err((it, res)));
             }
-            if res <= p.rtol || rn == 0.0 {
+            if res <= p.rtol || (rn == 0.0 && gn == 0.0) {
                 state.u = u;
+                state.multipliers = mu;
                 state.time = t;
                 state.load_factor = lambda;
                 std::mem::swap(&mut state.history, &mut self.trial_history);
@@ -238,16 +270,15 @@ impl<'m> StaticAnalysis<'m> {
             for (i, &g) in m.dofs.free.iter().enumerate() {
                 u[g] += r[i];
             }
+            for k in 0..nm {
+                mu[k] += self.alpha * r[nf + k];
+            }
         }
         Ok(Err((p.max_iterations, res)))
     }
 
-    /// Reactions (internal force) at constrained DOFs of the current state, zero elsewhere.
+    /// Reactions at constrained DOFs of the current state, zero elsewhere.
     pub fn reactions(&self, state: &SimState) -> Vec<f64> {
-        let m = self.model;
-        let lambda = state.load_factor;
-        (0..m.dofs.num_dofs)
-            .map(|d| if m.dofs.eq[d] == CONSTRAINED { state.f_int[d] - lambda * m.f_ext[d] } else { 0.0 })
-            .collect()
+        self.model.reactions(state)
     }
 }

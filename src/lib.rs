@@ -18,6 +18,7 @@ pub mod fem;
 pub mod io;
 pub mod mesh;
 pub mod model;
+pub mod mortar;
 pub mod post;
 pub mod solver;
 pub mod state;

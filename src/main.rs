@@ -130,7 +130,7 @@ fn run(path: PathBuf, output: Option<PathBuf>, quiet: bool) -> Result<(), String
     let res = {
         let mut observer = |r: &mortex::analysis::StepReport, s: &mortex::state::SimState| -> Result<(), String> {
             total_its += r.iterations;
-            let reactions = analysis_reactions(model, s);
+            let reactions = model.reactions(s);
             writer.write_step(model, r, s, &reactions).map_err(|e| e.to_string())?;
             bar.set_message(format!(
                 "t = {:.4}, lambda = {:.4}, {} it, res {:.1e}",
@@ -159,18 +159,6 @@ fn run(path: PathBuf, output: Option<PathBuf>, quiet: bool) -> Result<(), String
         }
         Err(e) => Err(format!("{e} (converged steps up to {} kept in {})", state.step, file.display())),
     }
-}
-
-fn analysis_reactions(model: &mortex::model::Model, s: &mortex::state::SimState) -> Vec<f64> {
-    (0..model.dofs.num_dofs)
-        .map(|d| {
-            if model.dofs.eq[d] == mortex::assembly::CONSTRAINED {
-                s.f_int[d] - s.load_factor * model.f_ext[d]
-            } else {
-                0.0
-            }
-        })
-        .collect()
 }
 
 fn bench(n: usize, repeat: usize, serial: bool) -> Result<(), String> {

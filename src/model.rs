@@ -6,14 +6,17 @@
 //! factor `lambda(t)`, a piecewise-linear function of pseudo-time given by the load path.
 
 use crate::assembly::{DofMap, ElementTable};
+use crate::cut::{cut_mesh, subtriangulation_rule, CellCut, CutMesh, SMALL_FRACTION};
 use crate::fem::element::ReferenceElement;
 use crate::fem::element::Seg2;
 use crate::fem::kernel::Formulation;
 use crate::fem::material::{Material, PlaneHypothesis};
 use crate::fem::quadrature::QuadratureRule;
 use crate::mesh::{CellKind, Mesh2};
+use crate::mortar::{build_multipliers, tying_rows, ConstraintRow, MortarSide, MultiplierSpace, Multipliers};
 use crate::solver::linear::LinearSolverKind;
 use crate::solver::newton::NewtonParams;
+use crate::surface::{cell_polygon, cell_size, embed, BoxIndex, Embedding, VirtualSurface};
 use nalgebra::{Point2, Vector2};
 
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -28,6 +31,8 @@ pub enum ModelError {
     LoadPath(String),
     #[error("the model has no free degree of freedom")]
     NoFreeDofs,
+    #[error("tie '{tie}': {msg}")]
+    Tie { tie: String, msg: String },
 }
 
 /// One body: its mesh and where its nodes and elements sit in the global numbering.
@@ -101,6 +106,33 @@ pub struct Model {
     pub times: Vec<f64>,
     pub newton: NewtonParams,
     pub linear_solver: LinearSolverKind,
+    /// Linear constraints `sum coef u[dof] = 0` (mortar tying), one multiplier each.
+    pub constraints: Vec<ConstraintRow>,
+    pub ties: Vec<TieInfo>,
+    /// Cut state of each body's cells (`None`: not cut by any surface).
+    pub cuts: Vec<Option<CutMesh>>,
+    /// Host DOFs deactivated because their support has (almost) no material.
+    pub deactivated_dofs: usize,
+}
+
+/// A mortar tie between a patch (mortar side, multipliers) and a host (virtual surface).
+#[derive(Debug, Clone)]
+pub struct TieInfo {
+    pub name: String,
+    pub host: usize,
+    pub patch: usize,
+    pub space: MultiplierSpace,
+    /// Index of the tie's first constraint row (rows `2 l + c`).
+    pub first_row: usize,
+    pub multipliers: Multipliers,
+}
+
+struct TieSpec {
+    name: String,
+    host: usize,
+    patch: usize,
+    side: MortarSide,
+    space: MultiplierSpace,
 }
 
 impl Model {
@@ -127,6 +159,25 @@ impl Model {
         }
         out
     }
+    /// Reactions `f_int + C^T mu - lambda f_ext` at constrained DOFs of a state, zero elsewhere.
+    pub fn reactions(&self, state: &crate::state::SimState) -> Vec<f64> {
+        let mut r = state.f_int.clone();
+        for (d, v) in r.iter_mut().enumerate() {
+            *v -= state.load_factor * self.f_ext[d];
+        }
+        for (k, row) in self.constraints.iter().enumerate() {
+            for &(d, c) in row {
+                r[d] += c * state.multipliers[k];
+            }
+        }
+        for (d, v) in r.iter_mut().enumerate() {
+            if self.dofs.eq[d] != crate::assembly::CONSTRAINED {
+                *v = 0.0;
+            }
+        }
+        r
+    }
+
     /// Body index of a global element.
     pub fn body_of_element(&self, e: usize) -> usize {
         self.bodies.iter().rposition(|b| b.element_offset <= e).unwrap_or(0)
@@ -141,6 +192,7 @@ pub struct ModelBuilder {
     material_names: Vec<String>,
     prescribed: Vec<(usize, f64)>,
     f_ext: Vec<f64>,
+    ties: Vec<TieSpec>,
 }
 
 impl ModelBuilder {
@@ -152,7 +204,74 @@ impl ModelBuilder {
             material_names: vec![],
             prescribed: vec![],
             f_ext: vec![],
+            ties: vec![],
         }
+    }
+
+    /// Ties a patch body into a host body: the patch boundary (the listed edge sets of the patch,
+    /// forming one closed loop) is embedded in the host as a virtual surface, the host material
+    /// inside it is cut away, and the two are tied by mortar with multipliers on the patch side.
+    pub fn add_tie(
+        &mut self,
+        name: &str,
+        host: usize,
+        patch: usize,
+        boundary_sets: &[String],
+        space: MultiplierSpace,
+    ) -> Result<(), ModelError> {
+        let err = |msg: String| ModelError::Tie { tie: name.to_string(), msg };
+        if host == patch {
+            return Err(err("host and patch must be different bodies".into()));
+        }
+        let mut edges: Vec<[usize; 2]> = Vec::new();
+        for set in boundary_sets {
+            edges.extend(self.edge_set(patch, set, "tie boundary")?);
+        }
+        if edges.is_empty() {
+            return Err(err("the patch boundary has no edges".into()));
+        }
+        let mut next: std::collections::HashMap<usize, usize> = std::collections::HashMap::new();
+        for e in &edges {
+            if next.insert(e[0], e[1]).is_some() {
+                return Err(err(format!(
+                    "patch node {} starts two boundary edges: the sets do not form one simple loop",
+                    e[0]
+                )));
+            }
+        }
+        let start = edges[0][0];
+        let mut loop_nodes = vec![start];
+        let mut cur = start;
+        loop {
+            let Some(&nx) = next.get(&cur) else {
+                return Err(err(format!(
+                    "the patch boundary is open at node {cur}: give edge sets forming one closed loop"
+                )));
+            };
+            if nx == start {
+                break;
+            }
+            loop_nodes.push(nx);
+            cur = nx;
+            if loop_nodes.len() > edges.len() {
+                return Err(err("the patch boundary edges do not form one closed loop".into()));
+            }
+        }
+        if loop_nodes.len() != edges.len() {
+            return Err(err(format!(
+                "the boundary sets hold {} edges but the loop through them has {}: give one closed loop",
+                edges.len(),
+                loop_nodes.len()
+            )));
+        }
+        let pb = &self.bodies[patch];
+        let side = MortarSide {
+            nodes: loop_nodes.iter().map(|&n| n + pb.node_offset).collect(),
+            points: loop_nodes.iter().map(|&n| pb.mesh.nodes[n]).collect(),
+            closed: true,
+        };
+        self.ties.push(TieSpec { name: name.to_string(), host, patch, side, space });
+        Ok(())
     }
 
     pub fn add_material(&mut self, name: &str, m: Material) -> usize {
@@ -283,7 +402,32 @@ impl ModelBuilder {
         newton: NewtonParams,
         linear_solver: LinearSolverKind,
     ) -> Result<Model, ModelError> {
-        let rules = vec![CellKind::Tri3.stiffness_rule(), CellKind::Quad4.stiffness_rule()];
+        let mut rules = vec![
+            CellKind::Tri3.stiffness_rule(),
+            CellKind::Quad4.stiffness_rule(),
+            QuadratureRule { points: vec![], weights: vec![] },
+        ];
+        // Embed every tie's surface in its host and cut the hosts.
+        let mut embeddings: Vec<(usize, Embedding)> = Vec::new();
+        let mut cuts: Vec<Option<CutMesh>> = vec![None; self.bodies.len()];
+        for t in &self.ties {
+            let host = &self.bodies[t.host];
+            let mut v = t.side.points.clone();
+            v.reverse(); // host material outside the patch = on the left of the reversed loop
+            let surf = VirtualSurface { vertices: v, closed: true };
+            let terr = |e: crate::surface::SurfaceError| ModelError::Tie { tie: t.name.clone(), msg: e.to_string() };
+            surf.validate().map_err(terr)?;
+            let index = BoxIndex::over_cells(&host.mesh);
+            embeddings.push((t.host, embed(&surf, &host.mesh, &index).map_err(terr)?));
+        }
+        for (b, body) in self.bodies.iter().enumerate() {
+            let embs: Vec<&Embedding> = embeddings.iter().filter(|(h, _)| *h == b).map(|(_, e)| e).collect();
+            if !embs.is_empty() {
+                let c = cut_mesh(&body.mesh, &embs)
+                    .map_err(|e| ModelError::Tie { tie: body.name.clone(), msg: e.to_string() })?;
+                cuts[b] = Some(c);
+            }
+        }
         let rule_of = |k: CellKind| match k {
             CellKind::Tri3 => 0,
             CellKind::Quad4 => 1,
@@ -295,12 +439,20 @@ impl ModelBuilder {
         for b in &self.bodies {
             coords.extend_from_slice(&b.mesh.nodes);
             let stateful = self.materials[b.material].has_state();
-            for c in &b.mesh.cells {
+            let cut = cuts[self.bodies.iter().position(|x| x.name == b.name).unwrap_or(0)].as_ref();
+            for (ci, c) in b.mesh.cells.iter().enumerate() {
                 let mut nodes = [usize::MAX; 4];
                 for (k, &n) in c.nodes().iter().enumerate() {
                     nodes[k] = n + b.node_offset;
                 }
-                let r = rule_of(c.kind);
+                let r = match cut.map(|cm| &cm.cells[ci]) {
+                    None | Some(CellCut::Material) => rule_of(c.kind),
+                    Some(CellCut::Void) => 2,
+                    Some(CellCut::Cut { loops, .. }) => {
+                        rules.push(subtriangulation_rule(&b.mesh, ci, loops));
+                        rules.len() - 1
+                    }
+                };
                 let np = rules[r].len();
                 el.kind.push(c.kind);
                 el.nodes.push(nodes);
@@ -316,6 +468,46 @@ impl ModelBuilder {
             }
         }
         let mut prescribed = self.prescribed;
+        // Deactivate host nodes whose support keeps (almost) no material.
+        let mut deactivated_dofs = 0;
+        for (b, cut) in cuts.iter().enumerate() {
+            if let Some(cm) = cut {
+                let off = self.bodies[b].node_offset;
+                for (n, &f) in cm.node_fraction.iter().enumerate() {
+                    if f < SMALL_FRACTION {
+                        for c in 0..2 {
+                            let d = 2 * (n + off) + c;
+                            if !prescribed.iter().any(|p| p.0 == d) {
+                                prescribed.insert(0, (d, 0.0));
+                                deactivated_dofs += 1;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // Mortar tying rows.
+        let mut constraints = Vec::new();
+        let mut ties = Vec::new();
+        for (t, (_, emb)) in self.ties.iter().zip(&embeddings) {
+            let host = &self.bodies[t.host];
+            let mut cells: Vec<usize> = emb.cell_pieces.iter().map(|p| p.cell).collect();
+            cells.sort_unstable();
+            cells.dedup();
+            let h_host =
+                cells.iter().map(|&c| cell_size(&cell_polygon(&host.mesh, c))).sum::<f64>() / cells.len().max(1) as f64;
+            let multipliers = build_multipliers(&t.side, t.space, h_host);
+            let rows = tying_rows(&t.side, &multipliers, &host.mesh, host.node_offset, emb);
+            ties.push(TieInfo {
+                name: t.name.clone(),
+                host: t.host,
+                patch: t.patch,
+                space: t.space,
+                first_row: constraints.len(),
+                multipliers,
+            });
+            constraints.extend(rows);
+        }
         // Last value wins for duplicates; keep one entry per DOF.
         let mut seen = std::collections::HashMap::new();
         for (i, (d, _)) in prescribed.iter().enumerate() {
@@ -344,7 +536,11 @@ impl ModelBuilder {
             load_path,
             times,
             newton,
-            linear_solver,
+            linear_solver: if constraints.is_empty() { linear_solver } else { LinearSolverKind::Lu },
+            constraints,
+            ties,
+            cuts,
+            deactivated_dofs,
         })
     }
 }

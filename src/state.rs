@@ -19,4 +19,6 @@ pub struct SimState {
     pub stress: Vec<Stress4>,
     /// Internal force at every DOF (reactions at constrained DOFs).
     pub f_int: Vec<f64>,
+    /// Lagrange multipliers of the model's linear constraints (mortar tying), one per row.
+    pub multipliers: Vec<f64>,
 }

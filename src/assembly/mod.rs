@@ -83,12 +83,25 @@ pub struct SparsityPattern {
     /// For element `e`, local entry `i * 8 + j` goes to `values[scatter[64 e + i * 8 + j]]`
     /// (row `i`, column `j`), or nowhere if [`CONSTRAINED`].
     scatter: Vec<usize>,
+    /// `(position of C_re, position of C^T_er, coefficient)` for every constraint entry.
+    constraint_scatter: Vec<(usize, usize, f64)>,
 }
 
 impl SparsityPattern {
     /// Builds the pattern from node adjacency (no triplet sort): column `j` of node `n` holds the
     /// free DOFs of all nodes sharing a cell with `n`, in increasing order.
     pub fn new(num_nodes: usize, elements: &ElementTable, dofs: &DofMap) -> Self {
+        Self::with_constraints(num_nodes, elements, dofs, &[])
+    }
+
+    /// Pattern of the saddle-point matrix `[K C^T; C 0]`: the free DOFs first, then one
+    /// unknown per constraint row (`sum coef u[dof] = 0`, global DOFs).
+    pub fn with_constraints(
+        num_nodes: usize,
+        elements: &ElementTable,
+        dofs: &DofMap,
+        constraints: &[Vec<(usize, f64)>],
+    ) -> Self {
         let mut adj: Vec<Vec<usize>> = vec![Vec::new(); num_nodes];
         for (e, nodes) in elements.nodes.iter().enumerate() {
             let nn = elements.kind[e].num_nodes();
@@ -100,11 +113,22 @@ impl SparsityPattern {
             v.sort_unstable();
             v.dedup();
         });
-        let n = dofs.num_free;
+        let nf = dofs.num_free;
+        let n = nf + constraints.len();
+        // Constraint rows touching each free equation.
+        let mut eq_rows: Vec<Vec<usize>> = vec![Vec::new(); nf];
+        for (r, row) in constraints.iter().enumerate() {
+            for &(d, _) in row {
+                let e = dofs.eq[d];
+                if e != CONSTRAINED && eq_rows[e].last() != Some(&(nf + r)) {
+                    eq_rows[e].push(nf + r);
+                }
+            }
+        }
         let mut col_ptr = Vec::with_capacity(n + 1);
         col_ptr.push(0usize);
         let mut row_idx = Vec::new();
-        for &g in &dofs.free {
+        for (e, &g) in dofs.free.iter().enumerate() {
             let node = g / 2;
             for &m in &adj[node] {
                 for d in [2 * m, 2 * m + 1] {
@@ -114,7 +138,34 @@ impl SparsityPattern {
                     }
                 }
             }
+            let mut cr = eq_rows[e].clone();
+            cr.sort_unstable();
+            cr.dedup();
+            row_idx.extend_from_slice(&cr);
             col_ptr.push(row_idx.len());
+        }
+        for row in constraints {
+            let mut rows: Vec<usize> = row.iter().map(|&(d, _)| dofs.eq[d]).filter(|&e| e != CONSTRAINED).collect();
+            rows.sort_unstable();
+            rows.dedup();
+            row_idx.extend_from_slice(&rows);
+            col_ptr.push(row_idx.len());
+        }
+        // Where each constraint coefficient goes: (row r, column e) and (row e, column r).
+        let mut constraint_scatter = Vec::new();
+        for (r, row) in constraints.iter().enumerate() {
+            let cr = nf + r;
+            for &(d, coef) in row {
+                let e = dofs.eq[d];
+                if e == CONSTRAINED {
+                    continue;
+                }
+                let col_e = &row_idx[col_ptr[e]..col_ptr[e + 1]];
+                let col_r = &row_idx[col_ptr[cr]..col_ptr[cr + 1]];
+                if let (Ok(p1), Ok(p2)) = (col_e.binary_search(&cr), col_r.binary_search(&e)) {
+                    constraint_scatter.push((col_ptr[e] + p1, col_ptr[cr] + p2, coef));
+                }
+            }
         }
         let mut scatter = vec![CONSTRAINED; 64 * elements.len()];
         scatter.par_chunks_mut(64).enumerate().for_each(|(e, sc)| {
@@ -139,7 +190,7 @@ impl SparsityPattern {
             }
         });
         let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
-        SparsityPattern { symbolic, scatter }
+        SparsityPattern { symbolic, scatter, constraint_scatter }
     }
 
     pub fn nnz(&self) -> usize {
@@ -281,6 +332,10 @@ impl Assembler {
                         values[p] += ke[k];
                     }
                 }
+            }
+            for &(p1, p2, coef) in &self.pattern.constraint_scatter {
+                values[p1] += coef;
+                values[p2] += coef;
             }
         }
     }

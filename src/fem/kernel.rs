@@ -73,6 +73,14 @@ fn b_matrix(ev: &ShapeEval, nn: usize, bbar_vol: Option<&[f64; 8]>, b: &mut [[f6
 pub fn element_kernel(inp: &ElementInput, out: &mut ElementOutput) -> f64 {
     let nn = inp.kind.num_nodes();
     let ndof = 2 * nn;
+    if inp.rule.is_empty() {
+        // A void cell (all material cut away): no points, no contribution.
+        *out.fe = [0.0; 8];
+        if let Some(ke) = out.ke.as_deref_mut() {
+            *ke = [0.0; 64];
+        }
+        return 0.0;
+    }
     let mapped = MappedElement::new(inp.kind, inp.coords);
     let mut ev = ShapeEval::default();
     // B-bar: element-average volumetric row.

@@ -1,0 +1,287 @@
+//! Mortar integrals between a real surface (mesh edges, the *mortar side*, which carries the
+//! Lagrange multipliers) and a virtual surface embedded in a host mesh.
+//!
+//! Tying constraint per multiplier node `l` and component `c` (Wohlmuth; MorteX: Akula,
+//! Vignollet, Yastrebov, arXiv 1902.04003):
+//! `g_lc = int_Gamma Phi_l (u_c^mortar - u_c^host) dS = sum_j D_lj u_jc - sum_k M_lk u_kc = 0`,
+//! `D_lj = int Phi_l N_j dS` (mortar edge shape functions), `M_lk = int Phi_l N_k(xi(x)) dS`
+//! with the host shape functions evaluated at the true host reference coordinates of each
+//! quadrature point (the virtual surface is straight in physical space, so `xi` is not linear
+//! along it). Segment-to-segment: the end points of every embedded piece are projected onto
+//! the mortar segment, the overlap is integrated with 4 Gauss points (exact for `Phi N^host`:
+//! linear times quadratic on a straight line through a parallelogram).
+//!
+//! Which side carries the multipliers: the mortar (real, mesh-conforming) side, as in the
+//! MorteX papers: its edges are the integration segments, and the host side (the cut
+//! "blending" elements) is interpolated. The traction on the mortar body is `t = -lambda`.
+//!
+//! Multiplier spaces ([`MultiplierSpace`]), built per *chain* (the mortar polyline split at
+//! corners sharper than [`CORNER_ANGLE_DEG`], where the traction may jump):
+//! * `Classical`: a hat function at every mortar vertex;
+//! * both with the crosspoint modification at chain ends (see `build_multipliers`);
+//! * `CoarseGrained`: hats only at a subset of vertices, end vertices always kept, spaced like
+//!   the host (blending) cells along the chain: `n = max(1, round(L_chain / h_host))` intervals,
+//!   `h_host` the mean size of the cut host cells (geometry only, no material data); the
+//!   traction is interpolated linearly in arc length between consecutive multiplier nodes,
+//!   across several segments.
+
+use crate::fem::element::{MappedElement, ReferenceElement};
+use crate::fem::quadrature::gauss_legendre;
+use crate::mesh::Mesh2;
+use crate::surface::{BoxIndex, Embedding};
+use nalgebra::{Point2, Vector2};
+use std::collections::BTreeMap;
+
+/// Corner threshold: the mortar polyline is split into chains at turns sharper than this.
+pub const CORNER_ANGLE_DEG: f64 = 20.0;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MultiplierSpace {
+    Classical,
+    #[default]
+    CoarseGrained,
+}
+
+/// A closed or open polyline of mesh nodes (global ids and coordinates), mortar-body on its left.
+#[derive(Debug, Clone)]
+pub struct MortarSide {
+    pub nodes: Vec<usize>,
+    pub points: Vec<Point2<f64>>,
+    pub closed: bool,
+}
+
+impl MortarSide {
+    pub fn num_segments(&self) -> usize {
+        if self.closed {
+            self.points.len()
+        } else {
+            self.points.len() - 1
+        }
+    }
+}
+
+/// Multiplier nodes of one chain: vertex indices of the mortar side (consecutive, possibly
+/// wrapping) and which of them carry a multiplier.
+#[derive(Debug, Clone)]
+pub struct Chain {
+    /// Mortar vertex indices along the chain (first and last are corners or ends).
+    pub vertices: Vec<usize>,
+    /// Arc length at each chain vertex.
+    pub arc: Vec<f64>,
+    /// Positions (indices into `vertices`) of the multiplier nodes.
+    pub lm_at: Vec<usize>,
+    /// Global index of the chain's first multiplier node.
+    pub first_lm: usize,
+}
+
+/// The multiplier space of one interface.
+#[derive(Debug, Clone)]
+pub struct Multipliers {
+    pub chains: Vec<Chain>,
+    pub num_nodes: usize,
+    /// Position and outward normal of the mortar body at each multiplier node.
+    pub points: Vec<Point2<f64>>,
+    pub normals: Vec<Vector2<f64>>,
+}
+
+fn right_normal(a: Point2<f64>, b: Point2<f64>) -> Vector2<f64> {
+    let t = (b - a).normalize();
+    Vector2::new(t.y, -t.x)
+}
+
+/// Splits the mortar side into chains at corners and places multiplier nodes.
+/// `h_host` is the characteristic size of the host cells along the interface.
+pub fn build_multipliers(side: &MortarSide, space: MultiplierSpace, h_host: f64) -> Multipliers {
+    let n = side.points.len();
+    let ns = side.num_segments();
+    let seg = |i: usize| (side.points[i % n], side.points[(i + 1) % n]);
+    let is_corner = |v: usize| -> bool {
+        if !side.closed && (v == 0 || v == n - 1) {
+            return true;
+        }
+        let (a, b) = seg((v + n - 1) % n);
+        let (_, c) = seg(v);
+        let (t0, t1) = ((b - a).normalize(), (c - b).normalize());
+        let ang = (t0.x * t1.y - t0.y * t1.x).atan2(t0.dot(&t1)).abs();
+        ang > CORNER_ANGLE_DEG.to_radians()
+    };
+    let corners: Vec<usize> = (0..n).filter(|&v| is_corner(v)).collect();
+    // Chains from corner to corner (a closed side without corners is one closed chain from 0).
+    let mut spans: Vec<Vec<usize>> = Vec::new();
+    if corners.is_empty() {
+        spans.push((0..=n).map(|v| v % n).collect());
+    } else if !side.closed {
+        for w in corners.windows(2) {
+            spans.push((w[0]..=w[1]).collect());
+        }
+    } else {
+        for (i, &c0) in corners.iter().enumerate() {
+            let c1 = corners[(i + 1) % corners.len()];
+            let len = if c1 > c0 { c1 - c0 } else { c1 + n - c0 };
+            spans.push((0..=len).map(|k| (c0 + k) % n).collect());
+        }
+    }
+    let _ = ns;
+    let mut chains = Vec::new();
+    let mut points = Vec::new();
+    let mut normals = Vec::new();
+    let mut next_lm = 0;
+    for vs in spans {
+        let mut arc = vec![0.0];
+        for k in 1..vs.len() {
+            let d = (side.points[vs[k]] - side.points[vs[k - 1]]).norm();
+            arc.push(arc[k - 1] + d);
+        }
+        let nseg = vs.len() - 1;
+        let total = arc[nseg];
+        let lm_at: Vec<usize> = match space {
+            MultiplierSpace::Classical => (0..=nseg).collect(),
+            MultiplierSpace::CoarseGrained => {
+                let m = ((total / h_host).round() as usize).clamp(1, nseg);
+                // Vertex closest in arc length to each equally spaced target.
+                let mut v: Vec<usize> = (0..=m)
+                    .map(|i| {
+                        let target = total * i as f64 / m as f64;
+                        (0..=nseg)
+                            .min_by(|&a, &b| (arc[a] - target).abs().total_cmp(&(arc[b] - target).abs()))
+                            .unwrap_or(0)
+                    })
+                    .collect();
+                v.dedup();
+                v
+            }
+        };
+        // Crosspoint modification (Wohlmuth 2000; Puso & Laursen): the nodes at the ends of a
+        // chain carry no multiplier of their own; their hat is merged into the neighbour's,
+        // so the traction is constant between a corner and the first interior multiplier node.
+        // Without it the multipliers at a corner outnumber the trace space of the mortar side
+        // and the saddle point is singular when the host trace nests in the mortar trace.
+        let lm_at: Vec<usize> = if lm_at.len() > 2 { lm_at[1..lm_at.len() - 1].to_vec() } else { vec![lm_at[0]] };
+        for &k in &lm_at {
+            let v = vs[k];
+            points.push(side.points[v]);
+            let mut nrm = Vector2::zeros();
+            if k > 0 {
+                nrm += right_normal(side.points[vs[k - 1]], side.points[v]);
+            }
+            if k < nseg {
+                nrm += right_normal(side.points[v], side.points[vs[k + 1]]);
+            }
+            normals.push(nrm.normalize());
+        }
+        let count = lm_at.len();
+        chains.push(Chain { vertices: vs, arc, lm_at, first_lm: next_lm });
+        next_lm += count;
+    }
+    Multipliers { chains, num_nodes: next_lm, points, normals }
+}
+
+impl Chain {
+    /// Multiplier hats at arc length `s`: `(local lm index, value)` pairs (two at most);
+    /// constant 1 between a chain end and the nearest multiplier node.
+    pub fn hats(&self, s: f64) -> [(usize, f64); 2] {
+        let m = self.lm_at.len();
+        if m == 1 || s <= self.arc[self.lm_at[0]] {
+            return [(0, 1.0), (0, 0.0)];
+        }
+        if s >= self.arc[self.lm_at[m - 1]] {
+            return [(m - 1, 1.0), (0, 0.0)];
+        }
+        for j in 0..m - 1 {
+            let (s0, s1) = (self.arc[self.lm_at[j]], self.arc[self.lm_at[j + 1]]);
+            if s <= s1 {
+                let phi = ((s1 - s) / (s1 - s0)).clamp(0.0, 1.0);
+                return [(j, phi), (j + 1, 1.0 - phi)];
+            }
+        }
+        [(m - 1, 1.0), (0, 0.0)]
+    }
+}
+
+/// One scalar constraint row: `sum coef * u[dof] = 0`.
+pub type ConstraintRow = Vec<(usize, f64)>;
+
+/// Assembles the tying rows (two per multiplier node, x then y).
+/// `host_offset` maps host-mesh node ids to global ids; mortar nodes are global already.
+pub fn tying_rows(
+    side: &MortarSide,
+    lm: &Multipliers,
+    host: &Mesh2,
+    host_offset: usize,
+    emb: &Embedding,
+) -> Vec<ConstraintRow> {
+    let mut rows: Vec<BTreeMap<usize, f64>> = vec![BTreeMap::new(); 2 * lm.num_nodes];
+    let boxes: Vec<_> = emb
+        .pieces
+        .iter()
+        .map(|p| (Point2::new(p.a.x.min(p.b.x), p.a.y.min(p.b.y)), Point2::new(p.a.x.max(p.b.x), p.a.y.max(p.b.y))))
+        .collect();
+    let index = BoxIndex::new(&boxes);
+    let (gx, gw) = gauss_legendre(4);
+    let mut cand = Vec::new();
+    let n = side.points.len();
+    for ch in &lm.chains {
+        for k in 0..ch.vertices.len() - 1 {
+            let (va, vb) = (ch.vertices[k], ch.vertices[k + 1]);
+            let (a, b) = (side.points[va], side.points[vb]);
+            let d = b - a;
+            let len = d.norm();
+            let tol = 1e-9 * len;
+            index.query(
+                Point2::new(a.x.min(b.x) - tol, a.y.min(b.y) - tol),
+                Point2::new(a.x.max(b.x) + tol, a.y.max(b.y) + tol),
+                &mut cand,
+            );
+            for &pi in &cand {
+                let p = &emb.pieces[pi];
+                let ta = (p.a - a).dot(&d) / (len * len);
+                let tb = (p.b - a).dot(&d) / (len * len);
+                // Only pieces lying on this segment (tying: coincident surfaces).
+                let dist = (nrm_dist(a, d, p.a)).max(nrm_dist(a, d, p.b));
+                if dist > 1e-6 * len || (tb - ta).abs() < 1e-14 {
+                    continue;
+                }
+                let lo = ta.min(tb).max(0.0);
+                let hi = ta.max(tb).min(1.0);
+                if hi - lo <= 1e-12 {
+                    continue;
+                }
+                let mapped = MappedElement::new(host.cells[p.cell].kind, host.cell_coords(p.cell));
+                let host_nodes = host.cells[p.cell].nodes();
+                for (x, w) in gx.iter().zip(&gw) {
+                    let tau = lo + 0.5 * (x + 1.0) * (hi - lo);
+                    let wt = 0.5 * w * (hi - lo) * len;
+                    let sigma = (tau - ta) / (tb - ta);
+                    let xv = p.a + (p.b - p.a) * sigma;
+                    let xi = mapped.inverse_map(xv).unwrap_or(p.xi_a);
+                    let mut nh = [0.0; 4];
+                    host.cells[p.cell].kind.shape(xi, &mut nh);
+                    let s_arc = ch.arc[k] + tau * len;
+                    let nm = [1.0 - tau, tau];
+                    for (j, phi) in ch.hats(s_arc) {
+                        if phi == 0.0 {
+                            continue;
+                        }
+                        let l = ch.first_lm + j;
+                        for c in 0..2 {
+                            let row = &mut rows[2 * l + c];
+                            for (q, &v) in [va, vb].iter().enumerate() {
+                                *row.entry(2 * side.nodes[v % n] + c).or_insert(0.0) += wt * phi * nm[q];
+                            }
+                            for (q, &hn) in host_nodes.iter().enumerate() {
+                                *row.entry(2 * (hn + host_offset) + c).or_insert(0.0) -= wt * phi * nh[q];
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    rows.into_iter().map(|r| r.into_iter().filter(|(_, v)| *v != 0.0).collect()).collect()
+}
+
+fn nrm_dist(a: Point2<f64>, d: Vector2<f64>, p: Point2<f64>) -> f64 {
+    let len = d.norm();
+    ((p - a).x * d.y - (p - a).y * d.x).abs() / len
+}
