@@ -352,6 +352,13 @@ impl ModelBuilder {
         self.prescribed.push((2 * (node + off) + comp, value));
     }
 
+    /// Point force at one node (body-local index).
+    pub fn point_load_node(&mut self, body: usize, node: usize, f: Vector2<f64>) {
+        let off = self.bodies[body].node_offset;
+        self.f_ext[2 * (node + off)] += f.x;
+        self.f_ext[2 * (node + off) + 1] += f.y;
+    }
+
     /// Uniform pressure `p` (positive pushes into the body: traction `-p n`) on an edge set.
     pub fn pressure(&mut self, body: usize, set: &str, p: f64) -> Result<(), ModelError> {
         let b = &self.bodies[body];

@@ -202,6 +202,37 @@ pub fn half_disc(
     Ok(m)
 }
 
+/// Full disc of radius `radius`: a polar grid of `nr` uniform rings and `nt` sectors, a fan of
+/// `Tri3` at the centre and `Quad4` elsewhere. Sets: `arc` (the rim, counter-clockwise),
+/// node set `centre`.
+pub fn disc(centre: Point2<f64>, radius: f64, nr: usize, nt: usize) -> Result<Mesh2, MeshError> {
+    check(radius > 0.0, "disc radius must be positive")?;
+    check(nr >= 1 && nt >= 3, "disc needs nr >= 1 and nt >= 3")?;
+    let mut m = Mesh2::default();
+    m.nodes.push(centre);
+    let id = |i: usize, j: usize| 1 + (i - 1) * nt + (j % nt);
+    for i in 1..=nr {
+        let r = radius * i as f64 / nr as f64;
+        for j in 0..nt {
+            let t = std::f64::consts::TAU * j as f64 / nt as f64;
+            m.nodes.push(Point2::new(centre.x + r * t.cos(), centre.y + r * t.sin()));
+        }
+    }
+    for j in 0..nt {
+        m.cells.push(Cell::tri3(0, id(1, j), id(1, j + 1)));
+    }
+    for i in 1..nr {
+        for j in 0..nt {
+            m.cells.push(Cell::quad4(id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)));
+        }
+    }
+    m.edge_sets.insert("arc".into(), (0..nt).map(|j| [id(nr, j), id(nr, j + 1)]).collect());
+    m.node_sets.insert("centre".into(), vec![0]);
+    m.orient_edge_sets()?;
+    m.validate()?;
+    Ok(m)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
