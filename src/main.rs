@@ -100,6 +100,27 @@ fn check(path: PathBuf) -> Result<(), String> {
             println!("    cell set '{name}': {} cells", v.len());
         }
     }
+    for t in &m.ties {
+        println!(
+            "  tie '{}': patch '{}' in host '{}', {:?} multipliers: {} nodes in {} chains",
+            t.name,
+            m.bodies[t.patch].name,
+            m.bodies[t.host].name,
+            t.space,
+            t.multipliers.num_nodes,
+            t.multipliers.chains.len()
+        );
+    }
+    for (b, cut) in m.cuts.iter().enumerate() {
+        if let Some(c) = cut {
+            let n_cut = c.cells.iter().filter(|x| matches!(x, mortex::cut::CellCut::Cut { .. })).count();
+            let n_void = c.cells.iter().filter(|x| matches!(x, mortex::cut::CellCut::Void)).count();
+            println!(
+                "  body '{}' is cut: {} cut cells, {} void cells, {} DOFs deactivated",
+                m.bodies[b].name, n_cut, n_void, m.deactivated_dofs
+            );
+        }
+    }
     println!("  DOFs: {} total, {} free, {} prescribed", m.dofs.num_dofs, m.dofs.num_free, m.prescribed.len());
     println!("  integration points: {} ({} with history)", m.elements.num_points(), m.elements.num_states());
     println!(

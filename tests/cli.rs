@@ -146,6 +146,27 @@ fn bad_inputs_give_clear_errors() {
         ),
         &["t6.msh", "element 7", "unsupported Gmsh type 9"],
     );
+    // Ties: unknown body, boundary sets that do not close, a patch reaching outside the host.
+    let tie = |patch_mesh: &str, boundary: &str, host: &str| {
+        format!(
+            "{GOOD}\n[[bodies]]\nname = \"patch\"\nmaterial = \"steel\"\nmesh = {patch_mesh}\n\n[[ties]]\nhost = \"{host}\"\npatch = \"patch\"\nboundary = {boundary}\n"
+        )
+    };
+    let inside = "{ type = \"rectangle\", origin = [2.0, 0.5], size = [1.0, 1.0], divisions = [4, 4] }";
+    expect_error(
+        &d,
+        "tie_body",
+        &tie(inside, "[\"bottom\", \"right\", \"top\", \"left\"]", "hull"),
+        &["ties[0].host", "no body named 'hull'"],
+    );
+    expect_error(&d, "tie_open", &tie(inside, "[\"bottom\", \"right\"]", "block"), &["ties[0].boundary", "open"]);
+    let outside = "{ type = \"rectangle\", origin = [9.5, 0.5], size = [1.0, 1.0], divisions = [4, 4] }";
+    expect_error(
+        &d,
+        "tie_outside",
+        &tie(outside, "[\"bottom\", \"right\", \"top\", \"left\"]", "block"),
+        &["ties[0]", "leaves the host mesh"],
+    );
     // A missing case file.
     let (ok, text) = run(&["check", "absent.toml"], &d);
     assert!(!ok && text.contains("absent.toml") && text.contains("cannot read"), "{text}");

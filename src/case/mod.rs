@@ -39,6 +39,7 @@ use crate::fem::kernel::Formulation;
 use crate::fem::material::{Elastic, J2Plastic, Material, PlaneHypothesis};
 use crate::mesh::{generate, gmsh, CellKind, Mesh2};
 use crate::model::{LoadPath, Model, ModelBuilder, ModelError};
+use crate::mortar::MultiplierSpace;
 use crate::solver::linear::LinearSolverKind;
 use crate::solver::newton::NewtonParams;
 use nalgebra::{Point2, Vector2};
@@ -71,6 +72,21 @@ pub struct CaseFile {
     pub solver: SolverSpec,
     #[serde(default)]
     pub output: OutputSpec,
+    #[serde(default)]
+    pub ties: Vec<TieSpec>,
+}
+
+/// A mortar tie: the patch body's boundary (edge sets forming one closed loop) is embedded in the
+/// host body as a virtual surface; the host material inside it is cut away.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TieSpec {
+    pub name: Option<String>,
+    pub host: String,
+    pub patch: String,
+    pub boundary: Vec<String>,
+    #[serde(default)]
+    pub multipliers: MultiplierSpace,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -139,6 +155,15 @@ pub enum MeshSpec {
         grading: [f64; 2],
         #[serde(default)]
         cell: CellSpec,
+        /// Rotation in degrees about `origin` (counter-clockwise).
+        #[serde(default)]
+        rotation: f64,
+    },
+    Disc {
+        centre: [f64; 2],
+        radius: f64,
+        /// Rings and sectors.
+        divisions: [usize; 2],
     },
     AnnulusSector {
         inner_radius: f64,
@@ -416,6 +441,19 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         }
     }
 
+    // Ties (mortar coupling of overlapping meshes).
+    for (i, t) in raw.ties.iter().enumerate() {
+        let k = |f: &str| format!("ties[{i}].{f}");
+        let body = |name: &str, key: &str| {
+            b.body_index(name)
+                .map_err(|_| cx.err(k(key), format!("no body named '{name}' (defined: {})", body_names.join(", "))))
+        };
+        let host = body(&t.host, "host")?;
+        let patch = body(&t.patch, "patch")?;
+        let name = t.name.clone().unwrap_or_else(|| format!("tie{i}"));
+        b.add_tie(&name, host, patch, &t.boundary, t.multipliers).map_err(|e| model_err(&cx, k("boundary"), e))?;
+    }
+
     // Steps.
     let path_pts: Vec<(f64, f64)> = raw.steps.path.iter().map(|p| (p[0], p[1])).collect();
     let load_path = LoadPath::new(path_pts).map_err(|e| model_err(&cx, "steps.path".into(), e))?;
@@ -445,7 +483,19 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
     if np.max_iterations == 0 {
         return Err(cx.err("solver.newton.max_iterations", "must be at least 1"));
     }
-    let model = b.build(load_path, times, np, raw.solver.linear).map_err(|e| model_err(&cx, "bcs".into(), e))?;
+    let model = b.build(load_path, times, np, raw.solver.linear).map_err(|e| {
+        let key = match &e {
+            ModelError::Tie { tie, .. } => raw
+                .ties
+                .iter()
+                .enumerate()
+                .find(|(i, t)| t.name.clone().unwrap_or_else(|| format!("tie{i}")) == *tie)
+                .map(|(i, _)| format!("ties[{i}]"))
+                .unwrap_or_else(|| "ties".into()),
+            _ => "bcs".into(),
+        };
+        model_err(&cx, key, e)
+    })?;
     let output = raw.output.file.clone().unwrap_or_else(|| PathBuf::from("results").join(format!("{name}.h5")));
     Ok(Case { name: name.to_string(), source: PathBuf::from(path), model, output, serial: raw.solver.serial })
 }
@@ -456,7 +506,7 @@ fn model_err(cx: &Ctx, key: String, e: ModelError) -> CaseError {
 
 fn build_mesh(spec: &MeshSpec, base: &Path) -> Result<Mesh2, String> {
     let m = match spec {
-        MeshSpec::Rectangle { origin, size, divisions, grading, cell } => generate::rectangle(
+        MeshSpec::Rectangle { origin, size, divisions, grading, cell, rotation } => generate::rectangle(
             origin[0],
             origin[1],
             size[0],
@@ -469,7 +519,21 @@ fn build_mesh(spec: &MeshSpec, base: &Path) -> Result<Mesh2, String> {
                 CellSpec::Quad4 => CellKind::Quad4,
                 CellSpec::Tri3 => CellKind::Tri3,
             },
-        ),
+        )
+        .map(|mut m| {
+            if *rotation != 0.0 {
+                let (sn, cs) = rotation.to_radians().sin_cos();
+                let o = Point2::new(origin[0], origin[1]);
+                for p in m.nodes.iter_mut() {
+                    let d = *p - o;
+                    *p = o + Vector2::new(cs * d.x - sn * d.y, sn * d.x + cs * d.y);
+                }
+            }
+            m
+        }),
+        MeshSpec::Disc { centre, radius, divisions } => {
+            generate::disc(Point2::new(centre[0], centre[1]), *radius, divisions[0], divisions[1])
+        }
         MeshSpec::AnnulusSector { inner_radius, outer_radius, angles, divisions, radial_grading } => {
             generate::annulus_sector(
                 *inner_radius,

@@ -12,6 +12,9 @@
 //!   `reaction` `(n, 2)`, `cell_stress` `(c, 4)`, `cell_eqps` `(c)`; `/steps/NNNNNN/points/stress`
 //!   `(p, 4)` and `eqps` `(p)` at the integration points.
 //! * `/time`, `/load_factor` `(steps)`: written when the file is closed.
+//! * Cut host bodies: `/mesh/<body>/material_fraction` `(c)`. Ties: `/mesh/ties/<tie>/points`,
+//!   `normals` `(l, 2)` of the multiplier nodes (outward normal of the patch) and per step
+//!   `/steps/NNNNNN/ties/<tie>/traction` `(l, 2)`: the traction on the patch, `t = sigma n = -lambda`.
 //!
 //! The file is written as `<name>.h5.partial` and renamed when closed, so an earlier result is
 //! never replaced by a half-written file; the XDMF is rewritten after every step.
@@ -40,6 +43,7 @@ pub struct ResultWriter {
     xdmf_path: PathBuf,
     steps: Vec<(usize, f64, f64)>,
     body_meta: Vec<(String, usize, usize, usize)>, // name, nodes, cells, topology length
+    cut_bodies: Vec<String>,
 }
 
 fn h5err<E: std::fmt::Display>(path: &Path, what: &str) -> impl FnOnce(E) -> OutputError {
@@ -81,6 +85,7 @@ impl ResultWriter {
             xdmf_path,
             steps: vec![],
             body_meta: vec![],
+            cut_bodies: vec![],
         };
         let res: hdf5::Result<()> = (|| {
             write_str_attr(&file, "format", "mortex-results")?;
@@ -109,6 +114,25 @@ impl ResultWriter {
                 g.new_dataset_builder().with_data(&cells).create("cells")?;
                 g.new_dataset_builder().with_data(&Array1::from(topo.clone())).create("topology")?;
                 w.body_meta.push((b.name.clone(), n, b.mesh.num_cells(), topo.len()));
+                let bi = model.bodies.iter().position(|x| x.name == b.name).unwrap_or(0);
+                if let Some(cut) = &model.cuts[bi] {
+                    g.new_dataset_builder()
+                        .with_data(&Array1::from(cut.cell_fraction.clone()))
+                        .create("material_fraction")?;
+                    w.cut_bodies.push(b.name.clone());
+                }
+            }
+            if !model.ties.is_empty() {
+                let tg = mesh.create_group("ties")?;
+                for t in &model.ties {
+                    let g = tg.create_group(&t.name)?;
+                    let m = &t.multipliers;
+                    let xy: Vec<f64> = m.points.iter().flat_map(|p| [p.x, p.y]).collect();
+                    g.new_dataset_builder().with_data(&array2(m.num_nodes, 2, xy)).create("points")?;
+                    let nrm: Vec<f64> = m.normals.iter().flat_map(|p| [p.x, p.y]).collect();
+                    g.new_dataset_builder().with_data(&array2(m.num_nodes, 2, nrm)).create("normals")?;
+                    write_str_attr(&g, "multipliers", &format!("{:?}", t.space))?;
+                }
             }
             let pts = model.point_coords();
             let xy: Vec<f64> = pts.iter().flat_map(|p| [p.x, p.y]).collect();
@@ -159,6 +183,14 @@ impl ResultWriter {
                 bg.new_dataset_builder()
                     .with_data(&Array1::from(fields.cell_eqps[c0..c0 + nc].to_vec()))
                     .create("cell_eqps")?;
+            }
+            if !model.ties.is_empty() {
+                let tg = g.create_group("ties")?;
+                for t in &model.ties {
+                    let nl = t.multipliers.num_nodes;
+                    let tr: Vec<f64> = (0..2 * nl).map(|k| -state.multipliers[t.first_row + k]).collect();
+                    tg.create_group(&t.name)?.new_dataset_builder().with_data(&array2(nl, 2, tr)).create("traction")?;
+                }
             }
             let pg = g.create_group("points")?;
             let np = state.stress.len();
@@ -241,6 +273,9 @@ impl ResultWriter {
                         "     <Attribute Name=\"{attr}\" AttributeType=\"{kind}\" Center=\"{centre}\">{}</Attribute>",
                         item(dims, "Float", format!("{sg}/{attr}"))
                     );
+                }
+                if self.cut_bodies.contains(name) {
+                    let _ = writeln!(x, "     <Attribute Name=\"material_fraction\" AttributeType=\"Scalar\" Center=\"Cell\">{}</Attribute>", item(format!("{nc}"), "Float", format!("/mesh/{name}/material_fraction")));
                 }
                 let _ = writeln!(x, "    </Grid>");
             }
