@@ -115,3 +115,73 @@ pub fn time_linear_solve(n: usize, parallel: bool) -> Result<LinearSolveTimes, L
     t.residual = num / den;
     Ok(t)
 }
+
+/// Wall times of embedding a closed polyline in a host mesh and cutting the host.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct EmbedTimes {
+    pub cells: usize,
+    pub segments: usize,
+    pub cut_cells: usize,
+    /// Built once per host mesh: BVH over cells and cell adjacency.
+    pub index: f64,
+    /// Embedding the surface (clipping against BVH candidates).
+    pub embed: f64,
+    /// Classification, material loops and node fractions.
+    pub cut: f64,
+    /// Moment-fitted weights on the band rule, per cut cell (seconds per cell).
+    pub fit_per_cell: f64,
+    /// Sub-triangulation rule, per cut cell (seconds per cell).
+    pub subtri_per_cell: f64,
+}
+
+/// A circle of `segments` segments (radius 0.3, centre slightly off the grid) in an `n x n`
+/// `Quad4` unit square.
+pub fn time_embedding(n: usize, segments: usize) -> Result<EmbedTimes, crate::surface::SurfaceError> {
+    use crate::cut::{band_rule, cut_mesh, fit_weights, rule_points, subtriangulation_rule, CellAdjacency, CellCut};
+    use crate::surface::{embed, BoxIndex, VirtualSurface};
+    let host = match generate::rectangle(0.0, 0.0, 1.0, 1.0, n, n, 1.0, 1.0, CellKind::Quad4) {
+        Ok(m) => m,
+        Err(e) => unreachable!("a unit square with n >= 1 divisions is valid: {e}"),
+    };
+    let mut t = EmbedTimes { cells: host.num_cells(), segments, ..Default::default() };
+    // Clockwise circle: host material outside.
+    let vertices: Vec<nalgebra::Point2<f64>> = (0..segments)
+        .map(|i| {
+            let a = -std::f64::consts::TAU * i as f64 / segments as f64;
+            nalgebra::Point2::new(0.5013 + 0.3 * a.cos(), 0.4987 + 0.3 * a.sin())
+        })
+        .collect();
+    let surface = VirtualSurface { vertices, closed: true };
+    surface.validate()?;
+    let t0 = Instant::now();
+    let index = BoxIndex::over_cells(&host);
+    let adjacency = CellAdjacency::new(&host);
+    t.index = t0.elapsed().as_secs_f64();
+    let t0 = Instant::now();
+    let emb = embed(&surface, &host, &index)?;
+    t.embed = t0.elapsed().as_secs_f64();
+    let t0 = Instant::now();
+    let cut = cut_mesh(&host, &adjacency, &[&emb])?;
+    t.cut = t0.elapsed().as_secs_f64();
+    let cut_cells: Vec<usize> =
+        (0..host.num_cells()).filter(|&c| matches!(cut.cells[c], CellCut::Cut { .. })).collect();
+    t.cut_cells = cut_cells.len();
+    let rule = band_rule(CellKind::Quad4);
+    let t0 = Instant::now();
+    for &c in &cut_cells {
+        if let CellCut::Cut { loops, .. } = &cut.cells[c] {
+            let x = rule_points(&host, c, &rule);
+            let inside: Vec<bool> = x.iter().map(|p| loops.iter().any(|l| crate::cut::point_in_loop(l, *p))).collect();
+            std::hint::black_box(fit_weights(&x, &inside, loops));
+        }
+    }
+    t.fit_per_cell = t0.elapsed().as_secs_f64() / cut_cells.len().max(1) as f64;
+    let t0 = Instant::now();
+    for &c in &cut_cells {
+        if let CellCut::Cut { loops, .. } = &cut.cells[c] {
+            std::hint::black_box(subtriangulation_rule(&host, c, loops));
+        }
+    }
+    t.subtri_per_cell = t0.elapsed().as_secs_f64() / cut_cells.len().max(1) as f64;
+    Ok(t)
+}

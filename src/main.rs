@@ -43,6 +43,10 @@ enum Command {
         /// Serial element loop.
         #[arg(long)]
         serial: bool,
+        /// Instead: time embedding and cutting a closed surface of this many segments in an
+        /// n x n host (e.g. `--embed 10000 -n 450`: 10k segments, 202,500 cells).
+        #[arg(long)]
+        embed: Option<usize>,
     },
 }
 
@@ -59,7 +63,10 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run { case, output, quiet } => run(case, output, quiet),
         Command::Check { case } => check(case),
-        Command::Bench { n, repeat, serial } => bench(n, repeat, serial),
+        Command::Bench { n, repeat, serial, embed } => match embed {
+            Some(segments) => bench_embed(n, segments, repeat),
+            None => bench(n, repeat, serial),
+        },
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -215,5 +222,38 @@ fn bench(n: usize, repeat: usize, serial: bool) -> Result<(), String> {
     println!("  whole linear solve    {:8.4} s  (pattern + assembly + symbolic + numeric + solve)", t.whole());
     println!("  refill + refactor     {:8.4} s  ({:.4} + {:.4})", t.refill + t.refactor, t.refill, t.refactor);
     println!("  relative residual     {:8.1e}", t.residual);
+    Ok(())
+}
+
+fn bench_embed(n: usize, segments: usize, repeat: usize) -> Result<(), String> {
+    if n == 0 || repeat == 0 || segments < 3 {
+        return Err("bench --embed: n and repeat must be at least 1, segments at least 3".into());
+    }
+    let mut best: Option<mortex::bench::EmbedTimes> = None;
+    for _ in 0..repeat {
+        let t = mortex::bench::time_embedding(n, segments).map_err(|e| e.to_string())?;
+        best = Some(match best {
+            None => t,
+            Some(b) => mortex::bench::EmbedTimes {
+                index: b.index.min(t.index),
+                embed: b.embed.min(t.embed),
+                cut: b.cut.min(t.cut),
+                fit_per_cell: b.fit_per_cell.min(t.fit_per_cell),
+                subtri_per_cell: b.subtri_per_cell.min(t.subtri_per_cell),
+                ..t
+            },
+        });
+    }
+    let Some(t) = best else { return Err("no repetition ran".into()) };
+    println!(
+        "closed surface of {} segments in a {n} x {n} Quad4 host ({} cells): {} cut cells (best of {repeat})",
+        t.segments, t.cells, t.cut_cells
+    );
+    println!("  host BVH + adjacency (once per host)   {:8.4} s", t.index);
+    println!("  embed (clip against BVH candidates)    {:8.4} s", t.embed);
+    println!("  cut (classify, loops, node fractions)  {:8.4} s", t.cut);
+    println!("  embed + re-cut                         {:8.4} s", t.embed + t.cut);
+    println!("  moment fit per cut cell (8x8 points)   {:8.2} us", 1e6 * t.fit_per_cell);
+    println!("  sub-triangulation rule per cut cell    {:8.2} us", 1e6 * t.subtri_per_cell);
     Ok(())
 }

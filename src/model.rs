@@ -430,7 +430,7 @@ impl ModelBuilder {
         for (b, body) in self.bodies.iter().enumerate() {
             let embs: Vec<&Embedding> = embeddings.iter().filter(|(h, _)| *h == b).map(|(_, e)| e).collect();
             if !embs.is_empty() {
-                let c = cut_mesh(&body.mesh, &embs)
+                let c = cut_mesh(&body.mesh, &crate::cut::CellAdjacency::new(&body.mesh), &embs)
                     .map_err(|e| ModelError::Tie { tie: body.name.clone(), msg: e.to_string() })?;
                 cuts[b] = Some(c);
             }

@@ -205,7 +205,7 @@ fn check_embedding(host: &Mesh2, hole: Vec<Point2<f64>>) {
     surf.validate().unwrap();
     let index = BoxIndex::over_cells(host);
     let emb = embed(&surf, host, &index).unwrap();
-    let cut = cut_mesh(host, &[&emb]).unwrap();
+    let cut = cut_mesh(host, &mortex::cut::CellAdjacency::new(host), &[&emb]).unwrap();
     let mut area = 0.0;
     for (c, status) in cut.cells.iter().enumerate() {
         let full = polygon_area(&mortex::surface::cell_polygon(host, c));

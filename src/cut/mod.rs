@@ -302,8 +302,39 @@ fn cell_loops(mesh: &Mesh2, c: usize, pieces: &[Piece]) -> Result<Vec<Vec<Point2
     Ok(loops)
 }
 
+/// Edge neighbours of every cell (`usize::MAX`: boundary edge), built once per host mesh.
+#[derive(Debug, Clone)]
+pub struct CellAdjacency {
+    neighbours: Vec<[usize; 4]>,
+}
+
+impl CellAdjacency {
+    pub fn new(mesh: &Mesh2) -> Self {
+        let mut owner: HashMap<(usize, usize), (usize, usize)> = HashMap::with_capacity(2 * mesh.num_cells());
+        let mut neighbours = vec![[usize::MAX; 4]; mesh.num_cells()];
+        for (c, cell) in mesh.cells.iter().enumerate() {
+            for (k, [a, b]) in cell.edges().enumerate() {
+                match owner.remove(&(a.min(b), a.max(b))) {
+                    Some((o, ko)) => {
+                        neighbours[c][k] = o;
+                        neighbours[o][ko] = c;
+                    }
+                    None => {
+                        owner.insert((a.min(b), a.max(b)), (c, k));
+                    }
+                }
+            }
+        }
+        CellAdjacency { neighbours }
+    }
+    pub fn neighbour(&self, c: usize, k: usize) -> Option<usize> {
+        let n = self.neighbours[c][k];
+        (n != usize::MAX).then_some(n)
+    }
+}
+
 /// Classifies every host cell and computes material loops of the cut ones.
-pub fn cut_mesh(mesh: &Mesh2, embeddings: &[&Embedding]) -> Result<CutMesh, SurfaceError> {
+pub fn cut_mesh(mesh: &Mesh2, adjacency: &CellAdjacency, embeddings: &[&Embedding]) -> Result<CutMesh, SurfaceError> {
     let nc = mesh.num_cells();
     let mut per_cell: HashMap<usize, Vec<Piece>> = HashMap::new();
     for emb in embeddings {
@@ -346,22 +377,10 @@ pub fn cut_mesh(mesh: &Mesh2, embeddings: &[&Embedding]) -> Result<CutMesh, Surf
             edge_status.push((c, k, inside));
         }
     }
-    // Flood fill uncut cells across edges.
-    let mut edge_owner: HashMap<(usize, usize), Vec<(usize, usize)>> = HashMap::new();
-    for (c, cell) in mesh.cells.iter().enumerate() {
-        for (k, [a, b]) in cell.edges().enumerate() {
-            edge_owner.entry((a.min(b), a.max(b))).or_default().push((c, k));
-        }
-    }
-    let neighbour = |c: usize, k: usize| -> Option<usize> {
-        let cell = &mesh.cells[c];
-        let ns = cell.nodes();
-        let (a, b) = (ns[k], ns[(k + 1) % ns.len()]);
-        edge_owner.get(&(a.min(b), a.max(b))).and_then(|v| v.iter().find(|(o, _)| *o != c).map(|(o, _)| *o))
-    };
+    // Flood fill uncut cells across edges (adjacency built once per host mesh).
     let mut queue: std::collections::VecDeque<(usize, bool)> = std::collections::VecDeque::new();
     for &(c, k, mat) in &edge_status {
-        if let Some(nb) = neighbour(c, k) {
+        if let Some(nb) = adjacency.neighbour(c, k) {
             if cells[nb].is_none() {
                 queue.push_back((nb, mat));
             }
@@ -374,7 +393,7 @@ pub fn cut_mesh(mesh: &Mesh2, embeddings: &[&Embedding]) -> Result<CutMesh, Surf
         cells[c] = Some(if mat { CellCut::Material } else { CellCut::Void });
         fraction[c] = if mat { 1.0 } else { 0.0 };
         for k in 0..mesh.cells[c].nodes().len() {
-            if let Some(nb) = neighbour(c, k) {
+            if let Some(nb) = adjacency.neighbour(c, k) {
                 if cells[nb].is_none() {
                     queue.push_back((nb, mat));
                 }
@@ -398,6 +417,22 @@ pub fn cut_mesh(mesh: &Mesh2, embeddings: &[&Embedding]) -> Result<CutMesh, Surf
     }
     let node_fraction = num.iter().zip(&den).map(|(a, b)| if *b > 0.0 { a / b } else { 0.0 }).collect();
     Ok(CutMesh { cells, cell_fraction: fraction, node_fraction })
+}
+
+/// Even-odd point-in-polygon test for a material loop.
+pub fn point_in_loop(l: &[Point2<f64>], p: Point2<f64>) -> bool {
+    let mut inside = false;
+    let n = l.len();
+    for i in 0..n {
+        let (a, b) = (l[i], l[(i + 1) % n]);
+        if (a.y > p.y) != (b.y > p.y) {
+            let x = a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x);
+            if p.x < x {
+                inside = !inside;
+            }
+        }
+    }
+    inside
 }
 
 /// Is `p` on the boundary or inside loop `l` (edge midpoints of the cell are either on a
