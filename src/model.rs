@@ -403,7 +403,7 @@ impl ModelBuilder {
     /// Finishes the model: element table (one fixed rule per element kind), DOF map.
     /// A DOF prescribed twice keeps its last value.
     pub fn build(
-        self,
+        mut self,
         load_path: LoadPath,
         times: Vec<f64>,
         newton: NewtonParams,
@@ -426,6 +426,21 @@ impl ModelBuilder {
             surf.validate().map_err(terr)?;
             let index = BoxIndex::over_cells(&host.mesh);
             embeddings.push((t.host, embed(&surf, &host.mesh, &index).map_err(terr)?));
+        }
+        // The interface is one geometric entity: snapping moved the virtual surface onto host
+        // nodes or edges, so move the patch boundary nodes (the mortar side) with it.
+        for (t, (_, emb)) in self.ties.iter_mut().zip(&embeddings) {
+            let n = t.side.points.len();
+            let off = self.bodies[t.patch].node_offset;
+            for i in 0..n {
+                let snapped = emb.vertices[n - 1 - i];
+                t.side.points[i] = snapped;
+                self.bodies[t.patch].mesh.nodes[t.side.nodes[i] - off] = snapped;
+            }
+            self.bodies[t.patch].mesh.validate().map_err(|e| ModelError::Tie {
+                tie: t.name.clone(),
+                msg: format!("after snapping the interface onto the host grid: {e}"),
+            })?;
         }
         for (b, body) in self.bodies.iter().enumerate() {
             let embs: Vec<&Embedding> = embeddings.iter().filter(|(h, _)| *h == b).map(|(_, e)| e).collect();

@@ -41,6 +41,7 @@ fn patch_mesh(centre: Point2<f64>, side: f64, n: usize, angle_deg: f64) -> Mesh2
 }
 
 struct Scene {
+    side: f64,
     host_n: usize,
     patch_n: usize,
     angle: f64,
@@ -54,7 +55,7 @@ fn tied_model(sc: &Scene, sigma: [f64; 3]) -> Model {
     let mi = b.add_material("steel", Material::Elastic(Elastic { young: E, poisson: NU, hypothesis: hyp }));
     let host = generate::rectangle(0.0, 0.0, 10.0, 10.0, sc.host_n, sc.host_n, 1.0, 1.0, CellKind::Quad4).unwrap();
     let h = b.add_body("host", host, mi, Formulation::Standard, 1.0);
-    let p = b.add_body("patch", patch_mesh(sc.centre, 4.0, sc.patch_n, sc.angle), mi, Formulation::Standard, 1.0);
+    let p = b.add_body("patch", patch_mesh(sc.centre, sc.side, sc.patch_n, sc.angle), mi, Formulation::Standard, 1.0);
     let [sxx, syy, sxy] = sigma;
     b.traction(h, "left", Vector2::new(-sxx, -sxy)).unwrap();
     b.traction(h, "right", Vector2::new(sxx, sxy)).unwrap();
@@ -107,19 +108,28 @@ fn tied_patch_test_classical_and_coarse_grained() {
             (45.0, Point2::new(4.87, 5.21)),
             (17.0, Point2::new(5.5, 5.5)),
         ] {
-            run_patch_test(&Scene { host_n: 10, patch_n: 10, angle, centre, space });
+            run_patch_test(&Scene { side: 4.0, host_n: 10, patch_n: 10, angle, centre, space });
         }
     }
 }
 
-/// Degenerate geometry: patch edges along host grid lines and patch corners on host nodes.
+/// Degenerate geometry (snapping tolerance `mortex::surface::SNAP` = 1e-9 of the cell size):
+/// patch edges along host grid lines with corners on host nodes; a 45-degree diamond whose
+/// corners are host nodes and whose sides pass through host nodes; a patch turned by 1e-7
+/// degrees so that its sides cross the grid lines at a nearly parallel angle.
 #[test]
 fn tied_patch_test_on_grid_lines_and_nodes() {
     for space in [MultiplierSpace::Classical, MultiplierSpace::CoarseGrained] {
-        run_patch_test(&Scene { host_n: 10, patch_n: 8, angle: 0.0, centre: Point2::new(5.0, 5.0), space });
-        // 45 degrees through host nodes: corners at (5, 5 +- 2 sqrt 2) are not nodes, but the
-        // diagonal of a 10 x 10 grid passes through nodes where the patch sides cross grid lines.
-        run_patch_test(&Scene { host_n: 10, patch_n: 8, angle: 45.0, centre: Point2::new(5.0, 5.0), space });
+        run_patch_test(&Scene { side: 4.0, host_n: 10, patch_n: 8, angle: 0.0, centre: Point2::new(5.0, 5.0), space });
+        run_patch_test(&Scene {
+            side: 2.0 * 2f64.sqrt(),
+            host_n: 10,
+            patch_n: 8,
+            angle: 45.0,
+            centre: Point2::new(5.0, 5.0),
+            space,
+        });
+        run_patch_test(&Scene { side: 4.0, host_n: 10, patch_n: 8, angle: 1e-7, centre: Point2::new(5.0, 5.0), space });
     }
 }
 

@@ -227,7 +227,7 @@ pub fn tying_rows(
             let (a, b) = (side.points[va], side.points[vb]);
             let d = b - a;
             let len = d.norm();
-            let tol = 1e-9 * len;
+            let tol = 1e-6 * len; // as the distance test below: snapped pieces may sit off the segment
             index.query(
                 Point2::new(a.x.min(b.x) - tol, a.y.min(b.y) - tol),
                 Point2::new(a.x.max(b.x) + tol, a.y.max(b.y) + tol),

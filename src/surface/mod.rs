@@ -10,7 +10,9 @@
 //! kept in host reference coordinates, so the current position of any point on the surface
 //! follows from the host interpolation `x = X + sum N_j(xi) u_j` (not linear along a piece).
 //!
-//! Snapping tolerance: `SNAP = 1e-9` times the host cell size. A point within it of a cell
+//! Snapping: a surface vertex within `SNAP_VERTEX = 1e-6` cell sizes of a host node is moved
+//! onto the node, else within that distance of a host edge onto the edge (the moved geometry
+//! is what the surface then is). Geometric tolerance: `SNAP = 1e-9` times the host cell size. A point within it of a cell
 //! boundary counts as on the boundary; pieces shorter than `1e3 SNAP` (a surface touching a cell
 //! at a corner) are dropped; a segment running along a host edge yields a piece in both cells
 //! (for cut classification) and is assigned, for mortar integration, to the cell on the material
@@ -23,8 +25,12 @@ use parry2d_f64::bounding_volume::Aabb;
 use parry2d_f64::math::Vector as PVec;
 use parry2d_f64::partitioning::{Bvh, BvhBuildStrategy};
 
-/// Relative snapping tolerance (times the local host cell size).
+/// Relative geometric tolerance (times the local host cell size).
 pub const SNAP: f64 = 1e-9;
+/// Surface vertices closer than this (times the cell size) to a host node are moved onto it;
+/// otherwise, closer than this to a host edge, onto the edge. Removes slivers of relative size
+/// below 1e-6 (a surface meant to run along grid lines or through nodes, up to round-off).
+pub const SNAP_VERTEX: f64 = 1e-6;
 
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum SurfaceError {
@@ -195,6 +201,8 @@ pub struct Embedding {
     pub cell_pieces: Vec<Piece>,
     /// The surface once, in order, each piece assigned to one cell (for mortar integrals).
     pub pieces: Vec<Piece>,
+    /// The surface vertices after snapping (the geometry actually embedded).
+    pub vertices: Vec<Point2<f64>>,
 }
 
 /// Host cell corner coordinates as a CCW polygon.
@@ -247,12 +255,44 @@ fn inverse_map(mesh: &Mesh2, c: usize, x: Point2<f64>) -> [f64; 2] {
     m.inverse_map(x).unwrap_or([0.0, 0.0])
 }
 
-/// Embeds a validated surface into a host mesh.
+/// Moves a point onto a host node or edge within `SNAP_VERTEX` cell sizes of it.
+pub fn snap_point(p: Point2<f64>, mesh: &Mesh2, index: &BoxIndex, cand: &mut Vec<usize>) -> Point2<f64> {
+    index.query(p, p, cand);
+    let mut best_edge: Option<(f64, Point2<f64>)> = None;
+    for &c in cand.iter() {
+        let poly = cell_polygon(mesh, c);
+        let tol = SNAP_VERTEX * cell_size(&poly);
+        for q in &poly {
+            if (q - p).norm() <= tol {
+                return *q;
+            }
+        }
+        let n = poly.len();
+        for k in 0..n {
+            let (a, b) = (poly[k], poly[(k + 1) % n]);
+            let e = b - a;
+            let s = ((p - a).dot(&e) / e.norm_squared()).clamp(0.0, 1.0);
+            let q = a + e * s;
+            let d = (q - p).norm();
+            if d <= tol && best_edge.map(|(bd, _)| d < bd).unwrap_or(true) {
+                best_edge = Some((d, q));
+            }
+        }
+    }
+    best_edge.map(|(_, q)| q).unwrap_or(p)
+}
+
+/// Embeds a validated surface into a host mesh (vertices snapped first, see [`snap_point`]).
 pub fn embed(surface: &VirtualSurface, mesh: &Mesh2, index: &BoxIndex) -> Result<Embedding, SurfaceError> {
+    let mut cand = Vec::new();
+    let snapped = VirtualSurface {
+        vertices: surface.vertices.iter().map(|&v| snap_point(v, mesh, index, &mut cand)).collect(),
+        closed: surface.closed,
+    };
+    let surface = &snapped;
     let ns = surface.num_segments();
     let mut cell_pieces = Vec::new();
     let mut pieces: Vec<Piece> = Vec::new();
-    let mut cand = Vec::new();
     let mut found: Vec<(usize, f64, f64)> = Vec::new();
     for s in 0..ns {
         let (a, b) = surface.segment(s);
@@ -332,5 +372,5 @@ pub fn embed(surface: &VirtualSurface, mesh: &Mesh2, index: &BoxIndex) -> Result
             pieces.push(p);
         }
     }
-    Ok(Embedding { cell_pieces, pieces })
+    Ok(Embedding { cell_pieces, pieces, vertices: snapped.vertices.clone() })
 }
