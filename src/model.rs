@@ -31,7 +31,7 @@ pub enum ModelError {
     LoadPath(String),
     #[error("the model has no free degree of freedom")]
     NoFreeDofs,
-    #[error("tie '{tie}': {msg}")]
+    #[error("interface '{tie}': {msg}")]
     Tie { tie: String, msg: String },
 }
 
@@ -193,6 +193,8 @@ pub struct ModelBuilder {
     prescribed: Vec<(usize, f64)>,
     f_ext: Vec<f64>,
     ties: Vec<TieSpec>,
+    /// Free virtual surfaces: (name, body, surface with the material on its left).
+    free_cuts: Vec<(String, usize, VirtualSurface)>,
 }
 
 impl ModelBuilder {
@@ -205,7 +207,28 @@ impl ModelBuilder {
             prescribed: vec![],
             f_ext: vec![],
             ties: vec![],
+            free_cuts: vec![],
         }
+    }
+
+    /// Cuts a body with a free virtual surface (a traction-free boundary inside its mesh): an open
+    /// polyline crossing the body once (starting and ending outside it) or a closed one inside
+    /// it. The body's material is kept on the left of the polyline (`keep_left`) or on its right.
+    pub fn add_cut(
+        &mut self,
+        name: &str,
+        body: usize,
+        mut vertices: Vec<Point2<f64>>,
+        closed: bool,
+        keep_left: bool,
+    ) -> Result<(), ModelError> {
+        if !keep_left {
+            vertices.reverse();
+        }
+        let surf = VirtualSurface { vertices, closed };
+        surf.validate().map_err(|e| ModelError::Tie { tie: name.to_string(), msg: e.to_string() })?;
+        self.free_cuts.push((name.to_string(), body, surf));
+        Ok(())
     }
 
     /// Ties a patch body into a host body: the patch boundary (the listed edge sets of the patch,
@@ -442,8 +465,16 @@ impl ModelBuilder {
                 msg: format!("after snapping the interface onto the host grid: {e}"),
             })?;
         }
+        let mut cut_embeddings: Vec<(usize, Embedding)> = Vec::new();
+        for (name, body, surf) in &self.free_cuts {
+            let index = BoxIndex::over_cells(&self.bodies[*body].mesh);
+            let emb = embed(surf, &self.bodies[*body].mesh, &index)
+                .map_err(|e| ModelError::Tie { tie: name.clone(), msg: e.to_string() })?;
+            cut_embeddings.push((*body, emb));
+        }
         for (b, body) in self.bodies.iter().enumerate() {
-            let embs: Vec<&Embedding> = embeddings.iter().filter(|(h, _)| *h == b).map(|(_, e)| e).collect();
+            let embs: Vec<&Embedding> =
+                embeddings.iter().chain(cut_embeddings.iter()).filter(|(h, _)| *h == b).map(|(_, e)| e).collect();
             if !embs.is_empty() {
                 let c = cut_mesh(&body.mesh, &crate::cut::CellAdjacency::new(&body.mesh), &embs)
                     .map_err(|e| ModelError::Tie { tie: body.name.clone(), msg: e.to_string() })?;

@@ -276,6 +276,16 @@ fn surface_errors_are_reported() {
     let e = embed(&outside, &host, &index).unwrap_err();
     assert!(matches!(e, mortex::surface::SurfaceError::OutsideHost { segment: 0, .. }), "{e}");
     assert!((e.to_string()).contains("leaves the host"));
+    // An open surface that leaves the host and comes back.
+    let reenter = VirtualSurface {
+        vertices: vec![Point2::new(-1.0, 2.0), Point2::new(5.0, 12.0), Point2::new(8.0, 2.0), Point2::new(11.0, 2.0)],
+        closed: false,
+    };
+    reenter.validate().unwrap();
+    assert!(matches!(embed(&reenter, &host, &index), Err(mortex::surface::SurfaceError::OutsideHost { .. })));
+    // An open surface entirely outside.
+    let away = VirtualSurface { vertices: vec![Point2::new(-3.0, 2.0), Point2::new(-1.0, 12.0)], closed: false };
+    assert!(matches!(embed(&away, &host, &index), Err(mortex::surface::SurfaceError::OutsideHost { .. })));
     let bowtie = VirtualSurface {
         vertices: vec![Point2::new(2.0, 2.0), Point2::new(8.0, 8.0), Point2::new(8.0, 2.0), Point2::new(2.0, 8.0)],
         closed: true,

@@ -74,6 +74,32 @@ pub struct CaseFile {
     pub output: OutputSpec,
     #[serde(default)]
     pub ties: Vec<TieSpec>,
+    #[serde(default)]
+    pub cuts: Vec<CutSpec>,
+}
+
+/// A free virtual surface cutting a body's mesh (X-FEM): the body keeps its material on one
+/// side; the surface is traction-free.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CutSpec {
+    pub name: Option<String>,
+    pub body: String,
+    /// Polyline vertices (reference coordinates).
+    pub points: Vec<[f64; 2]>,
+    #[serde(default)]
+    pub closed: bool,
+    /// Side of the polyline (walking from the first point) on which material is kept.
+    #[serde(default)]
+    pub keep: KeepSide,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum KeepSide {
+    #[default]
+    Left,
+    Right,
 }
 
 /// A mortar tie: the patch body's boundary (edge sets forming one closed loop) is embedded in the
@@ -454,6 +480,20 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         b.add_tie(&name, host, patch, &t.boundary, t.multipliers).map_err(|e| model_err(&cx, k("boundary"), e))?;
     }
 
+    // Free cuts (virtual surfaces without a partner).
+    for (i, c) in raw.cuts.iter().enumerate() {
+        let k = |f: &str| format!("cuts[{i}].{f}");
+        let bi = b.body_index(&c.body).map_err(|_| {
+            cx.err(k("body"), format!("no body named '{}' (defined: {})", c.body, body_names.join(", ")))
+        })?;
+        let mut pts = Vec::with_capacity(c.points.len());
+        for p in &c.points {
+            pts.push(Point2::new(cx.finite(&k("points"), p[0])?, cx.finite(&k("points"), p[1])?));
+        }
+        let name = c.name.clone().unwrap_or_else(|| format!("cut{i}"));
+        b.add_cut(&name, bi, pts, c.closed, c.keep == KeepSide::Left).map_err(|e| model_err(&cx, k("points"), e))?;
+    }
+
     // Steps.
     let path_pts: Vec<(f64, f64)> = raw.steps.path.iter().map(|p| (p[0], p[1])).collect();
     let load_path = LoadPath::new(path_pts).map_err(|e| model_err(&cx, "steps.path".into(), e))?;
@@ -491,6 +531,13 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                 .enumerate()
                 .find(|(i, t)| t.name.clone().unwrap_or_else(|| format!("tie{i}")) == *tie)
                 .map(|(i, _)| format!("ties[{i}]"))
+                .or_else(|| {
+                    raw.cuts
+                        .iter()
+                        .enumerate()
+                        .find(|(i, c)| c.name.clone().unwrap_or_else(|| format!("cut{i}")) == *tie)
+                        .map(|(i, _)| format!("cuts[{i}]"))
+                })
                 .unwrap_or_else(|| "ties".into()),
             _ => "bcs".into(),
         };

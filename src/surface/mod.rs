@@ -40,7 +40,7 @@ pub enum SurfaceError {
     ZeroLength { segment: usize },
     #[error("virtual surface crosses itself: segments {a} and {b} intersect near ({x:.6}, {y:.6})")]
     SelfIntersection { a: usize, b: usize, x: f64, y: f64 },
-    #[error("virtual surface leaves the host mesh: segment {segment} near ({x:.6}, {y:.6}) lies in no host cell")]
+    #[error("virtual surface leaves the host mesh: segment {segment} near ({x:.6}, {y:.6}) lies in no host cell (a closed surface must lie inside the host; an open one must cross it once, starting and ending outside)")]
     OutsideHost { segment: usize, x: f64, y: f64 },
     #[error("virtual surface is inconsistent in host cell {cell}: {msg}")]
     Inconsistent { cell: usize, msg: String },
@@ -255,6 +255,13 @@ fn inverse_map(mesh: &Mesh2, c: usize, x: Point2<f64>) -> [f64; 2] {
     m.inverse_map(x).unwrap_or([0.0, 0.0])
 }
 
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum OpenState {
+    Before,
+    Inside,
+    After,
+}
+
 /// Moves a point onto a host node or edge within `SNAP_VERTEX` cell sizes of it.
 pub fn snap_point(p: Point2<f64>, mesh: &Mesh2, index: &BoxIndex, cand: &mut Vec<usize>) -> Point2<f64> {
     index.query(p, p, cand);
@@ -291,6 +298,7 @@ pub fn embed(surface: &VirtualSurface, mesh: &Mesh2, index: &BoxIndex) -> Result
     };
     let surface = &snapped;
     let ns = surface.num_segments();
+    let mut state = OpenState::Before;
     let mut cell_pieces = Vec::new();
     let mut pieces: Vec<Piece> = Vec::new();
     let mut found: Vec<(usize, f64, f64)> = Vec::new();
@@ -313,17 +321,40 @@ pub fn embed(surface: &VirtualSurface, mesh: &Mesh2, index: &BoxIndex) -> Result
             }
         }
         found.sort_by(|x, y| x.1.total_cmp(&y.1).then(x.0.cmp(&y.0)));
-        // Coverage: the pieces must tile [0, 1].
-        let mut reach = 0.0f64;
+        // Coverage: merged intervals of the pieces. A closed surface lies inside the host; an
+        // open one may start and end outside it (it then separates the host), but may not
+        // leave and re-enter.
+        let mut merged: Vec<(f64, f64)> = Vec::new();
         for &(_, t0, t1) in &found {
-            if t0 * len > reach * len + 1e-6 * len.max(1e-300) {
-                break;
+            match merged.last_mut() {
+                Some(m) if t0 <= m.1 + 1e-6 => m.1 = m.1.max(t1),
+                _ => merged.push((t0, t1)),
             }
-            reach = reach.max(t1);
         }
-        if found.is_empty() || reach < 1.0 - 1e-9 {
-            let p = a + (b - a) * reach;
-            return Err(SurfaceError::OutsideHost { segment: s, x: p.x, y: p.y });
+        let outside_at = |t: f64| {
+            let p = a + (b - a) * t;
+            SurfaceError::OutsideHost { segment: s, x: p.x, y: p.y }
+        };
+        if surface.closed {
+            match merged.as_slice() {
+                [(lo, hi)] if *lo <= 1e-9 && *hi >= 1.0 - 1e-9 => {}
+                [] => return Err(outside_at(0.0)),
+                [(lo, hi), ..] => return Err(outside_at(if *lo > 1e-9 { 0.0 } else { *hi })),
+            }
+        } else {
+            let full = |m: &(f64, f64)| m.0 <= 1e-9 && m.1 >= 1.0 - 1e-9;
+            match (state, merged.as_slice()) {
+                (_, [_, second, ..]) => return Err(outside_at(second.0)),
+                (OpenState::Before, []) | (OpenState::After, []) => {}
+                (OpenState::Before, [m]) => {
+                    state = if m.1 >= 1.0 - 1e-9 { OpenState::Inside } else { OpenState::After }
+                }
+                (OpenState::Inside, [m]) if full(m) => {}
+                (OpenState::Inside, [m]) if m.0 <= 1e-9 => state = OpenState::After,
+                (OpenState::Inside, [m]) => return Err(outside_at(0.5 * m.0)),
+                (OpenState::Inside, []) => return Err(outside_at(0.0)),
+                (OpenState::After, [m]) => return Err(outside_at(m.0)),
+            }
         }
         let mut last_t1 = 0.0f64;
         for &(c, t0, t1) in &found {
@@ -371,6 +402,10 @@ pub fn embed(surface: &VirtualSurface, mesh: &Mesh2, index: &BoxIndex) -> Result
             last_t1 = t1c;
             pieces.push(p);
         }
+    }
+    if !surface.closed && state == OpenState::Before {
+        let p = surface.vertices[0];
+        return Err(SurfaceError::OutsideHost { segment: 0, x: p.x, y: p.y });
     }
     Ok(Embedding { cell_pieces, pieces, vertices: snapped.vertices.clone() })
 }
