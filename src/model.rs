@@ -13,7 +13,9 @@ use crate::fem::kernel::Formulation;
 use crate::fem::material::{Material, PlaneHypothesis};
 use crate::fem::quadrature::QuadratureRule;
 use crate::mesh::{CellKind, Mesh2};
-use crate::mortar::{build_multipliers, tying_rows, ConstraintRow, MortarSide, MultiplierSpace, Multipliers};
+use crate::mortar::{
+    build_multipliers, tying_rows, ConstraintRow, MortarSide, MultiplierSpace, Multipliers, OtherSide,
+};
 use crate::solver::linear::LinearSolverKind;
 use crate::solver::newton::NewtonParams;
 use crate::surface::{cell_polygon, cell_size, embed, BoxIndex, Embedding, VirtualSurface};
@@ -129,10 +131,51 @@ pub struct TieInfo {
 
 struct TieSpec {
     name: String,
+    /// Host body (virtual surface) or, with `other_edges`, the other real body.
     host: usize,
     patch: usize,
     side: MortarSide,
     space: MultiplierSpace,
+    /// Real-real tie: the other side's edges (global node ids).
+    other_edges: Option<Vec<[usize; 2]>>,
+}
+
+/// Orders oriented edges into one polyline: open (from the node without incoming edge) or closed.
+fn edge_chain(edges: &[[usize; 2]]) -> Result<(Vec<usize>, bool), String> {
+    let mut next: std::collections::HashMap<usize, usize> = std::collections::HashMap::new();
+    let mut has_in: std::collections::HashSet<usize> = std::collections::HashSet::new();
+    for e in edges {
+        if next.insert(e[0], e[1]).is_some() {
+            return Err(format!("node {} starts two edges: the sets do not form one simple polyline", e[0]));
+        }
+        has_in.insert(e[1]);
+    }
+    let starts: Vec<usize> = edges.iter().map(|e| e[0]).filter(|n| !has_in.contains(n)).collect();
+    let (start, closed) = match starts.as_slice() {
+        [] => (edges[0][0], true),
+        [s] => (*s, false),
+        _ => return Err(format!("the edges form {} separate pieces: give one polyline", starts.len())),
+    };
+    let mut chain = vec![start];
+    let mut cur = start;
+    while let Some(&nx) = next.get(&cur) {
+        if nx == start {
+            break;
+        }
+        chain.push(nx);
+        cur = nx;
+        if chain.len() > edges.len() + 1 {
+            return Err("the edges do not form one polyline".into());
+        }
+    }
+    let used = if closed { chain.len() } else { chain.len() - 1 };
+    if used != edges.len() {
+        return Err(format!(
+            "the sets hold {} edges but the polyline through them has {used}: give one connected polyline",
+            edges.len()
+        ));
+    }
+    Ok((chain, closed))
 }
 
 impl Model {
@@ -182,6 +225,12 @@ impl Model {
     pub fn body_of_element(&self, e: usize) -> usize {
         self.bodies.iter().rposition(|b| b.element_offset <= e).unwrap_or(0)
     }
+}
+
+/// Reference coordinates of a global node.
+fn coords_of(bodies: &[Body], n: usize) -> Point2<f64> {
+    let b = bodies.iter().rfind(|b| b.node_offset <= n).unwrap_or(&bodies[0]);
+    b.mesh.nodes[n - b.node_offset]
 }
 
 /// Builds a [`Model`] body by body, then boundary conditions and loads by set name.
@@ -253,38 +302,11 @@ impl ModelBuilder {
         if edges.is_empty() {
             return Err(err("the patch boundary has no edges".into()));
         }
-        let mut next: std::collections::HashMap<usize, usize> = std::collections::HashMap::new();
-        for e in &edges {
-            if next.insert(e[0], e[1]).is_some() {
-                return Err(err(format!(
-                    "patch node {} starts two boundary edges: the sets do not form one simple loop",
-                    e[0]
-                )));
-            }
-        }
-        let start = edges[0][0];
-        let mut loop_nodes = vec![start];
-        let mut cur = start;
-        loop {
-            let Some(&nx) = next.get(&cur) else {
-                return Err(err(format!(
-                    "the patch boundary is open at node {cur}: give edge sets forming one closed loop"
-                )));
-            };
-            if nx == start {
-                break;
-            }
-            loop_nodes.push(nx);
-            cur = nx;
-            if loop_nodes.len() > edges.len() {
-                return Err(err("the patch boundary edges do not form one closed loop".into()));
-            }
-        }
-        if loop_nodes.len() != edges.len() {
+        let (loop_nodes, closed) = edge_chain(&edges).map_err(err)?;
+        if !closed {
             return Err(err(format!(
-                "the boundary sets hold {} edges but the loop through them has {}: give one closed loop",
-                edges.len(),
-                loop_nodes.len()
+                "the patch boundary is open at node {}: give edge sets forming one closed loop",
+                loop_nodes[0]
             )));
         }
         let pb = &self.bodies[patch];
@@ -293,7 +315,57 @@ impl ModelBuilder {
             points: loop_nodes.iter().map(|&n| pb.mesh.nodes[n]).collect(),
             closed: true,
         };
-        self.ties.push(TieSpec { name: name.to_string(), host, patch, side, space });
+        self.ties.push(TieSpec { name: name.to_string(), host, patch, side, space, other_edges: None });
+        Ok(())
+    }
+
+    /// Classical mortar tie between two real surfaces (mesh edges of two bodies that coincide
+    /// geometrically, with non-matching nodes). The first body is the mortar side and carries the
+    /// multipliers; each side's edge sets must form one polyline.
+    pub fn add_surface_tie(
+        &mut self,
+        name: &str,
+        mortar: usize,
+        mortar_sets: &[String],
+        other: usize,
+        other_sets: &[String],
+        space: MultiplierSpace,
+    ) -> Result<(), ModelError> {
+        let err = |msg: String| ModelError::Tie { tie: name.to_string(), msg };
+        if mortar == other {
+            return Err(err("the two surfaces must belong to different bodies".into()));
+        }
+        let mut edges: Vec<[usize; 2]> = Vec::new();
+        for set in mortar_sets {
+            edges.extend(self.edge_set(mortar, set, "tie surface")?);
+        }
+        if edges.is_empty() {
+            return Err(err("the mortar surface has no edges".into()));
+        }
+        let (chain, closed) = edge_chain(&edges).map_err(err)?;
+        let mb = &self.bodies[mortar];
+        let side = MortarSide {
+            nodes: chain.iter().map(|&n| n + mb.node_offset).collect(),
+            points: chain.iter().map(|&n| mb.mesh.nodes[n]).collect(),
+            closed,
+        };
+        let mut oe: Vec<[usize; 2]> = Vec::new();
+        for set in other_sets {
+            oe.extend(self.edge_set(other, set, "tie surface")?);
+        }
+        if oe.is_empty() {
+            return Err(err("the other surface has no edges".into()));
+        }
+        let off = self.bodies[other].node_offset;
+        let oe = oe.into_iter().map(|e| [e[0] + off, e[1] + off]).collect();
+        self.ties.push(TieSpec {
+            name: name.to_string(),
+            host: other,
+            patch: mortar,
+            side,
+            space,
+            other_edges: Some(oe),
+        });
         Ok(())
     }
 
@@ -440,7 +512,7 @@ impl ModelBuilder {
         // Embed every tie's surface in its host and cut the hosts.
         let mut embeddings: Vec<(usize, Embedding)> = Vec::new();
         let mut cuts: Vec<Option<CutMesh>> = vec![None; self.bodies.len()];
-        for t in &self.ties {
+        for t in self.ties.iter().filter(|t| t.other_edges.is_none()) {
             let host = &self.bodies[t.host];
             let mut v = t.side.points.clone();
             v.reverse(); // host material outside the patch = on the left of the reversed loop
@@ -452,7 +524,7 @@ impl ModelBuilder {
         }
         // The interface is one geometric entity: snapping moved the virtual surface onto host
         // nodes or edges, so move the patch boundary nodes (the mortar side) with it.
-        for (t, (_, emb)) in self.ties.iter_mut().zip(&embeddings) {
+        for (t, (_, emb)) in self.ties.iter_mut().filter(|t| t.other_edges.is_none()).zip(&embeddings) {
             let n = t.side.points.len();
             let off = self.bodies[t.patch].node_offset;
             for i in 0..n {
@@ -542,15 +614,34 @@ impl ModelBuilder {
         // Mortar tying rows.
         let mut constraints = Vec::new();
         let mut ties = Vec::new();
-        for (t, (_, emb)) in self.ties.iter().zip(&embeddings) {
-            let host = &self.bodies[t.host];
-            let mut cells: Vec<usize> = emb.cell_pieces.iter().map(|p| p.cell).collect();
-            cells.sort_unstable();
-            cells.dedup();
-            let h_host =
-                cells.iter().map(|&c| cell_size(&cell_polygon(&host.mesh, c))).sum::<f64>() / cells.len().max(1) as f64;
-            let multipliers = build_multipliers(&t.side, t.space, h_host);
-            let rows = tying_rows(&t.side, &multipliers, &host.mesh, host.node_offset, emb);
+        let mut embedded = embeddings.iter();
+        for t in &self.ties {
+            let (multipliers, rows) = match &t.other_edges {
+                None => {
+                    let Some((_, emb)) = embedded.next() else { continue };
+                    let host = &self.bodies[t.host];
+                    let mut cells: Vec<usize> = emb.cell_pieces.iter().map(|p| p.cell).collect();
+                    cells.sort_unstable();
+                    cells.dedup();
+                    let h_host = cells.iter().map(|&c| cell_size(&cell_polygon(&host.mesh, c))).sum::<f64>()
+                        / cells.len().max(1) as f64;
+                    let multipliers = build_multipliers(&t.side, t.space, h_host);
+                    let rows = tying_rows(
+                        &t.side,
+                        &multipliers,
+                        &OtherSide::Embedded { host: &host.mesh, host_offset: host.node_offset, embedding: emb },
+                    );
+                    (multipliers, rows)
+                }
+                Some(edges) => {
+                    let pts: Vec<[Point2<f64>; 2]> =
+                        edges.iter().map(|e| [coords_of(&self.bodies, e[0]), coords_of(&self.bodies, e[1])]).collect();
+                    let h_other = pts.iter().map(|p| (p[1] - p[0]).norm()).sum::<f64>() / pts.len() as f64;
+                    let multipliers = build_multipliers(&t.side, t.space, h_other);
+                    let rows = tying_rows(&t.side, &multipliers, &OtherSide::Edges { nodes: edges, points: &pts });
+                    (multipliers, rows)
+                }
+            };
             ties.push(TieInfo {
                 name: t.name.clone(),
                 host: t.host,

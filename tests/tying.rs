@@ -315,3 +315,51 @@ fn overlapping_beam_matches_conforming_beam() {
         assert!(err < 5e-3, "{space:?}: tip deflection differs by {err}");
     }
 }
+
+/// Classical mortar between two real surfaces (the comparison method): two blocks with
+/// non-matching meshes tied along x = 5 (left: 10 x 8 Quad4, right: 7 x 5 Tri3), uniform
+/// stress states through host-like tractions on the outer edges. Patch test: 1e-8.
+#[test]
+fn real_surface_tie_patch_test() {
+    for space in [MultiplierSpace::Classical, MultiplierSpace::CoarseGrained] {
+        for sigma in [[100.0, 0.0, 0.0], [0.0, 100.0, 0.0], [0.0, 0.0, 100.0]] {
+            let hyp = PlaneHypothesis::PlaneStrain;
+            let mut b = ModelBuilder::new(hyp);
+            let mi = b.add_material("steel", Material::Elastic(Elastic { young: E, poisson: NU, hypothesis: hyp }));
+            let left = generate::rectangle(0.0, 0.0, 5.0, 4.0, 10, 8, 1.0, 1.0, CellKind::Quad4).unwrap();
+            let right = generate::rectangle(5.0, 0.0, 5.0, 4.0, 7, 5, 1.0, 1.0, CellKind::Tri3).unwrap();
+            let l = b.add_body("left", left, mi, Formulation::Standard, 1.0);
+            let r = b.add_body("right", right, mi, Formulation::Standard, 1.0);
+            let [sxx, syy, sxy] = sigma;
+            b.traction(l, "left", Vector2::new(-sxx, -sxy)).unwrap();
+            b.traction(r, "right", Vector2::new(sxx, sxy)).unwrap();
+            for body in [l, r] {
+                b.traction(body, "bottom", Vector2::new(-sxy, -syy)).unwrap();
+                b.traction(body, "top", Vector2::new(sxy, syy)).unwrap();
+            }
+            b.fix(l, "bottom_left", 0, 0.0).unwrap();
+            b.fix(l, "bottom_left", 1, 0.0).unwrap();
+            b.fix(r, "bottom_right", 1, 0.0).unwrap();
+            b.add_surface_tie("joint", l, &["right".to_string()], r, &["left".to_string()], space).unwrap();
+            let model = b
+                .build(
+                    LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)]).unwrap(),
+                    vec![1.0],
+                    NewtonParams::default(),
+                    LinearSolverKind::Cholesky,
+                )
+                .unwrap();
+            let s = solve(&model);
+            for (q, st) in s.stress.iter().enumerate() {
+                let e = [(st[0] - sxx).abs(), (st[1] - syy).abs(), (st[3] - sxy).abs()].into_iter().fold(0.0, f64::max);
+                assert!(e < 1e-8 * 100.0, "{space:?} {sigma:?}: point {q}: stress {st:?}");
+            }
+            let tie = &model.ties[0];
+            for l in 0..tie.multipliers.num_nodes {
+                let t = [-s.multipliers[2 * l], -s.multipliers[2 * l + 1]];
+                // The left block's outward normal on x = 5 is +x: t = (sxx, sxy).
+                assert!((t[0] - sxx).abs() < 1e-6 && (t[1] - sxy).abs() < 1e-6, "{space:?}: node {l}: traction {t:?}");
+            }
+        }
+    }
+}

@@ -103,7 +103,9 @@ pub enum KeepSide {
 }
 
 /// A mortar tie: the patch body's boundary (edge sets forming one closed loop) is embedded in the
-/// host body as a virtual surface; the host material inside it is cut away.
+/// host body as a virtual surface; the host material inside it is cut away. With
+/// `host_surface`, the patch boundary (any polyline) is tied to a coinciding real surface of the
+/// host instead (classical mortar). The patch side carries the multipliers.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TieSpec {
@@ -111,6 +113,9 @@ pub struct TieSpec {
     pub host: String,
     pub patch: String,
     pub boundary: Vec<String>,
+    /// Edge sets of the host forming a real surface that coincides with the patch boundary:
+    /// classical mortar between two real surfaces instead of an embedded one.
+    pub host_surface: Option<Vec<String>>,
     #[serde(default)]
     pub multipliers: MultiplierSpace,
 }
@@ -477,7 +482,11 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         let host = body(&t.host, "host")?;
         let patch = body(&t.patch, "patch")?;
         let name = t.name.clone().unwrap_or_else(|| format!("tie{i}"));
-        b.add_tie(&name, host, patch, &t.boundary, t.multipliers).map_err(|e| model_err(&cx, k("boundary"), e))?;
+        match &t.host_surface {
+            None => b.add_tie(&name, host, patch, &t.boundary, t.multipliers),
+            Some(hs) => b.add_surface_tie(&name, patch, &t.boundary, host, hs, t.multipliers),
+        }
+        .map_err(|e| model_err(&cx, k("boundary"), e))?;
     }
 
     // Free cuts (virtual surfaces without a partner).

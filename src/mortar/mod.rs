@@ -1,5 +1,6 @@
 //! Mortar integrals between a real surface (mesh edges, the *mortar side*, which carries the
-//! Lagrange multipliers) and a virtual surface embedded in a host mesh.
+//! Lagrange multipliers) and a virtual surface embedded in a host mesh ([`OtherSide::Embedded`],
+//! MorteX) or another real surface ([`OtherSide::Edges`], classical mortar for comparisons).
 //!
 //! Tying constraint per multiplier node `l` and component `c` (Wohlmuth; MorteX: Akula,
 //! Vignollet, Yastrebov, arXiv 1902.04003):
@@ -202,24 +203,58 @@ impl Chain {
 /// One scalar constraint row: `sum coef * u[dof] = 0`.
 pub type ConstraintRow = Vec<(usize, f64)>;
 
-/// Assembles the tying rows (two per multiplier node, x then y).
-/// `host_offset` maps host-mesh node ids to global ids; mortar nodes are global already.
-pub fn tying_rows(
-    side: &MortarSide,
-    lm: &Multipliers,
-    host: &Mesh2,
-    host_offset: usize,
-    emb: &Embedding,
-) -> Vec<ConstraintRow> {
+/// The non-mortar side of an interface: straight segments whose points interpolate
+/// displacements from either a host cell (virtual surface) or a real edge.
+pub enum OtherSide<'a> {
+    /// Virtual surface pieces inside host cells (`host_offset` maps host node ids to global).
+    Embedded { host: &'a Mesh2, host_offset: usize, embedding: &'a Embedding },
+    /// Real mesh edges: global node ids and their end coordinates.
+    Edges { nodes: &'a [[usize; 2]], points: &'a [[Point2<f64>; 2]] },
+}
+
+impl OtherSide<'_> {
+    fn segments(&self) -> Vec<(Point2<f64>, Point2<f64>)> {
+        match self {
+            OtherSide::Embedded { embedding, .. } => embedding.pieces.iter().map(|p| (p.a, p.b)).collect(),
+            OtherSide::Edges { points, .. } => points.iter().map(|p| (p[0], p[1])).collect(),
+        }
+    }
+
+    /// Global nodes and shape values at point `x` (parameter `sigma` along segment `i`).
+    fn shape_at(&self, i: usize, x: Point2<f64>, sigma: f64, out: &mut Vec<(usize, f64)>) {
+        out.clear();
+        match self {
+            OtherSide::Embedded { host, host_offset, embedding } => {
+                let p = &embedding.pieces[i];
+                let mapped = MappedElement::new(host.cells[p.cell].kind, host.cell_coords(p.cell));
+                let xi = mapped.inverse_map(x).unwrap_or(p.xi_a);
+                let mut nh = [0.0; 4];
+                host.cells[p.cell].kind.shape(xi, &mut nh);
+                for (q, &hn) in host.cells[p.cell].nodes().iter().enumerate() {
+                    out.push((hn + host_offset, nh[q]));
+                }
+            }
+            OtherSide::Edges { nodes, .. } => {
+                out.push((nodes[i][0], 1.0 - sigma));
+                out.push((nodes[i][1], sigma));
+            }
+        }
+    }
+}
+
+/// Assembles the tying rows (two per multiplier node, x then y): segment-to-segment mortar
+/// between the mortar side and the other side, which must coincide geometrically (tying).
+pub fn tying_rows(side: &MortarSide, lm: &Multipliers, other: &OtherSide) -> Vec<ConstraintRow> {
     let mut rows: Vec<BTreeMap<usize, f64>> = vec![BTreeMap::new(); 2 * lm.num_nodes];
-    let boxes: Vec<_> = emb
-        .pieces
+    let segs = other.segments();
+    let boxes: Vec<_> = segs
         .iter()
-        .map(|p| (Point2::new(p.a.x.min(p.b.x), p.a.y.min(p.b.y)), Point2::new(p.a.x.max(p.b.x), p.a.y.max(p.b.y))))
+        .map(|(a, b)| (Point2::new(a.x.min(b.x), a.y.min(b.y)), Point2::new(a.x.max(b.x), a.y.max(b.y))))
         .collect();
     let index = BoxIndex::new(&boxes);
     let (gx, gw) = gauss_legendre(4);
     let mut cand = Vec::new();
+    let mut shape = Vec::new();
     let n = side.points.len();
     for ch in &lm.chains {
         for k in 0..ch.vertices.len() - 1 {
@@ -234,11 +269,11 @@ pub fn tying_rows(
                 &mut cand,
             );
             for &pi in &cand {
-                let p = &emb.pieces[pi];
-                let ta = (p.a - a).dot(&d) / (len * len);
-                let tb = (p.b - a).dot(&d) / (len * len);
-                // Only pieces lying on this segment (tying: coincident surfaces).
-                let dist = (nrm_dist(a, d, p.a)).max(nrm_dist(a, d, p.b));
+                let (pa, pb) = segs[pi];
+                let ta = (pa - a).dot(&d) / (len * len);
+                let tb = (pb - a).dot(&d) / (len * len);
+                // Only segments lying on this mortar segment (tying: coincident surfaces).
+                let dist = (nrm_dist(a, d, pa)).max(nrm_dist(a, d, pb));
                 if dist > 1e-6 * len || (tb - ta).abs() < 1e-14 {
                     continue;
                 }
@@ -247,16 +282,12 @@ pub fn tying_rows(
                 if hi - lo <= 1e-12 {
                     continue;
                 }
-                let mapped = MappedElement::new(host.cells[p.cell].kind, host.cell_coords(p.cell));
-                let host_nodes = host.cells[p.cell].nodes();
                 for (x, w) in gx.iter().zip(&gw) {
                     let tau = lo + 0.5 * (x + 1.0) * (hi - lo);
                     let wt = 0.5 * w * (hi - lo) * len;
                     let sigma = (tau - ta) / (tb - ta);
-                    let xv = p.a + (p.b - p.a) * sigma;
-                    let xi = mapped.inverse_map(xv).unwrap_or(p.xi_a);
-                    let mut nh = [0.0; 4];
-                    host.cells[p.cell].kind.shape(xi, &mut nh);
+                    let xv = pa + (pb - pa) * sigma;
+                    other.shape_at(pi, xv, sigma, &mut shape);
                     let s_arc = ch.arc[k] + tau * len;
                     let nm = [1.0 - tau, tau];
                     for (j, phi) in ch.hats(s_arc) {
@@ -269,8 +300,8 @@ pub fn tying_rows(
                             for (q, &v) in [va, vb].iter().enumerate() {
                                 *row.entry(2 * side.nodes[v % n] + c).or_insert(0.0) += wt * phi * nm[q];
                             }
-                            for (q, &hn) in host_nodes.iter().enumerate() {
-                                *row.entry(2 * (hn + host_offset) + c).or_insert(0.0) -= wt * phi * nh[q];
+                            for &(node, nv) in shape.iter() {
+                                *row.entry(2 * node + c).or_insert(0.0) -= wt * phi * nv;
                             }
                         }
                     }
