@@ -7,9 +7,7 @@ use mortex::assembly::{Assembler, AssemblyInput, AssemblyOutput, SparsityPattern
 use mortex::fem::kernel::{element_kernel, ElementInput, ElementOutput, Formulation};
 use mortex::fem::material::{Elastic, J2Plastic, Material, PlaneHypothesis, PlasticState, Stress4};
 use mortex::mesh::{generate, CellKind};
-use mortex::model::{LoadPath, Model, ModelBuilder};
-use mortex::solver::linear::LinearSolverKind;
-use mortex::solver::newton::NewtonParams;
+use mortex::model::{Model, ModelBuilder};
 use nalgebra::Point2;
 
 /// Two bodies (Quad4 plastic, Tri3 elastic), random displacements so plastic points yield.
@@ -35,14 +33,7 @@ fn mixed_model() -> (Model, Vec<f64>) {
     b.fix(bq, "left", 1, 0.0).unwrap();
     b.fix(bt, "bottom", 1, 0.0).unwrap();
     b.fix(bt, "bottom_left", 0, 0.0).unwrap();
-    let model = b
-        .build(
-            LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)]).unwrap(),
-            vec![1.0],
-            NewtonParams::default(),
-            LinearSolverKind::Cholesky,
-        )
-        .unwrap();
+    let model = common::build_one_step(b);
     let mut rng = Lcg(3);
     let u: Vec<f64> = (0..model.dofs.num_dofs).map(|_| 5e-3 * rng.next()).collect();
     (model, u)

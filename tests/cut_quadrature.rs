@@ -68,7 +68,7 @@ fn check_fit(kind: CellKind, cell: &[Point2<f64>], material: &[Point2<f64>], sta
     };
     let rule = band_rule(kind);
     let x = rule_points(&mesh, 0, &rule);
-    let inside: Vec<bool> = x.iter().map(|p| winding(material, *p)).collect();
+    let inside: Vec<bool> = x.iter().map(|p| mortex::cut::point_in_loop(material, *p)).collect();
     let loops = vec![material.to_vec()];
     let (w, degree) = fit_weights(&x, &inside, &loops);
     let degree = degree.expect("at least the area must be fitted");
@@ -113,22 +113,6 @@ fn check_fit(kind: CellKind, cell: &[Point2<f64>], material: &[Point2<f64>], sta
         );
     }
     stats[degree] += 1;
-}
-
-/// Even-odd point-in-polygon test.
-fn winding(poly: &[Point2<f64>], p: Point2<f64>) -> bool {
-    let mut inside = false;
-    let n = poly.len();
-    for i in 0..n {
-        let (a, b) = (poly[i], poly[(i + 1) % n]);
-        if (a.y > p.y) != (b.y > p.y) {
-            let x = a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x);
-            if p.x < x {
-                inside = !inside;
-            }
-        }
-    }
-    inside
 }
 
 #[test]

@@ -13,9 +13,7 @@ use common::solve;
 use mortex::fem::kernel::Formulation;
 use mortex::fem::material::{Elastic, Material, PlaneHypothesis};
 use mortex::mesh::{generate, CellKind};
-use mortex::model::{LoadPath, ModelBuilder};
-use mortex::solver::linear::LinearSolverKind;
-use mortex::solver::newton::NewtonParams;
+use mortex::model::ModelBuilder;
 use nalgebra::{Matrix2, Point2};
 
 const E: f64 = 210_000.0;
@@ -40,14 +38,7 @@ fn run(kind: CellKind, cut: &[Point2<f64>]) {
         b.fix_node(body, n, 1, u.y);
     }
     b.add_cut("slant", body, cut.to_vec(), false, false).unwrap();
-    let model = b
-        .build(
-            LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)]).unwrap(),
-            vec![1.0],
-            NewtonParams::default(),
-            LinearSolverKind::Cholesky,
-        )
-        .unwrap();
+    let model = common::build_one_step(b);
     let s = solve(&model);
     for (q, st) in s.stress.iter().enumerate() {
         let e = [(st[0] - sigma[(0, 0)]).abs(), (st[1] - sigma[(1, 1)]).abs(), (st[3] - sigma[(0, 1)]).abs()]

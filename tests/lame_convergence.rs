@@ -12,9 +12,7 @@ use common::{for_each_point, solve};
 use mortex::fem::kernel::Formulation;
 use mortex::fem::material::{Elastic, Material, PlaneHypothesis, Strain4};
 use mortex::mesh::generate;
-use mortex::model::{LoadPath, Model, ModelBuilder};
-use mortex::solver::linear::LinearSolverKind;
-use mortex::solver::newton::NewtonParams;
+use mortex::model::{Model, ModelBuilder};
 
 const A_IN: f64 = 1.0;
 const B_OUT: f64 = 2.0;
@@ -47,13 +45,7 @@ fn model(nr: usize, nt: usize) -> Model {
     b.fix(body, "start", 1, 0.0).unwrap();
     b.fix(body, "end", 0, 0.0).unwrap();
     b.pressure(body, "inner", P).unwrap();
-    b.build(
-        LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)]).unwrap(),
-        vec![1.0],
-        NewtonParams::default(),
-        LinearSolverKind::Cholesky,
-    )
-    .unwrap()
+    common::build_one_step(b)
 }
 
 /// Relative L2 displacement error and relative energy-norm error.

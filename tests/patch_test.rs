@@ -17,9 +17,7 @@ use common::{solve, Lcg};
 use mortex::fem::kernel::Formulation;
 use mortex::fem::material::{Elastic, Material, PlaneHypothesis, Strain4};
 use mortex::mesh::{generate, CellKind, Mesh2};
-use mortex::model::{LoadPath, ModelBuilder};
-use mortex::solver::linear::LinearSolverKind;
-use mortex::solver::newton::NewtonParams;
+use mortex::model::ModelBuilder;
 use nalgebra::Vector2;
 
 const A: [f64; 3] = [1e-3, 2e-3, -1.5e-3];
@@ -66,14 +64,7 @@ fn run_patch(kind: CellKind, hypothesis: PlaneHypothesis, formulation: Formulati
         b.fix_node(body, n, 0, u[0]);
         b.fix_node(body, n, 1, u[1]);
     }
-    let model = b
-        .build(
-            LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)]).unwrap(),
-            vec![1.0],
-            NewtonParams::default(),
-            LinearSolverKind::Cholesky,
-        )
-        .unwrap();
+    let model = common::build_one_step(b);
     let s = solve(&model);
     let scale = 3e-3 * 2.0;
     for (n, p) in nodes.iter().enumerate() {
@@ -131,14 +122,7 @@ fn quad4_traction_patch() {
     b.fix(body, "left", 0, 0.0).unwrap();
     b.fix(body, "bottom_left", 1, 0.0).unwrap();
     b.traction(body, "right", Vector2::new(T, 0.0)).unwrap();
-    let model = b
-        .build(
-            LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)]).unwrap(),
-            vec![1.0],
-            NewtonParams::default(),
-            LinearSolverKind::Cholesky,
-        )
-        .unwrap();
+    let model = common::build_one_step(b);
     let s = solve(&model);
     for (q, sq) in s.stress.iter().enumerate() {
         let err = [(sq[0] - T).abs(), sq[1].abs(), sq[3].abs()].into_iter().fold(0.0, f64::max) / T;

@@ -21,10 +21,8 @@ use common::solve;
 use mortex::fem::kernel::Formulation;
 use mortex::fem::material::{Elastic, Material, PlaneHypothesis};
 use mortex::mesh::{generate, CellKind, Mesh2};
-use mortex::model::{LoadPath, Model, ModelBuilder};
+use mortex::model::{Model, ModelBuilder};
 use mortex::mortar::MultiplierSpace;
-use mortex::solver::linear::LinearSolverKind;
-use mortex::solver::newton::NewtonParams;
 use nalgebra::{Point2, Vector2};
 
 const E: f64 = 210_000.0;
@@ -66,9 +64,7 @@ fn tied_model(sc: &Scene, sigma: [f64; 3]) -> Model {
     b.fix(h, "bottom_right", 1, 0.0).unwrap();
     let sets: Vec<String> = ["bottom", "right", "top", "left"].iter().map(|s| s.to_string()).collect();
     b.add_tie("patch_in_host", h, p, &sets, sc.space).unwrap();
-    let newton = NewtonParams::default();
-    b.build(LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)]).unwrap(), vec![1.0], newton, LinearSolverKind::Cholesky)
-        .unwrap()
+    common::build_one_step(b)
 }
 
 fn run_patch_test(sc: &Scene) {
@@ -180,14 +176,7 @@ fn inclusion_oscillation(ratio: usize, space: MultiplierSpace, e_patch: f64, loa
         b.fix_node(h, n_r, 0, 0.0);
     }
     b.add_tie("t", h, p, &["arc".to_string()], space).unwrap();
-    let model = b
-        .build(
-            LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)]).unwrap(),
-            vec![1.0],
-            NewtonParams::default(),
-            LinearSolverKind::Cholesky,
-        )
-        .unwrap();
+    let model = common::build_one_step(b);
     let s = solve(&model);
     let tie = &model.ties[0];
     let nl = tie.multipliers.num_nodes;
@@ -288,14 +277,7 @@ fn cantilever_tip(with_patch: Option<MultiplierSpace>) -> f64 {
         let sets: Vec<String> = ["bottom", "right", "top", "left"].iter().map(|s| s.to_string()).collect();
         b.add_tie("t", h, p, &sets, space).unwrap();
     }
-    let model = b
-        .build(
-            LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)]).unwrap(),
-            vec![1.0],
-            NewtonParams::default(),
-            LinearSolverKind::Cholesky,
-        )
-        .unwrap();
+    let model = common::build_one_step(b);
     let s = solve(&model);
     tip.iter().map(|&n| s.u[2 * n + 1]).sum::<f64>() / tip.len() as f64
 }
@@ -341,14 +323,7 @@ fn real_surface_tie_patch_test() {
             b.fix(l, "bottom_left", 1, 0.0).unwrap();
             b.fix(r, "bottom_right", 1, 0.0).unwrap();
             b.add_surface_tie("joint", l, &["right".to_string()], r, &["left".to_string()], space).unwrap();
-            let model = b
-                .build(
-                    LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)]).unwrap(),
-                    vec![1.0],
-                    NewtonParams::default(),
-                    LinearSolverKind::Cholesky,
-                )
-                .unwrap();
+            let model = common::build_one_step(b);
             let s = solve(&model);
             for (q, st) in s.stress.iter().enumerate() {
                 let e = [(st[0] - sxx).abs(), (st[1] - syy).abs(), (st[3] - sxy).abs()].into_iter().fold(0.0, f64::max);

@@ -250,7 +250,7 @@ mod tests {
     #[test]
     fn half_disc_area_converges_to_pi_r2_over_2() {
         // A polygon with n_t uniform-ish chords: area deficit O(h^2); 64 chords give < 0.2%.
-        let m = half_disc(Point2::new(0.0, 10.0), 10.0, 8, 64, 1.0, 1.0).unwrap();
+        let m = half_disc(Point2::new(0.0, 10.0), 10.0, 8, 64, 1.0, 1.0).expect("valid half-disc");
         let exact = 0.5 * std::f64::consts::PI * 100.0;
         assert!((m.area() - exact).abs() / exact < 2e-3);
         let b = m.node_sets["bottom"][0];
@@ -259,7 +259,7 @@ mod tests {
 
     #[test]
     fn annulus_is_valid_and_oriented() {
-        let m = annulus_sector(1.0, 2.0, 0.0, std::f64::consts::FRAC_PI_2, 4, 6, 1.0).unwrap();
+        let m = annulus_sector(1.0, 2.0, 0.0, std::f64::consts::FRAC_PI_2, 4, 6, 1.0).expect("valid annulus");
         for &e in &m.edge_sets["inner"] {
             let (n, _) = m.edge_normal(e);
             let mid = (m.nodes[e[0]].coords + m.nodes[e[1]].coords) * 0.5;

@@ -327,7 +327,7 @@ $EndElements
 
     #[test]
     fn reads_quads_and_physical_groups() {
-        let m = parse_msh(UNIT_SQUARE, "square.msh").unwrap();
+        let m = parse_msh(UNIT_SQUARE, "square.msh").expect("valid mesh");
         assert_eq!(m.num_nodes(), 6);
         assert_eq!(m.num_cells(), 2);
         assert_eq!(m.edge_sets["bottom"].len(), 2);

@@ -212,7 +212,7 @@ mod tests {
 
     #[test]
     fn inverted_quad_is_reported_with_its_index() {
-        let mut m = generate::rectangle(0.0, 0.0, 1.0, 1.0, 2, 1, 1.0, 1.0, CellKind::Quad4).unwrap();
+        let mut m = generate::rectangle(0.0, 0.0, 1.0, 1.0, 2, 1, 1.0, 1.0, CellKind::Quad4).expect("valid rectangle");
         let c = m.cells[1];
         let n = c.nodes();
         m.cells[1] = Cell::quad4(n[0], n[3], n[2], n[1]); // clockwise
@@ -224,7 +224,7 @@ mod tests {
 
     #[test]
     fn edge_normals_point_outward() {
-        let m = generate::rectangle(0.0, 0.0, 2.0, 1.0, 3, 2, 1.0, 1.0, CellKind::Tri3).unwrap();
+        let m = generate::rectangle(0.0, 0.0, 2.0, 1.0, 3, 2, 1.0, 1.0, CellKind::Tri3).expect("valid rectangle");
         for (name, expect) in
             [("left", [-1.0, 0.0]), ("right", [1.0, 0.0]), ("bottom", [0.0, -1.0]), ("top", [0.0, 1.0])]
         {

@@ -62,3 +62,14 @@ pub fn for_each_point<F: FnMut(Point2<f64>, [f64; 2], [[f64; 2]; 2], f64, usize)
         }
     }
 }
+
+/// Finishes a one-step linear-ramp model (load factor 0 -> 1, one output step).
+pub fn build_one_step(b: mortex::model::ModelBuilder) -> Model {
+    b.build(
+        mortex::model::LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)]).expect("valid path"),
+        vec![1.0],
+        mortex::solver::newton::NewtonParams::default(),
+        mortex::solver::linear::LinearSolverKind::Cholesky,
+    )
+    .expect("valid model")
+}
