@@ -69,7 +69,8 @@ impl<'m> StaticAnalysis<'m> {
         let alpha = if mean_coef > 0.0 && e_max > 0.0 { e_max / mean_coef } else { 1.0 };
         let scaled: Vec<Vec<(usize, f64)>> =
             model.constraints.iter().map(|r| r.iter().map(|&(d, c)| (d, alpha * c)).collect()).collect();
-        let pattern = SparsityPattern::with_constraints(model.num_nodes(), &model.elements, &model.dofs, &scaled);
+        let pattern =
+            SparsityPattern::with_constraints(model.num_nodes(), &model.elements, &model.dofs, &scaled, &model.penalty);
         let solver = SparseSolver::new(&pattern.symbolic, model.linear_solver)?;
         let nnz = pattern.nnz();
         tracing::info!(
@@ -209,6 +210,10 @@ impl<'m> StaticAnalysis<'m> {
                 },
                 self.parallel,
             );
+            // Constant penalty stiffness (ghost penalty): its force joins the internal force.
+            for &(i, j, v) in &m.penalty {
+                self.trial_f_int[i] += v * u[j];
+            }
             // Constraint forces C^T mu and constraint residual -C u (with its scale |C| |u|).
             ct_mu.iter_mut().for_each(|v| *v = 0.0);
             let mut g_scale = 0.0;

@@ -115,6 +115,8 @@ pub struct Model {
     pub cuts: Vec<Option<CutMesh>>,
     /// Host DOFs deactivated because their support has (almost) no material.
     pub deactivated_dofs: usize,
+    /// Constant extra stiffness `(dof_i, dof_j, value)`: ghost penalty on cut bodies.
+    pub penalty: Vec<(usize, usize, f64)>,
 }
 
 /// A mortar tie between a patch (mortar side, multipliers) and a host (virtual surface).
@@ -227,6 +229,9 @@ impl Model {
     }
 }
 
+/// Default ghost-penalty factor (dimensionless, times `E h` per edge).
+pub const DEFAULT_GHOST_PENALTY: f64 = 0.05;
+
 /// Reference coordinates of a global node.
 fn coords_of(bodies: &[Body], n: usize) -> Point2<f64> {
     let b = bodies.iter().rfind(|b| b.node_offset <= n).unwrap_or(&bodies[0]);
@@ -244,6 +249,7 @@ pub struct ModelBuilder {
     ties: Vec<TieSpec>,
     /// Free virtual surfaces: (name, body, surface with the material on its left).
     free_cuts: Vec<(String, usize, VirtualSurface)>,
+    ghost_penalty: f64,
 }
 
 impl ModelBuilder {
@@ -257,7 +263,13 @@ impl ModelBuilder {
             f_ext: vec![],
             ties: vec![],
             free_cuts: vec![],
+            ghost_penalty: DEFAULT_GHOST_PENALTY,
         }
+    }
+
+    /// Ghost-penalty factor `gamma` on cut bodies (0 switches it off).
+    pub fn set_ghost_penalty(&mut self, gamma: f64) {
+        self.ghost_penalty = gamma;
     }
 
     /// Cuts a body with a free virtual surface (a traction-free boundary inside its mesh): an open
@@ -544,12 +556,25 @@ impl ModelBuilder {
                 .map_err(|e| ModelError::Tie { tie: name.clone(), msg: e.to_string() })?;
             cut_embeddings.push((*body, emb));
         }
+        let mut penalty = Vec::new();
         for (b, body) in self.bodies.iter().enumerate() {
             let embs: Vec<&Embedding> =
                 embeddings.iter().chain(cut_embeddings.iter()).filter(|(h, _)| *h == b).map(|(_, e)| e).collect();
             if !embs.is_empty() {
-                let c = cut_mesh(&body.mesh, &crate::cut::CellAdjacency::new(&body.mesh), &embs)
+                let adjacency = crate::cut::CellAdjacency::new(&body.mesh);
+                let c = cut_mesh(&body.mesh, &adjacency, &embs)
                     .map_err(|e| ModelError::Tie { tie: body.name.clone(), msg: e.to_string() })?;
+                if self.ghost_penalty > 0.0 {
+                    let young = self.materials[body.material].elastic().young;
+                    penalty.extend(crate::cut::ghost_penalty(
+                        &body.mesh,
+                        &adjacency,
+                        &c,
+                        body.node_offset,
+                        young,
+                        self.ghost_penalty,
+                    ));
+                }
                 cuts[b] = Some(c);
             }
         }
@@ -685,6 +710,7 @@ impl ModelBuilder {
             ties,
             cuts,
             deactivated_dofs,
+            penalty,
         })
     }
 }

@@ -85,22 +85,26 @@ pub struct SparsityPattern {
     scatter: Vec<usize>,
     /// `(position of C_re, position of C^T_er, coefficient)` for every constraint entry.
     constraint_scatter: Vec<(usize, usize, f64)>,
+    /// `(position, value)` of every constant penalty entry.
+    penalty_scatter: Vec<(usize, f64)>,
 }
 
 impl SparsityPattern {
     /// Builds the pattern from node adjacency (no triplet sort): column `j` of node `n` holds the
     /// free DOFs of all nodes sharing a cell with `n`, in increasing order.
     pub fn new(num_nodes: usize, elements: &ElementTable, dofs: &DofMap) -> Self {
-        Self::with_constraints(num_nodes, elements, dofs, &[])
+        Self::with_constraints(num_nodes, elements, dofs, &[], &[])
     }
 
-    /// Pattern of the saddle-point matrix `[K C^T; C 0]`: the free DOFs first, then one
-    /// unknown per constraint row (`sum coef u[dof] = 0`, global DOFs).
+    /// Pattern of the saddle-point matrix `[K + P, C^T; C 0]`: the free DOFs first, then one
+    /// unknown per constraint row (`sum coef u[dof] = 0`, global DOFs). `penalty` holds constant
+    /// extra stiffness entries `(dof_i, dof_j, value)` in global DOFs (ghost penalty).
     pub fn with_constraints(
         num_nodes: usize,
         elements: &ElementTable,
         dofs: &DofMap,
         constraints: &[Vec<(usize, f64)>],
+        penalty: &[(usize, usize, f64)],
     ) -> Self {
         let mut adj: Vec<Vec<usize>> = vec![Vec::new(); num_nodes];
         for (e, nodes) in elements.nodes.iter().enumerate() {
@@ -125,11 +129,20 @@ impl SparsityPattern {
                 }
             }
         }
+        // Penalty couplings beyond the element adjacency, per free column.
+        let mut extra_rows: Vec<Vec<usize>> = vec![Vec::new(); nf];
+        for &(i, j, _) in penalty {
+            let (ri, cj) = (dofs.eq[i], dofs.eq[j]);
+            if ri != CONSTRAINED && cj != CONSTRAINED {
+                extra_rows[cj].push(ri);
+            }
+        }
         let mut col_ptr = Vec::with_capacity(n + 1);
         col_ptr.push(0usize);
         let mut row_idx = Vec::new();
         for (e, &g) in dofs.free.iter().enumerate() {
             let node = g / 2;
+            let start = row_idx.len();
             for &m in &adj[node] {
                 for d in [2 * m, 2 * m + 1] {
                     let r = dofs.eq[d];
@@ -137,6 +150,13 @@ impl SparsityPattern {
                         row_idx.push(r);
                     }
                 }
+            }
+            if !extra_rows[e].is_empty() {
+                row_idx.extend_from_slice(&extra_rows[e]);
+                row_idx[start..].sort_unstable();
+                let mut col: Vec<usize> = row_idx.split_off(start);
+                col.dedup();
+                row_idx.extend_from_slice(&col);
             }
             let mut cr = eq_rows[e].clone();
             cr.sort_unstable();
@@ -189,8 +209,18 @@ impl SparsityPattern {
                 }
             }
         });
+        let mut penalty_scatter = Vec::new();
+        for &(i, j, v) in penalty {
+            let (ri, cj) = (dofs.eq[i], dofs.eq[j]);
+            if ri == CONSTRAINED || cj == CONSTRAINED {
+                continue;
+            }
+            if let Ok(p) = row_idx[col_ptr[cj]..col_ptr[cj + 1]].binary_search(&ri) {
+                penalty_scatter.push((col_ptr[cj] + p, v));
+            }
+        }
         let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
-        SparsityPattern { symbolic, scatter, constraint_scatter }
+        SparsityPattern { symbolic, scatter, constraint_scatter, penalty_scatter }
     }
 
     pub fn nnz(&self) -> usize {
@@ -336,6 +366,9 @@ impl Assembler {
             for &(p1, p2, coef) in &self.pattern.constraint_scatter {
                 values[p1] += coef;
                 values[p2] += coef;
+            }
+            for &(p, v) in &self.pattern.penalty_scatter {
+                values[p] += v;
             }
         }
     }

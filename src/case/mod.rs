@@ -276,6 +276,8 @@ pub struct SolverSpec {
     /// Serial element loop (default: parallel).
     #[serde(default)]
     pub serial: bool,
+    /// Ghost-penalty factor on cut bodies (default 0.05; 0 switches it off).
+    pub ghost_penalty: Option<f64>,
 }
 
 #[derive(Debug, Clone, Deserialize, Default)]
@@ -501,6 +503,13 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         }
         let name = c.name.clone().unwrap_or_else(|| format!("cut{i}"));
         b.add_cut(&name, bi, pts, c.closed, c.keep == KeepSide::Left).map_err(|e| model_err(&cx, k("points"), e))?;
+    }
+
+    if let Some(g) = raw.solver.ghost_penalty {
+        if !(g.is_finite() && g >= 0.0) {
+            return Err(cx.err("solver.ghost_penalty", format!("must be finite and >= 0, got {g}")));
+        }
+        b.set_ghost_penalty(g);
     }
 
     // Steps.
