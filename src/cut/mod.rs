@@ -20,7 +20,7 @@
 //! * Small cut fractions: a node whose support keeps less than [`SMALL_FRACTION`] of its area
 //!   has its DOFs deactivated (fixed to zero) by the model builder; void cells get no points.
 
-use crate::fem::element::{MappedElement, ReferenceElement};
+use crate::fem::element::MappedElement;
 use crate::fem::quadrature::{collapsed_triangle_rule, gauss_legendre, quad_gauss, triangle_rule, QuadratureRule};
 use crate::mesh::{CellKind, Mesh2};
 use crate::surface::{cell_polygon, cell_size, Embedding, Piece, SurfaceError, SNAP};
@@ -560,11 +560,6 @@ pub fn fit_weights(x: &[Point2<f64>], inside: &[bool], loops: &[Vec<Point2<f64>>
 pub fn rule_points(mesh: &Mesh2, c: usize, rule: &QuadratureRule) -> Vec<Point2<f64>> {
     let m = MappedElement::new(mesh.cells[c].kind, mesh.cell_coords(c));
     rule.points.iter().map(|xi| m.map(*xi)).collect()
-}
-
-/// Does a reference point of `kind` lie in the reference cell (helper for tests)?
-pub fn in_reference(kind: CellKind, xi: [f64; 2]) -> bool {
-    kind.contains(xi, 1e-12)
 }
 
 /// Ghost-penalty stabilisation of cut cells (Burman, C. R. Acad. Sci. Paris I 348 (2010) 1217;

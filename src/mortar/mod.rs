@@ -95,7 +95,6 @@ fn right_normal(a: Point2<f64>, b: Point2<f64>) -> Vector2<f64> {
 /// `h_host` is the characteristic size of the host cells along the interface.
 pub fn build_multipliers(side: &MortarSide, space: MultiplierSpace, h_host: f64) -> Multipliers {
     let n = side.points.len();
-    let ns = side.num_segments();
     let seg = |i: usize| (side.points[i % n], side.points[(i + 1) % n]);
     let is_corner = |v: usize| -> bool {
         if !side.closed && (v == 0 || v == n - 1) {
@@ -123,7 +122,6 @@ pub fn build_multipliers(side: &MortarSide, space: MultiplierSpace, h_host: f64)
             spans.push((0..=len).map(|k| (c0 + k) % n).collect());
         }
     }
-    let _ = ns;
     let mut chains = Vec::new();
     let mut points = Vec::new();
     let mut normals = Vec::new();
