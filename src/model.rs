@@ -293,8 +293,10 @@ impl ModelBuilder {
     }
 
     /// Ties a patch body into a host body: the patch boundary (the listed edge sets of the patch,
-    /// forming one closed loop) is embedded in the host as a virtual surface, the host material
-    /// inside it is cut away, and the two are tied by mortar with multipliers on the patch side.
+    /// forming one closed loop inside the host, or one open polyline crossing the host, whose
+    /// ends lie on or outside the host boundary) is embedded in the host as a virtual surface, the
+    /// host material on the patch side of it is cut away, and the two are tied by mortar with
+    /// multipliers on the patch side.
     pub fn add_tie(
         &mut self,
         name: &str,
@@ -315,17 +317,11 @@ impl ModelBuilder {
             return Err(err("the patch boundary has no edges".into()));
         }
         let (loop_nodes, closed) = edge_chain(&edges).map_err(err)?;
-        if !closed {
-            return Err(err(format!(
-                "the patch boundary is open at node {}: give edge sets forming one closed loop",
-                loop_nodes[0]
-            )));
-        }
         let pb = &self.bodies[patch];
         let side = MortarSide {
             nodes: loop_nodes.iter().map(|&n| n + pb.node_offset).collect(),
             points: loop_nodes.iter().map(|&n| pb.mesh.nodes[n]).collect(),
-            closed: true,
+            closed,
         };
         self.ties.push(TieSpec { name: name.to_string(), host, patch, side, space, other_edges: None });
         Ok(())
@@ -528,7 +524,7 @@ impl ModelBuilder {
             let host = &self.bodies[t.host];
             let mut v = t.side.points.clone();
             v.reverse(); // host material outside the patch = on the left of the reversed loop
-            let surf = VirtualSurface { vertices: v, closed: true };
+            let surf = VirtualSurface { vertices: v, closed: t.side.closed };
             let terr = |e: crate::surface::SurfaceError| ModelError::Tie { tie: t.name.clone(), msg: e.to_string() };
             surf.validate().map_err(terr)?;
             let index = BoxIndex::over_cells(&host.mesh);
@@ -562,8 +558,26 @@ impl ModelBuilder {
                 embeddings.iter().chain(cut_embeddings.iter()).filter(|(h, _)| *h == b).map(|(_, e)| e).collect();
             if !embs.is_empty() {
                 let adjacency = crate::cut::CellAdjacency::new(&body.mesh);
-                let c = cut_mesh(&body.mesh, &adjacency, &embs)
-                    .map_err(|e| ModelError::Tie { tie: body.name.clone(), msg: e.to_string() })?;
+                let c = cut_mesh(&body.mesh, &adjacency, &embs).map_err(|e| {
+                    // Name the surface that runs through the failing cell.
+                    let names = self
+                        .ties
+                        .iter()
+                        .filter(|t| t.other_edges.is_none())
+                        .map(|t| &t.name)
+                        .zip(embeddings.iter())
+                        .chain(self.free_cuts.iter().map(|c| &c.0).zip(cut_embeddings.iter()));
+                    let mut tie = body.name.clone();
+                    if let crate::surface::SurfaceError::Inconsistent { cell, .. } = &e {
+                        for (name, (h, emb)) in names {
+                            if *h == b && emb.cell_pieces.iter().any(|p| p.cell == *cell) {
+                                tie = name.clone();
+                                break;
+                            }
+                        }
+                    }
+                    ModelError::Tie { tie, msg: e.to_string() }
+                })?;
                 if self.ghost_penalty > 0.0 {
                     let young = self.materials[body.material].elastic().young;
                     penalty.extend(crate::cut::ghost_penalty(

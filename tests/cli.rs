@@ -159,7 +159,12 @@ fn bad_inputs_give_clear_errors() {
         &tie(inside, "[\"bottom\", \"right\", \"top\", \"left\"]", "hull"),
         &["ties[0].host", "no body named 'hull'"],
     );
-    expect_error(&d, "tie_open", &tie(inside, "[\"bottom\", \"right\"]", "block"), &["ties[0].boundary", "open"]);
+    expect_error(
+        &d,
+        "tie_open",
+        &tie(inside, "[\"bottom\", \"right\"]", "block"),
+        &["ties[0]", "open surface ends inside the host"],
+    );
     let outside = "{ type = \"rectangle\", origin = [9.5, 0.5], size = [1.0, 1.0], divisions = [4, 4] }";
     expect_error(
         &d,

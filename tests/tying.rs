@@ -400,3 +400,43 @@ fn plastic_host_with_tied_patch() {
         assert!((st[0] - 300.0).abs() < 1e-6 * 300.0 && st[3].abs() < 1e-6 * 300.0, "point {q}: {st:?}");
     }
 }
+
+/// Open tie (the MorteX set-up of the seed, Fig. 1a): a finer patch laid over the top half of a
+/// host, tied along one straight line that crosses the whole host; the host material above the
+/// line is cut away. Uniform sigma_yy across the interface (left and right edges traction-free,
+/// loads on the host bottom and the patch top): exact to 1e-8 for both spaces, with patch/host
+/// size ratios 1:3 and 1:7 and the interface inside host cells or on a host grid line.
+#[test]
+fn open_tie_patch_test() {
+    for (y_int, ratio) in [(2.13, 3), (2.0, 7), (1.77, 7)] {
+        for space in [MultiplierSpace::Classical, MultiplierSpace::CoarseGrained] {
+            let hyp = PlaneHypothesis::PlaneStrain;
+            let mut b = ModelBuilder::new(hyp);
+            let mi = b.add_material("steel", Material::Elastic(Elastic { young: E, poisson: NU, hypothesis: hyp }));
+            let host = generate::rectangle(0.0, 0.0, 10.0, 4.0, 10, 4, 1.0, 1.0, CellKind::Quad4).unwrap();
+            let patch =
+                generate::rectangle(0.0, y_int, 10.0, 6.0 - y_int, 10 * ratio, 4 * ratio, 1.0, 1.0, CellKind::Quad4)
+                    .unwrap();
+            let h = b.add_body("host", host, mi, Formulation::Standard, 1.0);
+            let p = b.add_body("patch", patch, mi, Formulation::Standard, 1.0);
+            b.traction(h, "bottom", Vector2::new(0.0, -100.0)).unwrap();
+            b.traction(p, "top", Vector2::new(0.0, 100.0)).unwrap();
+            b.fix(h, "bottom_left", 0, 0.0).unwrap();
+            b.fix(h, "bottom_left", 1, 0.0).unwrap();
+            b.fix(h, "bottom_right", 1, 0.0).unwrap();
+            b.add_tie("line", h, p, &["bottom".to_string()], space).unwrap();
+            let model = common::build_one_step(b);
+            let s = solve(&model);
+            for (q, st) in s.stress.iter().enumerate() {
+                let e = [st[0].abs(), (st[1] - 100.0).abs(), st[3].abs()].into_iter().fold(0.0, f64::max);
+                assert!(e < 1e-8 * 100.0, "y = {y_int}, 1:{ratio}, {space:?}: point {q}: stress {st:?}");
+            }
+            let tie = &model.ties[0];
+            for l in 0..tie.multipliers.num_nodes {
+                let t = [-s.multipliers[2 * l], -s.multipliers[2 * l + 1]];
+                // Patch outward normal on its bottom edge is -y: t = sigma . n = (0, -100).
+                assert!(t[0].abs() < 1e-6 && (t[1] + 100.0).abs() < 1e-6, "y = {y_int}, {space:?}: node {l}: {t:?}");
+            }
+        }
+    }
+}

@@ -236,7 +236,8 @@ fn cell_loops(mesh: &Mesh2, c: usize, pieces: &[Piece]) -> Result<Vec<Vec<Point2
             _ => {
                 return Err(SurfaceError::Inconsistent {
                     cell: c,
-                    msg: "a surface piece ends inside the cell (open surface ending in the host)".into(),
+                    msg: "an open surface ends inside this cell: it must start and end on or outside the host boundary"
+                        .into(),
                 })
             }
         }
@@ -336,6 +337,32 @@ impl CellAdjacency {
 /// Classifies every host cell and computes material loops of the cut ones.
 pub fn cut_mesh(mesh: &Mesh2, adjacency: &CellAdjacency, embeddings: &[&Embedding]) -> Result<CutMesh, SurfaceError> {
     let nc = mesh.num_cells();
+    // An open surface must separate the host: its embedded part starts and ends on the host's
+    // outer boundary (edges without a neighbour).
+    for emb in embeddings.iter().filter(|e| !e.closed) {
+        let (Some(first), Some(last)) = (emb.pieces.first(), emb.pieces.last()) else { continue };
+        for (cell, p) in [(first.cell, first.a), (last.cell, last.b)] {
+            let poly = cell_polygon(mesh, cell);
+            let tol = 1e3 * SNAP * cell_size(&poly);
+            let n = poly.len();
+            let on_outer =
+                emb.cell_pieces.iter().filter(|q| (q.a - p).norm() <= tol || (q.b - p).norm() <= tol).any(|q| {
+                    let poly = cell_polygon(mesh, q.cell);
+                    (0..n.min(poly.len())).any(|k| {
+                        let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
+                        let e = b - a;
+                        let s = ((p - a).dot(&e) / e.norm_squared()).clamp(0.0, 1.0);
+                        (a + e * s - p).norm() <= tol && adjacency.neighbour(q.cell, k).is_none()
+                    })
+                });
+            if !on_outer {
+                return Err(SurfaceError::Inconsistent {
+                    cell,
+                    msg: format!("an open surface ends inside the host at ({:.6}, {:.6}): it must start and end on or outside the host boundary", p.x, p.y),
+                });
+            }
+        }
+    }
     let mut per_cell: HashMap<usize, Vec<Piece>> = HashMap::new();
     for emb in embeddings {
         for p in &emb.cell_pieces {

@@ -203,6 +203,7 @@ pub struct Embedding {
     pub pieces: Vec<Piece>,
     /// The surface vertices after snapping (the geometry actually embedded).
     pub vertices: Vec<Point2<f64>>,
+    pub closed: bool,
 }
 
 /// Host cell corner coordinates as a CCW polygon.
@@ -407,5 +408,5 @@ pub fn embed(surface: &VirtualSurface, mesh: &Mesh2, index: &BoxIndex) -> Result
         let p = surface.vertices[0];
         return Err(SurfaceError::OutsideHost { segment: 0, x: p.x, y: p.y });
     }
-    Ok(Embedding { cell_pieces, pieces, vertices: snapped.vertices.clone() })
+    Ok(Embedding { cell_pieces, pieces, vertices: snapped.vertices.clone(), closed: surface.closed })
 }
