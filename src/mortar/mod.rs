@@ -240,10 +240,37 @@ impl OtherSide<'_> {
     }
 }
 
-/// Assembles the tying rows (two per multiplier node, x then y): segment-to-segment mortar
-/// between the mortar side and the other side, which must coincide geometrically (tying).
-pub fn tying_rows(side: &MortarSide, lm: &Multipliers, other: &OtherSide) -> Vec<ConstraintRow> {
-    let mut rows: Vec<BTreeMap<usize, f64>> = vec![BTreeMap::new(); 2 * lm.num_nodes];
+/// One quadrature point of a mortar segment paired with an other-side segment.
+struct MortarPoint {
+    /// Mortar vertices of the segment and the point's parameter on it.
+    va: usize,
+    vb: usize,
+    tau: f64,
+    /// Quadrature weight (mortar-side measure).
+    wt: f64,
+    /// Outward normal of the mortar body on this segment.
+    n: Vector2<f64>,
+    /// The point on the mortar side and its partner on the other side.
+    xm: Point2<f64>,
+    xo: Point2<f64>,
+    /// Other-side segment and parameter on it.
+    other: usize,
+    sigma: f64,
+    /// Multiplier hats at the point: (global multiplier node, value).
+    hats: [(usize, f64); 2],
+}
+
+/// Segment-to-segment pairing shared by tying and contact: every other-side segment found by
+/// the BVH within `reach` of a mortar segment and accepted by `accept(pa, pb, a, b)` is projected
+/// orthogonally onto it; the overlap is integrated with 4 Gauss points and `f` is called at each.
+fn for_each_mortar_point(
+    side: &MortarSide,
+    lm: &Multipliers,
+    other: &OtherSide,
+    reach: f64,
+    accept: impl Fn(Point2<f64>, Point2<f64>, Point2<f64>, Point2<f64>) -> bool,
+    mut f: impl FnMut(&MortarPoint),
+) {
     let segs = other.segments();
     let boxes: Vec<_> = segs
         .iter()
@@ -252,27 +279,27 @@ pub fn tying_rows(side: &MortarSide, lm: &Multipliers, other: &OtherSide) -> Vec
     let index = BoxIndex::new(&boxes);
     let (gx, gw) = gauss_legendre(4);
     let mut cand = Vec::new();
-    let mut shape = Vec::new();
-    let n = side.points.len();
     for ch in &lm.chains {
         for k in 0..ch.vertices.len() - 1 {
             let (va, vb) = (ch.vertices[k], ch.vertices[k + 1]);
             let (a, b) = (side.points[va], side.points[vb]);
             let d = b - a;
             let len = d.norm();
-            let tol = 1e-6 * len; // as the distance test below: snapped pieces may sit off the segment
+            let r = reach.max(1e-6 * len);
             index.query(
-                Point2::new(a.x.min(b.x) - tol, a.y.min(b.y) - tol),
-                Point2::new(a.x.max(b.x) + tol, a.y.max(b.y) + tol),
+                Point2::new(a.x.min(b.x) - r, a.y.min(b.y) - r),
+                Point2::new(a.x.max(b.x) + r, a.y.max(b.y) + r),
                 &mut cand,
             );
+            let n = right_normal(a, b);
             for &pi in &cand {
                 let (pa, pb) = segs[pi];
+                if !accept(pa, pb, a, b) {
+                    continue;
+                }
                 let ta = (pa - a).dot(&d) / (len * len);
                 let tb = (pb - a).dot(&d) / (len * len);
-                // Only segments lying on this mortar segment (tying: coincident surfaces).
-                let dist = (nrm_dist(a, d, pa)).max(nrm_dist(a, d, pb));
-                if dist > 1e-6 * len || (tb - ta).abs() < 1e-14 {
+                if (tb - ta).abs() < 1e-14 {
                     continue;
                 }
                 let lo = ta.min(tb).max(0.0);
@@ -282,31 +309,55 @@ pub fn tying_rows(side: &MortarSide, lm: &Multipliers, other: &OtherSide) -> Vec
                 }
                 for (x, w) in gx.iter().zip(&gw) {
                     let tau = lo + 0.5 * (x + 1.0) * (hi - lo);
-                    let wt = 0.5 * w * (hi - lo) * len;
                     let sigma = (tau - ta) / (tb - ta);
-                    let xv = pa + (pb - pa) * sigma;
-                    other.shape_at(pi, xv, sigma, &mut shape);
-                    let s_arc = ch.arc[k] + tau * len;
-                    let nm = [1.0 - tau, tau];
-                    for (j, phi) in ch.hats(s_arc) {
-                        if phi == 0.0 {
-                            continue;
-                        }
-                        let l = ch.first_lm + j;
-                        for c in 0..2 {
-                            let row = &mut rows[2 * l + c];
-                            for (q, &v) in [va, vb].iter().enumerate() {
-                                *row.entry(2 * side.nodes[v % n] + c).or_insert(0.0) += wt * phi * nm[q];
-                            }
-                            for &(node, nv) in shape.iter() {
-                                *row.entry(2 * node + c).or_insert(0.0) -= wt * phi * nv;
-                            }
-                        }
-                    }
+                    let local = ch.hats(ch.arc[k] + tau * len);
+                    f(&MortarPoint {
+                        va,
+                        vb,
+                        tau,
+                        wt: 0.5 * w * (hi - lo) * len,
+                        n,
+                        xm: a + d * tau,
+                        xo: pa + (pb - pa) * sigma,
+                        other: pi,
+                        sigma,
+                        hats: [(ch.first_lm + local[0].0, local[0].1), (ch.first_lm + local[1].0, local[1].1)],
+                    });
                 }
             }
         }
     }
+}
+
+/// Assembles the tying rows (two per multiplier node, x then y): segment-to-segment mortar
+/// between the mortar side and the other side, which must coincide geometrically (tying).
+pub fn tying_rows(side: &MortarSide, lm: &Multipliers, other: &OtherSide) -> Vec<ConstraintRow> {
+    let mut rows: Vec<BTreeMap<usize, f64>> = vec![BTreeMap::new(); 2 * lm.num_nodes];
+    let mut shape = Vec::new();
+    let n = side.points.len();
+    // Only segments lying on the mortar segment (snapped pieces may sit 1e-6 off it).
+    let on_segment = |pa: Point2<f64>, pb: Point2<f64>, a: Point2<f64>, b: Point2<f64>| {
+        let d = b - a;
+        nrm_dist(a, d, pa).max(nrm_dist(a, d, pb)) <= 1e-6 * d.norm()
+    };
+    for_each_mortar_point(side, lm, other, 0.0, on_segment, |p| {
+        other.shape_at(p.other, p.xo, p.sigma, &mut shape);
+        let nm = [1.0 - p.tau, p.tau];
+        for (l, phi) in p.hats {
+            if phi == 0.0 {
+                continue;
+            }
+            for c in 0..2 {
+                let row = &mut rows[2 * l + c];
+                for (q, &v) in [p.va, p.vb].iter().enumerate() {
+                    *row.entry(2 * side.nodes[v % n] + c).or_insert(0.0) += p.wt * phi * nm[q];
+                }
+                for &(node, nv) in shape.iter() {
+                    *row.entry(2 * node + c).or_insert(0.0) -= p.wt * phi * nv;
+                }
+            }
+        }
+    });
     rows.into_iter().map(|r| r.into_iter().filter(|(_, v)| *v != 0.0).collect()).collect()
 }
 
@@ -324,73 +375,34 @@ pub fn weighted_gaps(
 ) -> Vec<(ConstraintRow, f64)> {
     let mut rows: Vec<BTreeMap<usize, f64>> = vec![BTreeMap::new(); lm.num_nodes];
     let mut g0 = vec![0.0; lm.num_nodes];
-    let segs = other.segments();
-    let boxes: Vec<_> = segs
-        .iter()
-        .map(|(a, b)| (Point2::new(a.x.min(b.x), a.y.min(b.y)), Point2::new(a.x.max(b.x), a.y.max(b.y))))
-        .collect();
-    let index = BoxIndex::new(&boxes);
-    let (gx, gw) = gauss_legendre(4);
-    let mut cand = Vec::new();
     let mut shape = Vec::new();
     let n_pts = side.points.len();
-    for ch in &lm.chains {
-        for k in 0..ch.vertices.len() - 1 {
-            let (va, vb) = (ch.vertices[k], ch.vertices[k + 1]);
-            let (a, b) = (side.points[va], side.points[vb]);
-            let d = b - a;
-            let len = d.norm();
-            let n = right_normal(a, b);
-            let lo_box = Point2::new(a.x.min(b.x) - max_gap, a.y.min(b.y) - max_gap);
-            let hi_box = Point2::new(a.x.max(b.x) + max_gap, a.y.max(b.y) + max_gap);
-            index.query(lo_box, hi_box, &mut cand);
-            for &pi in &cand {
-                let (pa, pb) = segs[pi];
-                if right_normal(pa, pb).dot(&n) >= 0.0 {
-                    continue; // not facing the mortar segment
+    let facing = |pa: Point2<f64>, pb: Point2<f64>, a: Point2<f64>, b: Point2<f64>| {
+        right_normal(pa, pb).dot(&right_normal(a, b)) < 0.0
+    };
+    for_each_mortar_point(side, lm, other, max_gap, facing, |p| {
+        let gap = (p.xo - p.xm).dot(&p.n);
+        if gap.abs() > max_gap {
+            return;
+        }
+        other.shape_at(p.other, p.xo, p.sigma, &mut shape);
+        let nm = [1.0 - p.tau, p.tau];
+        for (l, phi) in p.hats {
+            if phi == 0.0 {
+                continue;
+            }
+            g0[l] += p.wt * phi * gap;
+            let row = &mut rows[l];
+            for c in 0..2 {
+                for (q, &v) in [p.va, p.vb].iter().enumerate() {
+                    *row.entry(2 * side.nodes[v % n_pts] + c).or_insert(0.0) -= p.wt * phi * nm[q] * p.n[c];
                 }
-                let ta = (pa - a).dot(&d) / (len * len);
-                let tb = (pb - a).dot(&d) / (len * len);
-                if (tb - ta).abs() < 1e-14 {
-                    continue;
-                }
-                let lo = ta.min(tb).max(0.0);
-                let hi = ta.max(tb).min(1.0);
-                if hi - lo <= 1e-12 {
-                    continue;
-                }
-                for (x, w) in gx.iter().zip(&gw) {
-                    let tau = lo + 0.5 * (x + 1.0) * (hi - lo);
-                    let wt = 0.5 * w * (hi - lo) * len;
-                    let sigma = (tau - ta) / (tb - ta);
-                    let xo = pa + (pb - pa) * sigma;
-                    let xm = a + d * tau;
-                    let gap = (xo - xm).dot(&n);
-                    if gap.abs() > max_gap {
-                        continue;
-                    }
-                    other.shape_at(pi, xo, sigma, &mut shape);
-                    let nm = [1.0 - tau, tau];
-                    for (j, phi) in ch.hats(ch.arc[k] + tau * len) {
-                        if phi == 0.0 {
-                            continue;
-                        }
-                        let l = ch.first_lm + j;
-                        g0[l] += wt * phi * gap;
-                        let row = &mut rows[l];
-                        for c in 0..2 {
-                            for (q, &v) in [va, vb].iter().enumerate() {
-                                *row.entry(2 * side.nodes[v % n_pts] + c).or_insert(0.0) -= wt * phi * nm[q] * n[c];
-                            }
-                            for &(node, nv) in shape.iter() {
-                                *row.entry(2 * node + c).or_insert(0.0) += wt * phi * nv * n[c];
-                            }
-                        }
-                    }
+                for &(node, nv) in shape.iter() {
+                    *row.entry(2 * node + c).or_insert(0.0) += p.wt * phi * nv * p.n[c];
                 }
             }
         }
-    }
+    });
     rows.into_iter().zip(g0).map(|(r, g)| (r.into_iter().filter(|(_, v)| *v != 0.0).collect(), g)).collect()
 }
 
