@@ -189,6 +189,10 @@ pub enum MeshSpec {
         /// Rotation in degrees about `origin` (counter-clockwise).
         #[serde(default)]
         rotation: f64,
+        /// Refine toward the middle instead of one end, per direction: `grading` is then the
+        /// spacing ratio end/middle (e.g. a block refined under a contact).
+        #[serde(default)]
+        refine_to_centre: [bool; 2],
     },
     Disc {
         centre: [f64; 2],
@@ -571,31 +575,36 @@ fn model_err(cx: &Ctx, key: String, e: ModelError) -> CaseError {
 
 fn build_mesh(spec: &MeshSpec, base: &Path) -> Result<Mesh2, String> {
     let m = match spec {
-        MeshSpec::Rectangle { origin, size, divisions, grading, cell, rotation } => generate::rectangle(
-            origin[0],
-            origin[1],
-            size[0],
-            size[1],
-            divisions[0],
-            divisions[1],
-            grading[0],
-            grading[1],
-            match cell {
+        MeshSpec::Rectangle { origin, size, divisions, grading, cell, rotation, refine_to_centre } => {
+            if divisions[0] == 0 || divisions[1] == 0 || !(grading[0] > 0.0 && grading[1] > 0.0) {
+                return Err("rectangle needs divisions >= 1 and positive grading ratios".into());
+            }
+            let lines = |k: usize| {
+                if refine_to_centre[k] {
+                    generate::graded_to_centre(divisions[k], grading[k])
+                } else {
+                    generate::graded(divisions[k], grading[k])
+                }
+            };
+            let kind = match cell {
                 CellSpec::Quad4 => CellKind::Quad4,
                 CellSpec::Tri3 => CellKind::Tri3,
-            },
-        )
-        .map(|mut m| {
-            if *rotation != 0.0 {
-                let (sn, cs) = rotation.to_radians().sin_cos();
-                let o = Point2::new(origin[0], origin[1]);
-                for p in m.nodes.iter_mut() {
-                    let d = *p - o;
-                    *p = o + Vector2::new(cs * d.x - sn * d.y, sn * d.x + cs * d.y);
+            };
+            let mesh =
+                generate::rectangle_from_divisions(origin[0], origin[1], size[0], size[1], &lines(0), &lines(1), kind);
+            // Rotation about the origin corner (orientation and sets are preserved).
+            mesh.map(|mut m| {
+                if *rotation != 0.0 {
+                    let (sn, cs) = rotation.to_radians().sin_cos();
+                    let o = Point2::new(origin[0], origin[1]);
+                    for p in m.nodes.iter_mut() {
+                        let d = *p - o;
+                        *p = o + Vector2::new(cs * d.x - sn * d.y, sn * d.x + cs * d.y);
+                    }
                 }
-            }
-            m
-        }),
+                m
+            })
+        }
         MeshSpec::Disc { centre, radius, divisions } => {
             generate::disc(Point2::new(centre[0], centre[1]), *radius, divisions[0], divisions[1])
         }

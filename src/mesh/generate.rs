@@ -69,12 +69,32 @@ pub fn rectangle(
     check(lx > 0.0 && ly > 0.0, "rectangle size must be positive")?;
     check(nx >= 1 && ny >= 1, "rectangle needs at least one division per direction")?;
     check(grading_x > 0.0 && grading_y > 0.0, "grading ratios must be positive")?;
-    let gx = graded(nx, grading_x);
-    let gy = graded(ny, grading_y);
+    rectangle_from_divisions(x0, y0, lx, ly, &graded(nx, grading_x), &graded(ny, grading_y), kind)
+}
+
+/// Rectangle whose grid lines sit at `x0 + lx gx[i]`, `y0 + ly gy[j]` (`gx`, `gy` increasing from
+/// 0 to 1, e.g. from [`graded`] or [`graded_to_centre`]: a block refined toward the middle of
+/// its top for a contact patch). Same sets as [`rectangle`].
+pub fn rectangle_from_divisions(
+    x0: f64,
+    y0: f64,
+    lx: f64,
+    ly: f64,
+    gx: &[f64],
+    gy: &[f64],
+    kind: CellKind,
+) -> Result<Mesh2, MeshError> {
+    check(lx > 0.0 && ly > 0.0, "rectangle size must be positive")?;
+    check(gx.len() >= 2 && gy.len() >= 2, "rectangle needs at least one division per direction")?;
+    check(
+        gx.windows(2).all(|w| w[1] > w[0]) && gy.windows(2).all(|w| w[1] > w[0]),
+        "grid lines must increase strictly",
+    )?;
+    let (nx, ny) = (gx.len() - 1, gy.len() - 1);
     let id = |i: usize, j: usize| j * (nx + 1) + i;
     let mut m = Mesh2::default();
-    for &ty in &gy {
-        for &tx in &gx {
+    for &ty in gy {
+        for &tx in gx {
             m.nodes.push(Point2::new(x0 + lx * tx, y0 + ly * ty));
         }
     }
@@ -245,6 +265,19 @@ mod tests {
         assert!((last / first - 5.0).abs() < 1e-12);
         assert_eq!(g[0], 0.0);
         assert_eq!(g[10], 1.0);
+    }
+
+    #[test]
+    fn centre_graded_block_is_finest_at_the_middle() {
+        // 40 divisions, end/centre spacing ratio 10: the middle cells are 10x smaller.
+        let g = graded_to_centre(40, 10.0);
+        let m = rectangle_from_divisions(-20.0, -20.0, 40.0, 20.0, &g, &graded(20, 0.1), CellKind::Quad4)
+            .expect("valid block");
+        let h_end = g[1] - g[0];
+        let h_mid = g[21] - g[20];
+        assert!((h_end / h_mid - 10.0).abs() < 1e-9, "ratio {}", h_end / h_mid);
+        assert!((m.area() - 800.0).abs() < 1e-9);
+        assert_eq!(m.edge_sets["top"].len(), 40);
     }
 
     #[test]
