@@ -63,14 +63,21 @@ impl<'m> StaticAnalysis<'m> {
     pub fn new(model: &'m Model) -> Result<Self, AnalysisError> {
         // Constraint rows are scaled by `alpha ~ E / |C|` in the matrix so that both blocks of the
         // saddle point have the same magnitude: the LU factorisation then keeps its accuracy.
-        let mean_coef = model.constraints.iter().flatten().map(|(_, c)| c.abs()).sum::<f64>()
-            / model.constraints.iter().map(|r| r.len()).sum::<usize>().max(1) as f64;
+        let all_rows: Vec<&Vec<(usize, f64)>> = model.constraints.iter().chain(model.contact_rows.iter()).collect();
+        let n_coef = all_rows.iter().map(|r| r.len()).sum::<usize>().max(1);
+        let mean_coef = all_rows.iter().flat_map(|r| r.iter()).map(|(_, c)| c.abs()).sum::<f64>() / n_coef as f64;
         let e_max = model.materials.iter().map(|m| m.elastic().young).fold(0.0, f64::max);
         let alpha = if mean_coef > 0.0 && e_max > 0.0 { e_max / mean_coef } else { 1.0 };
         let scaled: Vec<Vec<(usize, f64)>> =
-            model.constraints.iter().map(|r| r.iter().map(|&(d, c)| (d, alpha * c)).collect()).collect();
-        let pattern =
-            SparsityPattern::with_constraints(model.num_nodes(), &model.elements, &model.dofs, &scaled, &model.penalty);
+            all_rows.iter().map(|r| r.iter().map(|&(d, c)| (d, alpha * c)).collect()).collect();
+        let pattern = SparsityPattern::with_constraints(
+            model.num_nodes(),
+            &model.elements,
+            &model.dofs,
+            &scaled,
+            &model.penalty,
+            model.constraints.len(),
+        );
         let solver = SparseSolver::new(&pattern.symbolic, model.linear_solver)?;
         let nnz = pattern.nnz();
         tracing::info!(
@@ -109,7 +116,7 @@ impl<'m> StaticAnalysis<'m> {
             history: vec![PlasticState::default(); m.elements.num_states()],
             stress: vec![Stress4::zeros(); m.elements.num_points()],
             f_int: vec![0.0; m.dofs.num_dofs],
-            multipliers: vec![0.0; m.constraints.len()],
+            multipliers: vec![0.0; m.constraints.len() + m.contact_rows.len()],
         }
     }
 
@@ -185,14 +192,38 @@ impl<'m> StaticAnalysis<'m> {
         }
         let linear = m.is_linear();
         let nf = m.dofs.num_free;
-        let nm = m.constraints.len();
+        let nt = m.constraints.len();
+        let nc = m.contact_rows.len();
+        let nm = nt + nc;
         let mut mu = state.multipliers.clone();
+        // Contact active set (semi-smooth Newton on the Alart-Curnier conditions, normal only):
+        // node k is active when lambda_hat = lambda_k + eps_n g_k / int Phi_k <= 0.
+        let mut active = vec![false; nc];
+        let mut prev_active: Option<Vec<bool>> = None;
+        let mut gaps = vec![0.0; nc];
         let mut r = vec![0.0; nf + nm];
         let mut ct_mu = vec![0.0; m.dofs.num_dofs];
         let mut first_res = f64::NAN;
         let mut res = f64::INFINITY;
+        let mut step_scale = 0.0f64;
         for it in 0..=p.max_iterations {
             let need_tangent = !linear || !self.factored;
+            for k in 0..nc {
+                gaps[k] = m.contact_g0[k] + m.contact_rows[k].iter().map(|&(d, c)| c * u[d]).sum::<f64>();
+                let phi = m.contact_phi[k];
+                active[k] = phi > 0.0 && mu[nt + k] + m.contact_eps[k] * gaps[k] / phi <= 0.0;
+            }
+            let set_changed = prev_active.as_ref().map(|pa| pa != &active).unwrap_or(nc > 0);
+            if nc > 0 {
+                tracing::debug!(
+                    step,
+                    it,
+                    active = active.iter().filter(|&&a| a).count(),
+                    changed = set_changed,
+                    "contact active set"
+                );
+            }
+            prev_active = Some(active.clone());
             self.assembler.assemble(
                 &AssemblyInput {
                     coords: &m.coords,
@@ -227,16 +258,61 @@ impl<'m> StaticAnalysis<'m> {
                 r[nf + k] = -self.alpha * g;
                 g_scale += gs * gs;
             }
+            // Contact rows: active -> g_k = 0; inactive -> lambda_k = 0.
+            for k in 0..nc {
+                let row = &m.contact_rows[k];
+                for &(d, c) in row {
+                    ct_mu[d] += c * mu[nt + k];
+                }
+                if active[k] {
+                    r[nf + nt + k] = -self.alpha * gaps[k];
+                    let gs: f64 = m.contact_g0[k].abs() + row.iter().map(|&(d, c)| (c * u[d]).abs()).sum::<f64>();
+                    g_scale += gs * gs;
+                } else {
+                    r[nf + nt + k] = -mu[nt + k] / self.alpha;
+                }
+            }
+            if need_tangent && nc > 0 {
+                let pat = &self.assembler.pattern;
+                for &(row, p1, p2, coef) in &pat.constraint_scatter {
+                    if row >= nt {
+                        self.values[p2] += coef;
+                        if active[row - nt] {
+                            self.values[p1] += coef;
+                        }
+                    }
+                }
+                for (k, &pd) in pat.diag_scatter.iter().enumerate() {
+                    self.values[pd] = if active[k] { 0.0 } else { 1.0 };
+                }
+            }
             for (i, &g) in m.dofs.free.iter().enumerate() {
                 r[i] = lambda * m.f_ext[g] - self.trial_f_int[g] - ct_mu[g];
             }
             let f_ext_norm = lambda.abs() * norm(&m.f_ext);
-            let scale = f_ext_norm.max(norm(&self.trial_f_int)).max(norm(&ct_mu));
+            // Force scale: never below what this step has seen (a contact that opens can leave a
+            // body unloaded, where the current forces are all round-off).
+            let scale = f_ext_norm.max(norm(&self.trial_f_int)).max(norm(&ct_mu)).max(step_scale);
+            step_scale = scale;
             let rn = norm(&r[..nf]);
-            let gn = norm(&r[nf..]) / self.alpha;
+            // Gap residuals (ties, active contact rows) against |C| |u|; inactive contact rows
+            // (lambda = 0) against the largest contact multiplier.
+            let gap_rows = (0..nt).chain((0..nc).filter(|&k| active[k]).map(|k| nt + k));
+            let gn = gap_rows.map(|k| r[nf + k] * r[nf + k]).sum::<f64>().sqrt() / self.alpha;
+            // Multiplier scale: the largest contact multiplier or the force scale spread over the
+            // paired contact length.
+            let contact_len: f64 = m.contact_phi.iter().sum();
+            let mu_ref = mu[nt..].iter().fold(0.0f64, |a, v| a.max(v.abs())).max(if contact_len > 0.0 {
+                scale / contact_len
+            } else {
+                0.0
+            });
+            let free_mu = (0..nc).filter(|&k| !active[k]).fold(0.0f64, |a, k| a.max(mu[nt + k].abs()));
             let res_u = if scale > 0.0 { rn / scale } else { rn };
             let res_g = if gn == 0.0 { 0.0 } else { gn / g_scale.sqrt().max(f64::MIN_POSITIVE) };
-            res = res_u.max(res_g);
+            let res_mu = if free_mu == 0.0 { 0.0 } else { free_mu / mu_ref.max(f64::MIN_POSITIVE) };
+            res = res_u.max(res_g).max(res_mu);
+            tracing::trace!(res_u, res_g, res_mu, rn, scale, "residual parts");
             if it == 0 {
                 first_res = res;
             }
@@ -244,7 +320,7 @@ impl<'m> StaticAnalysis<'m> {
             if !res.is_finite() || (it > 0 && res > p.divergence_factor * first_res.max(p.rtol)) {
                 return Ok(Err((it, res)));
             }
-            if res <= p.rtol || (rn == 0.0 && gn == 0.0) {
+            if !set_changed && (res <= p.rtol || (rn == 0.0 && gn == 0.0 && free_mu == 0.0)) {
                 state.u = u;
                 state.multipliers = mu;
                 state.time = t;
@@ -277,6 +353,12 @@ impl<'m> StaticAnalysis<'m> {
             }
             for k in 0..nm {
                 mu[k] += self.alpha * r[nf + k];
+            }
+            // The inactive-row equation lambda = 0 is linear: its Newton step is exact.
+            for k in 0..nc {
+                if !active[k] {
+                    mu[nt + k] = 0.0;
+                }
             }
         }
         Ok(Err((p.max_iterations, res)))

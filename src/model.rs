@@ -13,6 +13,7 @@ use crate::fem::kernel::Formulation;
 use crate::fem::material::{Material, PlaneHypothesis};
 use crate::fem::quadrature::QuadratureRule;
 use crate::mesh::{CellKind, Mesh2};
+use crate::mortar::weighted_gaps;
 use crate::mortar::{
     build_multipliers, tying_rows, ConstraintRow, MortarSide, MultiplierSpace, Multipliers, OtherSide,
 };
@@ -117,6 +118,41 @@ pub struct Model {
     pub deactivated_dofs: usize,
     /// Constant extra stiffness `(dof_i, dof_j, value)`: ghost penalty on cut bodies.
     pub penalty: Vec<(usize, usize, f64)>,
+    /// Frictionless contact (small sliding): weighted-gap rows `g_k = g0_k + row . u`, the
+    /// integral of each multiplier hat over its paired part, and the augmentation `eps_n`.
+    pub contact_rows: Vec<ConstraintRow>,
+    pub contact_g0: Vec<f64>,
+    pub contact_phi: Vec<f64>,
+    pub contact_eps: Vec<f64>,
+    pub contacts: Vec<ContactInfo>,
+}
+
+/// A frictionless mortar contact pair; multipliers (contact pressure `p = -lambda_n`) on the
+/// mortar surface.
+#[derive(Debug, Clone)]
+pub struct ContactInfo {
+    pub name: String,
+    pub mortar: usize,
+    /// Index of the pair's first row in `Model::contact_rows`.
+    pub first_row: usize,
+    pub multipliers: Multipliers,
+}
+
+/// The other surface of a contact pair.
+#[derive(Debug, Clone)]
+pub enum ContactOther {
+    /// Real edges of a body (global node ids).
+    Edges(Vec<[usize; 2]>),
+    /// The virtual surface of a named free cut.
+    Cut(String),
+}
+
+struct ContactSpec {
+    name: String,
+    mortar: usize,
+    side: MortarSide,
+    other: ContactOther,
+    young: f64,
 }
 
 /// A mortar tie between a patch (mortar side, multipliers) and a host (virtual surface).
@@ -183,7 +219,7 @@ fn edge_chain(edges: &[[usize; 2]]) -> Result<(Vec<usize>, bool), String> {
 impl Model {
     /// True when every material is linear: the stiffness is then factored once for the whole run.
     pub fn is_linear(&self) -> bool {
-        self.materials.iter().all(|m| !m.has_state())
+        self.materials.iter().all(|m| !m.has_state()) && self.contact_rows.is_empty()
     }
     pub fn num_nodes(&self) -> usize {
         self.coords.len()
@@ -210,7 +246,7 @@ impl Model {
         for (d, v) in r.iter_mut().enumerate() {
             *v -= state.load_factor * self.f_ext[d];
         }
-        for (k, row) in self.constraints.iter().enumerate() {
+        for (k, row) in self.constraints.iter().chain(self.contact_rows.iter()).enumerate() {
             for &(d, c) in row {
                 r[d] += c * state.multipliers[k];
             }
@@ -250,6 +286,7 @@ pub struct ModelBuilder {
     /// Free virtual surfaces: (name, body, surface with the material on its left).
     free_cuts: Vec<(String, usize, VirtualSurface)>,
     ghost_penalty: f64,
+    contacts: Vec<ContactSpec>,
 }
 
 impl ModelBuilder {
@@ -264,7 +301,52 @@ impl ModelBuilder {
             ties: vec![],
             free_cuts: vec![],
             ghost_penalty: DEFAULT_GHOST_PENALTY,
+            contacts: vec![],
         }
+    }
+
+    /// Frictionless mortar contact (small sliding, fixed pairing from the reference geometry):
+    /// the mortar surface (edge sets of `mortar`, one polyline) carries the multipliers; the
+    /// other surface is the edge sets of `other_body` or the virtual surface of a free cut.
+    pub fn add_contact(
+        &mut self,
+        name: &str,
+        mortar: usize,
+        mortar_sets: &[String],
+        other_body: usize,
+        other: ContactOther,
+    ) -> Result<(), ModelError> {
+        let err = |msg: String| ModelError::Tie { tie: name.to_string(), msg };
+        let mut edges: Vec<[usize; 2]> = Vec::new();
+        for set in mortar_sets {
+            edges.extend(self.edge_set(mortar, set, "contact surface")?);
+        }
+        if edges.is_empty() {
+            return Err(err("the mortar surface has no edges".into()));
+        }
+        let (chain, closed) = edge_chain(&edges).map_err(err)?;
+        let mb = &self.bodies[mortar];
+        let side = MortarSide {
+            nodes: chain.iter().map(|&n| n + mb.node_offset).collect(),
+            points: chain.iter().map(|&n| mb.mesh.nodes[n]).collect(),
+            closed,
+        };
+        let young = self.materials[mb.material]
+            .elastic()
+            .young
+            .max(self.materials[self.bodies[other_body].material].elastic().young);
+        self.contacts.push(ContactSpec { name: name.to_string(), mortar, side, other, young });
+        Ok(())
+    }
+
+    /// Oriented edges of a body's edge sets, in global node ids (for [`ContactOther::Edges`]).
+    pub fn global_edges(&self, body: usize, sets: &[String]) -> Result<Vec<[usize; 2]>, ModelError> {
+        let off = self.bodies[body].node_offset;
+        let mut v = Vec::new();
+        for set in sets {
+            v.extend(self.edge_set(body, set, "contact surface")?.into_iter().map(|e| [e[0] + off, e[1] + off]));
+        }
+        Ok(v)
     }
 
     /// Ghost-penalty factor `gamma` on cut bodies (0 switches it off).
@@ -705,6 +787,51 @@ impl ModelBuilder {
         if dofs.num_free == 0 {
             return Err(ModelError::NoFreeDofs);
         }
+        // Contact pairs: weighted-gap rows from the reference geometry.
+        let (mut contact_rows, mut contact_g0, mut contact_phi, mut contact_eps, mut contacts) =
+            (vec![], vec![], vec![], vec![], vec![]);
+        for c in &self.contacts {
+            let lm = build_multipliers(&c.side, MultiplierSpace::Classical, 1.0);
+            let nseg = c.side.num_segments();
+            let h = (0..nseg)
+                .map(|i| (c.side.points[(i + 1) % c.side.points.len()] - c.side.points[i]).norm())
+                .sum::<f64>()
+                / nseg as f64;
+            let max_gap = 2.0 * h;
+            let rows = match &c.other {
+                ContactOther::Edges(edges) => {
+                    let pts: Vec<[Point2<f64>; 2]> =
+                        edges.iter().map(|e| [coords_of(&self.bodies, e[0]), coords_of(&self.bodies, e[1])]).collect();
+                    weighted_gaps(&c.side, &lm, &OtherSide::Edges { nodes: edges, points: &pts }, max_gap)
+                }
+                ContactOther::Cut(cut) => {
+                    let Some(i) = self.free_cuts.iter().position(|f| &f.0 == cut) else {
+                        return Err(ModelError::Tie { tie: c.name.clone(), msg: format!("no cut named '{cut}'") });
+                    };
+                    let (b, emb) = &cut_embeddings[i];
+                    let host = &self.bodies[*b];
+                    weighted_gaps(
+                        &c.side,
+                        &lm,
+                        &OtherSide::Embedded { host: &host.mesh, host_offset: host.node_offset, embedding: emb },
+                        max_gap,
+                    )
+                }
+            };
+            contacts.push(ContactInfo {
+                name: c.name.clone(),
+                mortar: c.mortar,
+                first_row: contact_rows.len(),
+                multipliers: lm,
+            });
+            for (row, g0, phi) in rows {
+                contact_rows.push(row);
+                contact_g0.push(g0);
+                contact_phi.push(phi);
+                // Augmentation from the local bulk stiffness: E / h.
+                contact_eps.push(c.young / h);
+            }
+        }
         Ok(Model {
             hypothesis: self.hypothesis,
             bodies: self.bodies,
@@ -719,12 +846,21 @@ impl ModelBuilder {
             load_path,
             times,
             newton,
-            linear_solver: if constraints.is_empty() { linear_solver } else { LinearSolverKind::Lu },
+            linear_solver: if constraints.is_empty() && contact_rows.is_empty() {
+                linear_solver
+            } else {
+                LinearSolverKind::Lu
+            },
             constraints,
             ties,
             cuts,
             deactivated_dofs,
             penalty,
+            contact_rows,
+            contact_g0,
+            contact_phi,
+            contact_eps,
+            contacts,
         })
     }
 }

@@ -83,8 +83,12 @@ pub struct SparsityPattern {
     /// For element `e`, local entry `i * 8 + j` goes to `values[scatter[64 e + i * 8 + j]]`
     /// (row `i`, column `j`), or nowhere if [`CONSTRAINED`].
     scatter: Vec<usize>,
-    /// `(position of C_re, position of C^T_er, coefficient)` for every constraint entry.
-    constraint_scatter: Vec<(usize, usize, f64)>,
+    /// `(row r, position of C_re, position of C^T_er, coefficient)` for every constraint entry.
+    pub constraint_scatter: Vec<(usize, usize, usize, f64)>,
+    /// Rows from this index on are inequality (contact) rows: the assembler leaves their values
+    /// to the analysis, and each has a diagonal entry at `diag_scatter[r - fixed_rows]`.
+    pub fixed_rows: usize,
+    pub diag_scatter: Vec<usize>,
     /// `(position, value)` of every constant penalty entry.
     penalty_scatter: Vec<(usize, f64)>,
 }
@@ -93,7 +97,7 @@ impl SparsityPattern {
     /// Builds the pattern from node adjacency (no triplet sort): column `j` of node `n` holds the
     /// free DOFs of all nodes sharing a cell with `n`, in increasing order.
     pub fn new(num_nodes: usize, elements: &ElementTable, dofs: &DofMap) -> Self {
-        Self::with_constraints(num_nodes, elements, dofs, &[], &[])
+        Self::with_constraints(num_nodes, elements, dofs, &[], &[], 0)
     }
 
     /// Pattern of the saddle-point matrix `[K + P, C^T; C 0]`: the free DOFs first, then one
@@ -105,6 +109,7 @@ impl SparsityPattern {
         dofs: &DofMap,
         constraints: &[Vec<(usize, f64)>],
         penalty: &[(usize, usize, f64)],
+        fixed_rows: usize,
     ) -> Self {
         let mut adj: Vec<Vec<usize>> = vec![Vec::new(); num_nodes];
         for (e, nodes) in elements.nodes.iter().enumerate() {
@@ -164,12 +169,22 @@ impl SparsityPattern {
             row_idx.extend_from_slice(&cr);
             col_ptr.push(row_idx.len());
         }
-        for row in constraints {
+        for (r, row) in constraints.iter().enumerate() {
             let mut rows: Vec<usize> = row.iter().map(|&(d, _)| dofs.eq[d]).filter(|&e| e != CONSTRAINED).collect();
+            if r >= fixed_rows {
+                rows.push(nf + r);
+            }
             rows.sort_unstable();
             rows.dedup();
             row_idx.extend_from_slice(&rows);
             col_ptr.push(row_idx.len());
+        }
+        let mut diag_scatter = Vec::new();
+        for r in fixed_rows..constraints.len() {
+            let c = nf + r;
+            if let Ok(p) = row_idx[col_ptr[c]..col_ptr[c + 1]].binary_search(&c) {
+                diag_scatter.push(col_ptr[c] + p);
+            }
         }
         // Where each constraint coefficient goes: (row r, column e) and (row e, column r).
         let mut constraint_scatter = Vec::new();
@@ -183,7 +198,7 @@ impl SparsityPattern {
                 let col_e = &row_idx[col_ptr[e]..col_ptr[e + 1]];
                 let col_r = &row_idx[col_ptr[cr]..col_ptr[cr + 1]];
                 if let (Ok(p1), Ok(p2)) = (col_e.binary_search(&cr), col_r.binary_search(&e)) {
-                    constraint_scatter.push((col_ptr[e] + p1, col_ptr[cr] + p2, coef));
+                    constraint_scatter.push((r, col_ptr[e] + p1, col_ptr[cr] + p2, coef));
                 }
             }
         }
@@ -220,7 +235,7 @@ impl SparsityPattern {
             }
         }
         let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
-        SparsityPattern { symbolic, scatter, constraint_scatter, penalty_scatter }
+        SparsityPattern { symbolic, scatter, constraint_scatter, fixed_rows, diag_scatter, penalty_scatter }
     }
 
     pub fn nnz(&self) -> usize {
@@ -363,9 +378,11 @@ impl Assembler {
                     }
                 }
             }
-            for &(p1, p2, coef) in &self.pattern.constraint_scatter {
-                values[p1] += coef;
-                values[p2] += coef;
+            for &(r, p1, p2, coef) in &self.pattern.constraint_scatter {
+                if r < self.pattern.fixed_rows {
+                    values[p1] += coef;
+                    values[p2] += coef;
+                }
             }
             for &(p, v) in &self.pattern.penalty_scatter {
                 values[p] += v;

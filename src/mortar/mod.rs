@@ -366,15 +366,17 @@ pub fn tying_rows(side: &MortarSide, lm: &Multipliers, other: &OtherSide) -> Vec
 /// normal of the mortar body on each mortar segment (right normal, the body being on the left).
 /// Other-side segments are paired by orthogonal projection onto the mortar segment; only those
 /// facing it (normals opposed) and within `max_gap` of it (either side: penetration counts)
-/// contribute. Returns `(coefficient row over global DOFs, g0_l)` per multiplier node.
+/// contribute. Returns `(coefficient row over global DOFs, g0_l, int Phi_l over the paired
+/// part)` per multiplier node.
 pub fn weighted_gaps(
     side: &MortarSide,
     lm: &Multipliers,
     other: &OtherSide,
     max_gap: f64,
-) -> Vec<(ConstraintRow, f64)> {
+) -> Vec<(ConstraintRow, f64, f64)> {
     let mut rows: Vec<BTreeMap<usize, f64>> = vec![BTreeMap::new(); lm.num_nodes];
     let mut g0 = vec![0.0; lm.num_nodes];
+    let mut phi_int = vec![0.0; lm.num_nodes];
     let mut shape = Vec::new();
     let n_pts = side.points.len();
     let facing = |pa: Point2<f64>, pb: Point2<f64>, a: Point2<f64>, b: Point2<f64>| {
@@ -392,6 +394,7 @@ pub fn weighted_gaps(
                 continue;
             }
             g0[l] += p.wt * phi * gap;
+            phi_int[l] += p.wt * phi;
             let row = &mut rows[l];
             for c in 0..2 {
                 for (q, &v) in [p.va, p.vb].iter().enumerate() {
@@ -403,7 +406,11 @@ pub fn weighted_gaps(
             }
         }
     });
-    rows.into_iter().zip(g0).map(|(r, g)| (r.into_iter().filter(|(_, v)| *v != 0.0).collect(), g)).collect()
+    rows.into_iter()
+        .zip(g0)
+        .zip(phi_int)
+        .map(|((r, g), f)| (r.into_iter().filter(|(_, v)| *v != 0.0).collect(), g, f))
+        .collect()
 }
 
 fn nrm_dist(a: Point2<f64>, d: Vector2<f64>, p: Point2<f64>) -> f64 {
@@ -418,7 +425,7 @@ mod tests {
     /// Mortar side: the top of a lower body along y = 0, x in [0, 4] (5 nodes, ids 0..4, body
     /// below so the polyline runs right-to-left). Other side: the bottom of an upper body along
     /// `y = d + s x` (3 edges, non-matching, ids 10..13, running left-to-right).
-    fn scene(d: f64, slope: f64, space: MultiplierSpace) -> (Vec<(ConstraintRow, f64)>, Multipliers) {
+    fn scene(d: f64, slope: f64, space: MultiplierSpace) -> (Vec<(ConstraintRow, f64, f64)>, Multipliers) {
         let xs = [4.0, 3.0, 2.0, 1.0, 0.0];
         let side = MortarSide {
             nodes: (0..5).collect(),
@@ -453,7 +460,8 @@ mod tests {
         // Moving the upper body up by delta changes every g_l by delta int Phi_l; a common
         // translation of both bodies changes nothing.
         let (rows, _) = scene(0.01, 0.0, MultiplierSpace::Classical);
-        for (row, g0) in &rows {
+        for (row, g0, phi) in &rows {
+            assert!((g0 - 0.01 * phi).abs() < 1e-15, "uniform gap: g0 = d int Phi");
             let up_other: f64 = row.iter().filter(|(dof, _)| *dof >= 20 && dof % 2 == 1).map(|(_, c)| c).sum();
             let up_mortar: f64 = row.iter().filter(|(dof, _)| *dof < 20 && dof % 2 == 1).map(|(_, c)| c).sum();
             // int Phi_l = g0_l / d for a uniform gap d.
