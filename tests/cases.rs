@@ -146,3 +146,21 @@ fn tied_patch_case() {
     // The host loses exactly the patch area (16 mm^2 over unit cells), to round-off.
     assert!((removed - 16.0).abs() < 1e-9, "removed host area {removed}");
 }
+
+/// Contact case (frictionless, virtual host surface): uniform sigma_yy = -50 MPa everywhere and
+/// contact pressure 50 MPa at every multiplier node, 1e-8 relative (contact patch test).
+#[test]
+fn block_contact_case() {
+    let out = run_case("block_contact");
+    let f = hdf5::File::open(&out).unwrap();
+    let s = read2(&f, "steps/000001/points/stress");
+    for q in 0..s.nrows() {
+        let e = [s[[q, 0]].abs(), (s[[q, 1]] + 50.0).abs(), s[[q, 3]].abs()].into_iter().fold(0.0, f64::max);
+        assert!(e < 1e-8 * 50.0, "point {q}: stress {:?}", s.row(q));
+    }
+    let p = f.dataset("steps/000001/contacts/interface/pressure").unwrap().read_raw::<f64>().unwrap();
+    assert!(!p.is_empty());
+    for (l, v) in p.iter().enumerate() {
+        assert!((v - 50.0).abs() < 1e-8 * 50.0, "node {l}: pressure {v}");
+    }
+}

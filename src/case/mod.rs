@@ -38,7 +38,7 @@
 use crate::fem::kernel::Formulation;
 use crate::fem::material::{Elastic, J2Plastic, Material, PlaneHypothesis};
 use crate::mesh::{generate, gmsh, CellKind, Mesh2};
-use crate::model::{LoadPath, Model, ModelBuilder, ModelError};
+use crate::model::{ContactOther, LoadPath, Model, ModelBuilder, ModelError};
 use crate::mortar::MultiplierSpace;
 use crate::solver::linear::LinearSolverKind;
 use crate::solver::newton::NewtonParams;
@@ -76,6 +76,22 @@ pub struct CaseFile {
     pub ties: Vec<TieSpec>,
     #[serde(default)]
     pub cuts: Vec<CutSpec>,
+    #[serde(default)]
+    pub contacts: Vec<ContactSpec>,
+}
+
+/// Frictionless mortar contact (small sliding; groundwork for roadmap step 3): the `mortar`
+/// body's surface carries the contact pressure; the other surface is the `other` body's edge
+/// sets or the virtual surface of a named `[[cuts]]` entry in it.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactSpec {
+    pub name: Option<String>,
+    pub mortar: String,
+    pub mortar_surface: Vec<String>,
+    pub other: String,
+    pub other_surface: Option<Vec<String>>,
+    pub other_cut: Option<String>,
 }
 
 /// A free virtual surface cutting a body's mesh (X-FEM): the body keeps its material on one
@@ -507,6 +523,34 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         }
         let name = c.name.clone().unwrap_or_else(|| format!("cut{i}"));
         b.add_cut(&name, bi, pts, c.closed, c.keep == KeepSide::Left).map_err(|e| model_err(&cx, k("points"), e))?;
+    }
+
+    for (i, c) in raw.contacts.iter().enumerate() {
+        let k = |f: &str| format!("contacts[{i}].{f}");
+        let body = |name: &str, key: &str| {
+            b.body_index(name)
+                .map_err(|_| cx.err(k(key), format!("no body named '{name}' (defined: {})", body_names.join(", "))))
+        };
+        let mortar = body(&c.mortar, "mortar")?;
+        let other_body = body(&c.other, "other")?;
+        let other =
+            match (&c.other_surface, &c.other_cut) {
+                (Some(sets), None) => ContactOther::Edges(
+                    b.global_edges(other_body, sets).map_err(|e| model_err(&cx, k("other_surface"), e))?,
+                ),
+                (None, Some(cut)) => {
+                    if !raw.cuts.iter().enumerate().any(|(j, cs)| {
+                        cs.name.clone().unwrap_or_else(|| format!("cut{j}")) == *cut && cs.body == c.other
+                    }) {
+                        return Err(cx.err(k("other_cut"), format!("no cut named '{cut}' in body '{}'", c.other)));
+                    }
+                    ContactOther::Cut(cut.clone())
+                }
+                _ => return Err(cx.err(format!("contacts[{i}]"), "give exactly one of other_surface, other_cut")),
+            };
+        let name = c.name.clone().unwrap_or_else(|| format!("contact{i}"));
+        b.add_contact(&name, mortar, &c.mortar_surface, other_body, other)
+            .map_err(|e| model_err(&cx, k("mortar_surface"), e))?;
     }
 
     if let Some(g) = raw.solver.ghost_penalty {

@@ -15,6 +15,8 @@
 //! * Cut host bodies: `/mesh/<body>/material_fraction` `(c)`. Ties: `/mesh/ties/<tie>/points`,
 //!   `normals` `(l, 2)` of the multiplier nodes (outward normal of the patch) and per step
 //!   `/steps/NNNNNN/ties/<tie>/traction` `(l, 2)`: the traction on the patch, `t = sigma n = -lambda`.
+//! * Contacts: `/mesh/contacts/<pair>/points` `(l, 2)` and per step
+//!   `/steps/NNNNNN/contacts/<pair>/pressure` `(l)` (`p = -lambda_n >= 0`).
 //!
 //! The file is written as `<name>.h5.partial` and renamed when closed, so an earlier result is
 //! never replaced by a half-written file; the XDMF is rewritten after every step.
@@ -122,6 +124,17 @@ impl ResultWriter {
                     w.cut_bodies.push(b.name.clone());
                 }
             }
+            if !model.contacts.is_empty() {
+                let cg = mesh.create_group("contacts")?;
+                for c in &model.contacts {
+                    let m = &c.multipliers;
+                    let xy: Vec<f64> = m.points.iter().flat_map(|p| [p.x, p.y]).collect();
+                    cg.create_group(&c.name)?
+                        .new_dataset_builder()
+                        .with_data(&array2(m.num_nodes, 2, xy))
+                        .create("points")?;
+                }
+            }
             if !model.ties.is_empty() {
                 let tg = mesh.create_group("ties")?;
                 for t in &model.ties {
@@ -190,6 +203,15 @@ impl ResultWriter {
                     let nl = t.multipliers.num_nodes;
                     let tr: Vec<f64> = (0..2 * nl).map(|k| -state.multipliers[t.first_row + k]).collect();
                     tg.create_group(&t.name)?.new_dataset_builder().with_data(&array2(nl, 2, tr)).create("traction")?;
+                }
+            }
+            if !model.contacts.is_empty() {
+                let cg = g.create_group("contacts")?;
+                let nt = model.constraints.len();
+                for c in &model.contacts {
+                    let nl = c.multipliers.num_nodes;
+                    let p: Vec<f64> = (0..nl).map(|l| -state.multipliers[nt + c.first_row + l]).collect();
+                    cg.create_group(&c.name)?.new_dataset_builder().with_data(&Array1::from(p)).create("pressure")?;
                 }
             }
             let pg = g.create_group("points")?;
