@@ -213,6 +213,17 @@ impl<'m> StaticAnalysis<'m> {
                 let phi = m.contact_phi[k];
                 active[k] = phi > 0.0 && mu[nt + k] + m.contact_eps[k] * gaps[k] / phi <= 0.0;
             }
+            if it == 0 && nc > 0 && !active.iter().any(|&a| a) {
+                // Nothing touches yet: start from the closest paired nodes, so that no body
+                // floats in the first solve (load-controlled contact).
+                let gt = |k: usize| gaps[k] / m.contact_phi[k];
+                let paired = (0..nc).filter(|&k| m.contact_phi[k] > 0.0);
+                if let Some(gmin) = paired.clone().map(gt).min_by(f64::total_cmp) {
+                    for k in paired {
+                        active[k] = gt(k) <= gmin + 1e-6 * gmin.abs() + f64::MIN_POSITIVE;
+                    }
+                }
+            }
             let set_changed = prev_active.as_ref().map(|pa| pa != &active).unwrap_or(nc > 0);
             if nc > 0 {
                 tracing::debug!(

@@ -1,0 +1,130 @@
+//! Hertz line contact, frictionless, plane strain (Johnson, *Contact Mechanics*, 1985, sec. 4.3;
+//! REFERENCES.md): cylinder R = 10 mm on a block 40 x 20 mm, both E = 210000 MPa, nu = 0.3,
+//! load P = 100 N/mm: E* = 115384.6 MPa, a = sqrt(4 P R / (pi E*)) = 0.105046 mm,
+//! p0 = 2 P / (pi a) = 606.04 MPa, p(x) = p0 sqrt(1 - x^2 / a^2).
+//!
+//!        ___
+//!       /   \      half-disc, refined toward its lowest point; load P on its flat top
+//!       \___/
+//!   +-----o-----+  block refined toward the middle of its top; bottom fixed
+//!   |           |
+//!   +-----------+
+//!
+//! Small sliding: the pairing and normals come from the reference geometry (a/R = 1%).
+//! Groundwork for issue 4 (not its full validation): real surfaces only, one mesh. The
+//! half-space formulas hold to a fraction of a percent for these finite bodies.
+//! Note `half_disc`'s radial grading argument is centre/rim spacing (150: rim 150x finer).
+
+mod common;
+use common::solve;
+use mortex::fem::kernel::Formulation;
+use mortex::fem::material::{Elastic, Material, PlaneHypothesis};
+use mortex::mesh::{generate, CellKind};
+use mortex::model::{ContactOther, ModelBuilder};
+use nalgebra::{Point2, Vector2};
+
+const E: f64 = 210_000.0;
+const NU: f64 = 0.3;
+const R: f64 = 10.0;
+const LOAD: f64 = 100.0;
+
+struct HertzResult {
+    p0: f64,
+    a: f64,
+    l2: f64,
+    dofs: usize,
+}
+
+fn hertz(nx: usize, ny: usize, nr: usize, nt: usize, grading_t: f64, grading_x: f64) -> HertzResult {
+    let hyp = PlaneHypothesis::PlaneStrain;
+    let e_star = E / (2.0 * (1.0 - NU * NU));
+    let a_exact = (4.0 * LOAD * R / (std::f64::consts::PI * e_star)).sqrt();
+    let p0_exact = 2.0 * LOAD / (std::f64::consts::PI * a_exact);
+    let mut b = ModelBuilder::new(hyp);
+    let mi = b.add_material("steel", Material::Elastic(Elastic { young: E, poisson: NU, hypothesis: hyp }));
+    let gx = generate::graded_to_centre(nx, grading_x);
+    let gy = generate::graded(ny, 1.0 / 300.0);
+    let block = generate::rectangle_from_divisions(-20.0, -20.0, 40.0, 20.0, &gx, &gy, CellKind::Quad4).unwrap();
+    let cyl = generate::half_disc(Point2::new(0.0, R), R, nr, nt, 150.0, grading_t).unwrap();
+    let bl = b.add_body("block", block, mi, Formulation::Standard, 1.0);
+    let cy = b.add_body("cylinder", cyl, mi, Formulation::Standard, 1.0);
+    b.fix(bl, "bottom", 0, 0.0).unwrap();
+    b.fix(bl, "bottom", 1, 0.0).unwrap();
+    b.fix(cy, "centre", 0, 0.0).unwrap();
+    b.traction(cy, "top", Vector2::new(0.0, -LOAD / (2.0 * R))).unwrap();
+    let other = ContactOther::Edges(b.global_edges(bl, &["top".to_string()]).unwrap());
+    b.add_contact("hertz", cy, &["arc".to_string()], bl, other).unwrap();
+    let newton = mortex::solver::newton::NewtonParams { max_iterations: 60, ..Default::default() };
+    let model = b
+        .build(
+            mortex::model::LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)]).unwrap(),
+            vec![1.0],
+            newton,
+            Default::default(),
+        )
+        .unwrap();
+    let s = solve(&model);
+    let c = &model.contacts[0];
+    let nt0 = model.constraints.len();
+    let pts: Vec<(f64, f64)> = (0..c.multipliers.num_nodes)
+        .map(|l| (c.multipliers.points[l].x, -s.multipliers[nt0 + c.first_row + l]))
+        .collect();
+    let p0 = pts.iter().map(|p| p.1).fold(0.0, f64::max);
+    // Half-width from the load balance of a Hertzian profile fitted through the peak:
+    // P = pi a p0 / 2 with the computed total force, and the outermost loaded node as a check.
+    let total: f64 = {
+        let mut v: Vec<(f64, f64)> = pts.clone();
+        v.sort_by(|x, y| x.0.total_cmp(&y.0));
+        v.windows(2).map(|w| 0.5 * (w[0].1 + w[1].1) * (w[1].0 - w[0].0)).sum()
+    };
+    let a_fit = 2.0 * total / (std::f64::consts::PI * p0);
+    let exact = |x: f64| if x.abs() < a_exact { p0_exact * (1.0 - x * x / (a_exact * a_exact)).sqrt() } else { 0.0 };
+    // L2 error over [-2a, 2a] of the piecewise-linear multiplier field (interpolated between the
+    // multiplier nodes) against Hertz, 40 sub-samples per interval (the exact field has a square-
+    // root edge that a node-only trapezoid rule would misjudge).
+    let (mut num, mut den) = (0.0, 0.0);
+    let mut v: Vec<(f64, f64)> = pts.iter().copied().filter(|p| p.0.abs() <= 2.5 * a_exact).collect();
+    v.sort_by(|x, y| x.0.total_cmp(&y.0));
+    for w in v.windows(2) {
+        let (x0, x1) = (w[0].0, w[1].0);
+        let k = 40;
+        for i in 0..k {
+            let x = x0 + (x1 - x0) * (i as f64 + 0.5) / k as f64;
+            if x.abs() > 2.0 * a_exact {
+                continue;
+            }
+            let ph = w[0].1 + (w[1].1 - w[0].1) * (x - x0) / (x1 - x0);
+            let dx = (x1 - x0) / k as f64;
+            num += (ph - exact(x)).powi(2) * dx;
+            den += exact(x).powi(2) * dx;
+        }
+    }
+    eprintln!(
+        "Hertz {nx}x{ny} / {nr}x{nt}: {} DOFs, p0 {p0:.2} ({:.3}%), a {a_fit:.5} ({:.3}%), load {total:.3}, pressure L2 {:.3}%",
+        model.dofs.num_dofs,
+        100.0 * (p0 / p0_exact - 1.0),
+        100.0 * (a_fit / a_exact - 1.0),
+        100.0 * (num / den).sqrt()
+    );
+    HertzResult { p0: p0 / p0_exact - 1.0, a: a_fit / a_exact - 1.0, l2: (num / den).sqrt(), dofs: model.dofs.num_dofs }
+}
+
+/// Peak pressure and half-width against Hertz (issue 4 tolerances: 1% and 2%). The pressure L2
+/// error over [-2a, 2a] is reported, not asserted: these graded meshes coarsen to about a/5 at the
+/// contact edge and give 4.9% (issue target 1% on a fine mesh: not reached yet, see the note).
+#[test]
+fn hertz_peak_pressure_and_half_width() {
+    let r = hertz(120, 60, 60, 120, 300.0, 400.0);
+    assert!(r.p0.abs() < 0.01, "p0 error {:.3}%", 100.0 * r.p0);
+    assert!(r.a.abs() < 0.02, "half-width error {:.3}%", 100.0 * r.a);
+    assert!(r.dofs > 20_000);
+    eprintln!("pressure L2 error {:.2}% (reported)", 100.0 * r.l2);
+}
+
+#[test]
+#[ignore]
+fn hertz_explore() {
+    for (nx, ny, nr, nt, gt, gx) in [(120, 60, 60, 120, 300.0, 400.0), (200, 100, 80, 200, 100.0, 100.0)] {
+        hertz(nx, ny, nr, nt, gt, gx);
+    }
+}
