@@ -36,19 +36,27 @@ struct HertzResult {
 }
 
 fn hertz(nx: usize, ny: usize, nr: usize, nt: usize, grading_t: f64, grading_x: f64, virtual_top: bool) -> HertzResult {
+    let gx = generate::graded_to_centre(nx, grading_x);
+    let gy = generate::graded(ny, 1.0 / 300.0);
+    let rs = generate::graded(nr, 1.0 / 150.0);
+    let ts = generate::graded_to_centre(nt, grading_t);
+    hertz_on(&gx, &gy, &rs, &ts, virtual_top)
+}
+
+/// Block grid lines `gx`, `gy` (fractions of 40 x 20 mm), cylinder rings `rs` and angles `ts`.
+fn hertz_on(gx: &[f64], gy: &[f64], rs: &[f64], ts: &[f64], virtual_top: bool) -> HertzResult {
+    let (nx, ny, nr, nt) = (gx.len() - 1, gy.len() - 1, rs.len() - 1, ts.len() - 1);
     let hyp = PlaneHypothesis::PlaneStrain;
     let e_star = E / (2.0 * (1.0 - NU * NU));
     let a_exact = (4.0 * LOAD * R / (std::f64::consts::PI * e_star)).sqrt();
     let p0_exact = 2.0 * LOAD / (std::f64::consts::PI * a_exact);
     let mut b = ModelBuilder::new(hyp);
     let mi = b.add_material("steel", Material::Elastic(Elastic { young: E, poisson: NU, hypothesis: hyp }));
-    let gx = generate::graded_to_centre(nx, grading_x);
-    let gy = generate::graded(ny, 1.0 / 300.0);
     // Virtual variant: the host block reaches 0.013 mm above the contact surface y = 0, which is
     // a virtual line cutting its top cells (host material kept below).
     let top = if virtual_top { 0.013 } else { 0.0 };
-    let block = generate::rectangle_from_divisions(-20.0, -20.0, 40.0, 20.0 + top, &gx, &gy, CellKind::Quad4).unwrap();
-    let cyl = generate::half_disc(Point2::new(0.0, R), R, nr, nt, 150.0, grading_t).unwrap();
+    let block = generate::rectangle_from_divisions(-20.0, -20.0, 40.0, 20.0 + top, gx, gy, CellKind::Quad4).unwrap();
+    let cyl = generate::half_disc_from_divisions(Point2::new(0.0, R), R, rs, ts).unwrap();
     let bl = b.add_body("block", block, mi, Formulation::Standard, 1.0);
     let cy = b.add_body("cylinder", cyl, mi, Formulation::Standard, 1.0);
     b.fix(bl, "bottom", 0, 0.0).unwrap();
@@ -136,6 +144,60 @@ fn hertz_on_a_virtual_block_surface() {
     assert!(r.p0.abs() < 0.01, "p0 error {:.3}%", 100.0 * r.p0);
     assert!(r.a.abs() < 0.02, "half-width error {:.3}%", 100.0 * r.a);
     eprintln!("pressure L2 error {:.2}% (reported)", 100.0 * r.l2);
+}
+
+/// Meshes uniformly fine over |x| <= 0.25 mm (about 2.4 a): block plateau spacing 0.5 mm / n,
+/// cylinder 1.5x finer, geometric growth outside.
+fn hertz_plateau(n_fine: usize, virtual_top: bool) -> HertzResult {
+    let gx = generate::plateau_graded(n_fine, 0.5 / 40.0, 40);
+    let h = 0.5 / n_fine as f64;
+    let ny = 70;
+    // Top spacing about h: geometric growth downward over 20 mm.
+    let gy = {
+        let (mut lo, mut hi) = (1.0001f64, 2.0f64);
+        for _ in 0..200 {
+            let q = 0.5 * (lo + hi);
+            let total: f64 = (0..ny).map(|i| h * q.powi(i as i32)).sum();
+            if total < 20.0 {
+                lo = q
+            } else {
+                hi = q
+            }
+        }
+        let q = 0.5 * (lo + hi);
+        let mut ys: Vec<f64> = (0..=ny).map(|j| (0..j).map(|i| h * q.powi(i as i32)).sum::<f64>()).collect();
+        let top = ys[ny];
+        ys.iter_mut().for_each(|y| *y = 1.0 - *y / top);
+        ys.reverse();
+        ys
+    };
+    let rs = generate::graded(80, 1.0 / 200.0);
+    let ts = generate::plateau_graded(3 * n_fine / 2, (0.5 / R) / std::f64::consts::PI, 40);
+    hertz_on(&gx, &gy, &rs, &ts, virtual_top)
+}
+
+/// Issue 4's accuracy targets on a mesh uniformly fine over the contact (block 0.0025 mm,
+/// cylinder 0.0017 mm over |x| <= 0.25 mm; 101k DOFs): p0 within 1%, a within 2%, pressure L2
+/// over [-2a, 2a] within 1%, with the block surface real and virtual. Measured: real p0 +0.09%,
+/// a -0.09%, L2 0.51%; virtual +0.12%, -0.12%, 0.71%. (`hertz_plateau_table` prints the
+/// refinement: L2 4.7% / 1.4% / 0.5% at 44k / 63k / 101k DOFs.)
+#[test]
+fn hertz_pressure_on_a_fine_contact_mesh() {
+    for virtual_top in [false, true] {
+        let r = hertz_plateau(200, virtual_top);
+        assert!(r.p0.abs() < 0.01, "virtual {virtual_top}: p0 error {:.3}%", 100.0 * r.p0);
+        assert!(r.a.abs() < 0.02, "virtual {virtual_top}: half-width error {:.3}%", 100.0 * r.a);
+        assert!(r.l2 < 0.01, "virtual {virtual_top}: pressure L2 error {:.3}%", 100.0 * r.l2);
+    }
+}
+
+#[test]
+#[ignore]
+fn hertz_plateau_table() {
+    for n in [50, 100, 200] {
+        hertz_plateau(n, false);
+        hertz_plateau(n, true);
+    }
 }
 
 #[test]

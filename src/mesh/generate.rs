@@ -42,6 +42,51 @@ pub fn graded_to_centre(n: usize, ratio: f64) -> Vec<f64> {
     x
 }
 
+/// Coordinates in `[0, 1]` with a uniform fine plateau of relative width `plateau` in the middle
+/// (`n_fine` divisions) and `n_side` geometrically growing divisions on each side, starting from
+/// the plateau spacing (growth factor found by bisection). For contact zones resolved uniformly.
+pub fn plateau_graded(n_fine: usize, plateau: f64, n_side: usize) -> Vec<f64> {
+    let n_fine = n_fine.max(1);
+    let plateau = plateau.clamp(1e-12, 1.0);
+    let h = plateau / n_fine as f64;
+    let side = 0.5 * (1.0 - plateau);
+    let mut x = Vec::with_capacity(n_fine + 2 * n_side + 1);
+    let mut sides = Vec::new();
+    if n_side > 0 && side > 0.0 {
+        // Growth q with sum_{i=1..n} h q^i = side (q >= 1 when the side needs it).
+        let total = |q: f64| (1..=n_side).map(|i| h * q.powi(i as i32)).sum::<f64>();
+        let (mut lo, mut hi) = (1e-3, 10.0);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if total(mid) < side {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let q = 0.5 * (lo + hi);
+        let mut acc = 0.0;
+        for i in 1..=n_side {
+            acc += h * q.powi(i as i32);
+            sides.push(acc * side / total(q));
+        }
+    }
+    x.push(0.0);
+    for s in sides.iter().rev() {
+        x.push(side - s);
+    }
+    for i in 0..=n_fine {
+        x.push(side + h * i as f64);
+    }
+    for s in &sides {
+        x.push(side + plateau + s);
+    }
+    x.dedup_by(|a, b| (*a - *b).abs() < 1e-15);
+    let last = x.len() - 1;
+    x[last] = 1.0;
+    x
+}
+
 fn check(cond: bool, msg: &str) -> Result<(), MeshError> {
     if cond {
         Ok(())
@@ -188,15 +233,22 @@ pub fn half_disc(
     check(radius > 0.0, "half-disc radius must be positive")?;
     check(nr >= 1 && nt >= 2, "half-disc needs nr >= 1 and nt >= 2")?;
     check(grading_r > 0.0 && grading_t > 0.0, "grading ratios must be positive")?;
-    let rs = graded(nr, 1.0 / grading_r);
-    let ts = graded_to_centre(nt, grading_t);
+    half_disc_from_divisions(centre, radius, &graded(nr, 1.0 / grading_r), &graded_to_centre(nt, grading_t))
+}
+
+/// Lower half-disc with ring radii `radius * rs[i]` and angles `pi (1 + ts[j])` (`rs`, `ts`
+/// increasing from 0 to 1). Same cells and sets as [`half_disc`].
+pub fn half_disc_from_divisions(centre: Point2<f64>, radius: f64, rs: &[f64], ts: &[f64]) -> Result<Mesh2, MeshError> {
+    check(radius > 0.0, "half-disc radius must be positive")?;
+    check(rs.len() >= 2 && ts.len() >= 3, "half-disc needs at least one ring and two sectors")?;
+    let nr = rs.len() - 1;
     let nt = ts.len() - 1;
     let mut m = Mesh2::default();
     m.nodes.push(centre);
     let id = |i: usize, j: usize| 1 + (i - 1) * (nt + 1) + j; // ring i >= 1, angle j
     for &s in rs.iter().skip(1) {
         let r = radius * s;
-        for &u in &ts {
+        for &u in ts {
             let t = std::f64::consts::PI * (1.0 + u);
             m.nodes.push(Point2::new(centre.x + r * t.cos(), centre.y + r * t.sin()));
         }
