@@ -316,21 +316,8 @@ impl ModelBuilder {
         other_body: usize,
         other: ContactOther,
     ) -> Result<(), ModelError> {
-        let err = |msg: String| ModelError::Tie { tie: name.to_string(), msg };
-        let mut edges: Vec<[usize; 2]> = Vec::new();
-        for set in mortar_sets {
-            edges.extend(self.edge_set(mortar, set, "contact surface")?);
-        }
-        if edges.is_empty() {
-            return Err(err("the mortar surface has no edges".into()));
-        }
-        let (chain, closed) = edge_chain(&edges).map_err(err)?;
+        let side = self.mortar_side(name, mortar, mortar_sets, "contact surface")?;
         let mb = &self.bodies[mortar];
-        let side = MortarSide {
-            nodes: chain.iter().map(|&n| n + mb.node_offset).collect(),
-            points: chain.iter().map(|&n| mb.mesh.nodes[n]).collect(),
-            closed,
-        };
         let young = self.materials[mb.material]
             .elastic()
             .young
@@ -374,6 +361,25 @@ impl ModelBuilder {
         Ok(())
     }
 
+    /// The polyline (one open or closed chain) formed by a body's edge sets, as a mortar side.
+    fn mortar_side(&self, name: &str, body: usize, sets: &[String], what: &str) -> Result<MortarSide, ModelError> {
+        let err = |msg: String| ModelError::Tie { tie: name.to_string(), msg };
+        let mut edges: Vec<[usize; 2]> = Vec::new();
+        for set in sets {
+            edges.extend(self.edge_set(body, set, what)?);
+        }
+        if edges.is_empty() {
+            return Err(err(format!("the {what} has no edges")));
+        }
+        let (chain, closed) = edge_chain(&edges).map_err(err)?;
+        let b = &self.bodies[body];
+        Ok(MortarSide {
+            nodes: chain.iter().map(|&n| n + b.node_offset).collect(),
+            points: chain.iter().map(|&n| b.mesh.nodes[n]).collect(),
+            closed,
+        })
+    }
+
     /// Ties a patch body into a host body: the patch boundary (the listed edge sets of the patch,
     /// forming one closed loop inside the host, or one open polyline crossing the host, whose
     /// ends lie on or outside the host boundary) is embedded in the host as a virtual surface, the
@@ -391,20 +397,7 @@ impl ModelBuilder {
         if host == patch {
             return Err(err("host and patch must be different bodies".into()));
         }
-        let mut edges: Vec<[usize; 2]> = Vec::new();
-        for set in boundary_sets {
-            edges.extend(self.edge_set(patch, set, "tie boundary")?);
-        }
-        if edges.is_empty() {
-            return Err(err("the patch boundary has no edges".into()));
-        }
-        let (loop_nodes, closed) = edge_chain(&edges).map_err(err)?;
-        let pb = &self.bodies[patch];
-        let side = MortarSide {
-            nodes: loop_nodes.iter().map(|&n| n + pb.node_offset).collect(),
-            points: loop_nodes.iter().map(|&n| pb.mesh.nodes[n]).collect(),
-            closed,
-        };
+        let side = self.mortar_side(name, patch, boundary_sets, "tie boundary")?;
         self.ties.push(TieSpec { name: name.to_string(), host, patch, side, space, other_edges: None });
         Ok(())
     }
@@ -425,20 +418,7 @@ impl ModelBuilder {
         if mortar == other {
             return Err(err("the two surfaces must belong to different bodies".into()));
         }
-        let mut edges: Vec<[usize; 2]> = Vec::new();
-        for set in mortar_sets {
-            edges.extend(self.edge_set(mortar, set, "tie surface")?);
-        }
-        if edges.is_empty() {
-            return Err(err("the mortar surface has no edges".into()));
-        }
-        let (chain, closed) = edge_chain(&edges).map_err(err)?;
-        let mb = &self.bodies[mortar];
-        let side = MortarSide {
-            nodes: chain.iter().map(|&n| n + mb.node_offset).collect(),
-            points: chain.iter().map(|&n| mb.mesh.nodes[n]).collect(),
-            closed,
-        };
+        let side = self.mortar_side(name, mortar, mortar_sets, "tie surface")?;
         let mut oe: Vec<[usize; 2]> = Vec::new();
         for set in other_sets {
             oe.extend(self.edge_set(other, set, "tie surface")?);
