@@ -54,6 +54,23 @@ pub struct StaticAnalysis<'m> {
     trial_f_int: Vec<f64>,
 }
 
+/// Multiplier-block entries of the Coulomb slip rows: (tangential row, its normal row).
+fn friction_couplings(m: &Model) -> Vec<(usize, usize)> {
+    let (nt, nc) = (m.constraints.len(), m.contact_rows.len());
+    m.friction_normal.iter().enumerate().map(|(j, &k)| (nt + nc + j, nt + k)).collect()
+}
+
+/// Coulomb status of a tangential multiplier in one Newton iteration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FrictionStatus {
+    /// The node is not in contact: `lambda_t = 0`.
+    Open,
+    /// `|lambda_t_hat| <= -mu lambda_n_hat`: no slip in this step (`ds_t = 0`).
+    Stick,
+    /// `lambda_t = -mu lambda_n sign(lambda_t_hat)`; `true` for a positive sign.
+    Slip(bool),
+}
+
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
@@ -63,7 +80,7 @@ impl<'m> StaticAnalysis<'m> {
     pub fn new(model: &'m Model) -> Result<Self, AnalysisError> {
         // Constraint rows are scaled by `alpha ~ E / |C|` in the matrix so that both blocks of the
         // saddle point have the same magnitude: the LU factorisation then keeps its accuracy.
-        let all_rows: Vec<&Vec<(usize, f64)>> = model.constraints.iter().chain(model.contact_rows.iter()).collect();
+        let all_rows: Vec<&Vec<(usize, f64)>> = model.multiplier_rows().collect();
         let n_coef = all_rows.iter().map(|r| r.len()).sum::<usize>().max(1);
         let mean_coef = all_rows.iter().flat_map(|r| r.iter()).map(|(_, c)| c.abs()).sum::<f64>() / n_coef as f64;
         let e_max = model.materials.iter().map(|m| m.elastic().young).fold(0.0, f64::max);
@@ -77,6 +94,7 @@ impl<'m> StaticAnalysis<'m> {
             &scaled,
             &model.penalty,
             model.constraints.len(),
+            &friction_couplings(model),
         );
         let solver = SparseSolver::new(&pattern.symbolic, model.linear_solver)?;
         let nnz = pattern.nnz();
@@ -116,7 +134,11 @@ impl<'m> StaticAnalysis<'m> {
             history: vec![PlasticState::default(); m.elements.num_states()],
             stress: vec![Stress4::zeros(); m.elements.num_points()],
             f_int: vec![0.0; m.dofs.num_dofs],
-            multipliers: vec![0.0; m.constraints.len() + m.contact_rows.len()],
+            multipliers: vec![0.0; m.num_multipliers()],
+            friction_status: vec![0; m.friction_rows.len()],
+            slip_increment: vec![0.0; m.friction_rows.len()],
+            accumulated_slip: vec![0.0; m.friction_rows.len()],
+            dissipation: 0.0,
         }
     }
 
@@ -187,15 +209,23 @@ impl<'m> StaticAnalysis<'m> {
         let p = m.newton;
         let lambda = m.load_path.factor(t);
         let mut u = state.u.clone();
-        for &(d, v) in &m.prescribed {
-            u[d] = lambda * v;
+        for (d, v) in m.prescribed_at(t) {
+            u[d] = v;
         }
+        let mut f_ext = vec![0.0; m.dofs.num_dofs];
+        m.external_force(t, &mut f_ext);
         let linear = m.is_linear();
         let nf = m.dofs.num_free;
         let nt = m.constraints.len();
         let nc = m.contact_rows.len();
-        let nm = nt + nc;
+        let nfr = m.friction_rows.len();
+        let nm = nt + nc + nfr;
         let mut mu = state.multipliers.clone();
+        // Coulomb friction: slip is the increment of the weighted tangential relative
+        // displacement since the last converged state (objective under cyclic loading).
+        let mut status = vec![FrictionStatus::Open; nfr];
+        let mut prev_status: Vec<FrictionStatus> = Vec::new();
+        let mut slip = vec![0.0; nfr];
         // Contact active set (semi-smooth Newton on the Alart-Curnier conditions, normal only):
         // node k is active when lambda_hat = lambda_k + eps_n g_k / int Phi_k <= 0.
         let mut active = vec![false; nc];
@@ -224,12 +254,30 @@ impl<'m> StaticAnalysis<'m> {
                     }
                 }
             }
-            let set_changed = prev_active.as_ref().map(|pa| pa != &active).unwrap_or(nc > 0);
+            for j in 0..nfr {
+                let k = m.friction_normal[j];
+                slip[j] = m.friction_rows[j].iter().map(|&(d, c)| c * (u[d] - state.u[d])).sum();
+                status[j] = if !active[k] {
+                    FrictionStatus::Open
+                } else {
+                    let (phi, eps) = (m.contact_phi[k], m.contact_eps[k]);
+                    let lt_hat = mu[nt + nc + j] + eps * slip[j] / phi;
+                    let ln_hat = mu[nt + k] + eps * gaps[k] / phi;
+                    if lt_hat.abs() <= m.contact_mu[k] * (-ln_hat).max(0.0) {
+                        FrictionStatus::Stick
+                    } else {
+                        FrictionStatus::Slip(lt_hat > 0.0)
+                    }
+                };
+            }
+            let set_changed = prev_active.as_ref().map(|pa| pa != &active).unwrap_or(nc > 0) || prev_status != status;
+            prev_status.clone_from(&status);
             if nc > 0 {
                 tracing::debug!(
                     step,
                     it,
                     active = active.iter().filter(|&&a| a).count(),
+                    stick = status.iter().filter(|&&s| s == FrictionStatus::Stick).count(),
                     changed = set_changed,
                     "contact active set"
                 );
@@ -283,24 +331,61 @@ impl<'m> StaticAnalysis<'m> {
                     r[nf + nt + k] = -mu[nt + k] / self.alpha;
                 }
             }
+            // Friction rows: stick -> ds_t = 0; slip -> lambda_t + mu s lambda_n = 0; open -> 0.
+            let mut slip_res = 0.0f64;
+            for j in 0..nfr {
+                let (k, i) = (m.friction_normal[j], nt + nc + j);
+                for &(d, c) in &m.friction_rows[j] {
+                    ct_mu[d] += c * mu[i];
+                }
+                r[nf + i] = match status[j] {
+                    FrictionStatus::Stick => {
+                        let gs: f64 = m.friction_rows[j].iter().map(|&(d, c)| (c * u[d]).abs()).sum();
+                        g_scale += gs * gs;
+                        -self.alpha * slip[j]
+                    }
+                    FrictionStatus::Slip(pos) => {
+                        let s = if pos { 1.0 } else { -1.0 };
+                        let res = mu[i] + m.contact_mu[k] * s * mu[nt + k];
+                        slip_res = slip_res.max(res.abs());
+                        -res / self.alpha
+                    }
+                    FrictionStatus::Open => -mu[i] / self.alpha,
+                };
+            }
             if need_tangent && nc > 0 {
                 let pat = &self.assembler.pattern;
+                let gap_row = |row: usize| {
+                    if row < nt + nc {
+                        active[row - nt]
+                    } else {
+                        status[row - nt - nc] == FrictionStatus::Stick
+                    }
+                };
                 for &(row, p1, p2, coef) in &pat.constraint_scatter {
                     if row >= nt {
                         self.values[p2] += coef;
-                        if active[row - nt] {
+                        if gap_row(row) {
                             self.values[p1] += coef;
                         }
                     }
                 }
                 for (k, &pd) in pat.diag_scatter.iter().enumerate() {
-                    self.values[pd] = if active[k] { 0.0 } else { 1.0 };
+                    self.values[pd] = if gap_row(nt + k) { 0.0 } else { 1.0 };
+                }
+                for (j, &pc) in pat.coupling_scatter.iter().enumerate() {
+                    let mu_k = m.contact_mu[m.friction_normal[j]];
+                    self.values[pc] = match status[j] {
+                        FrictionStatus::Slip(true) => mu_k,
+                        FrictionStatus::Slip(false) => -mu_k,
+                        _ => 0.0,
+                    };
                 }
             }
             for (i, &g) in m.dofs.free.iter().enumerate() {
-                r[i] = lambda * m.f_ext[g] - self.trial_f_int[g] - ct_mu[g];
+                r[i] = f_ext[g] - self.trial_f_int[g] - ct_mu[g];
             }
-            let f_ext_norm = lambda.abs() * norm(&m.f_ext);
+            let f_ext_norm = norm(&f_ext);
             // Force scale: never below what this step has seen (a contact that opens can leave a
             // body unloaded, where the current forces are all round-off).
             let scale = f_ext_norm.max(norm(&self.trial_f_int)).max(norm(&ct_mu)).max(step_scale);
@@ -308,7 +393,9 @@ impl<'m> StaticAnalysis<'m> {
             let rn = norm(&r[..nf]);
             // Gap residuals (ties, active contact rows) against |C| |u|; inactive contact rows
             // (lambda = 0) against the largest contact multiplier.
-            let gap_rows = (0..nt).chain((0..nc).filter(|&k| active[k]).map(|k| nt + k));
+            let gap_rows = (0..nt)
+                .chain((0..nc).filter(|&k| active[k]).map(|k| nt + k))
+                .chain((0..nfr).filter(|&j| status[j] == FrictionStatus::Stick).map(|j| nt + nc + j));
             let gn = gap_rows.map(|k| r[nf + k] * r[nf + k]).sum::<f64>().sqrt() / self.alpha;
             // Multiplier scale: the largest contact multiplier or the force scale spread over the
             // paired contact length.
@@ -318,7 +405,11 @@ impl<'m> StaticAnalysis<'m> {
             } else {
                 0.0
             });
-            let free_mu = (0..nc).filter(|&k| !active[k]).fold(0.0f64, |a, k| a.max(mu[nt + k].abs()));
+            let free_mu = (0..nc)
+                .filter(|&k| !active[k])
+                .map(|k| nt + k)
+                .chain((0..nfr).filter(|&j| status[j] == FrictionStatus::Open).map(|j| nt + nc + j))
+                .fold(slip_res, |a, i| a.max(mu[i].abs()));
             let res_u = if scale > 0.0 { rn / scale } else { rn };
             let res_g = if gn == 0.0 { 0.0 } else { gn / g_scale.sqrt().max(f64::MIN_POSITIVE) };
             let res_mu = if free_mu == 0.0 { 0.0 } else { free_mu / mu_ref.max(f64::MIN_POSITIVE) };
@@ -332,6 +423,17 @@ impl<'m> StaticAnalysis<'m> {
                 return Ok(Err((it, res)));
             }
             if !set_changed && (res <= p.rtol || (rn == 0.0 && gn == 0.0 && free_mu == 0.0)) {
+                for j in 0..nfr {
+                    let lt = mu[nt + nc + j];
+                    state.friction_status[j] = match status[j] {
+                        FrictionStatus::Open => 0,
+                        FrictionStatus::Stick => 1,
+                        FrictionStatus::Slip(_) => 2,
+                    };
+                    state.slip_increment[j] = slip[j];
+                    state.accumulated_slip[j] += slip[j].abs();
+                    state.dissipation += lt * slip[j];
+                }
                 state.u = u;
                 state.multipliers = mu;
                 state.time = t;
@@ -369,6 +471,11 @@ impl<'m> StaticAnalysis<'m> {
             for k in 0..nc {
                 if !active[k] {
                     mu[nt + k] = 0.0;
+                }
+            }
+            for j in 0..nfr {
+                if status[j] == FrictionStatus::Open {
+                    mu[nt + nc + j] = 0.0;
                 }
             }
         }

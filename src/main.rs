@@ -133,7 +133,7 @@ fn check(path: PathBuf) -> Result<(), String> {
     println!(
         "  steps: {} output steps to t = {}, {}",
         m.times.len(),
-        m.load_path.end_time(),
+        m.end_time(),
         if m.is_linear() { "linear (one factorisation)" } else { "nonlinear (Newton)" }
     );
     println!("  output: {}", c.output.display());

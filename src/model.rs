@@ -2,8 +2,10 @@
 //! rule tables, DOF map, prescribed displacements, unit external load, load path).
 //! Built once by [`ModelBuilder`]; the mutable part of a run lives in `SimState`.
 //!
-//! Loading: every prescribed displacement and every external force is scaled by one load
-//! factor `lambda(t)`, a piecewise-linear function of pseudo-time given by the load path.
+//! Loading: every prescribed displacement and every external force is scaled by the factor of
+//! its load curve, a piecewise-linear function of pseudo-time: curve 0 is the model's load path
+//! (`lambda(t)`), further curves let loads follow their own histories (normal load held, then a
+//! cyclic tangential load: fretting).
 
 use crate::assembly::{DofMap, ElementTable};
 use crate::cut::{cut_mesh, subtriangulation_rule, CellCut, CutMesh, SMALL_FRACTION};
@@ -102,9 +104,14 @@ pub struct Model {
     pub dofs: DofMap,
     /// `(global dof, value at unit load factor)`.
     pub prescribed: Vec<(usize, f64)>,
-    /// External force at unit load factor, over all DOFs.
+    /// Load curve of each prescribed DOF (0: `load_path`, `c >= 1`: `curves[c - 1]`).
+    pub prescribed_curve: Vec<usize>,
+    /// External force of curve 0 at unit factor, over all DOFs.
     pub f_ext: Vec<f64>,
     pub load_path: LoadPath,
+    /// Further load curves and the unit external force each scales.
+    pub curves: Vec<LoadPath>,
+    pub f_ext_curves: Vec<Vec<f64>>,
     /// Output times (each a converged step).
     pub times: Vec<f64>,
     pub newton: NewtonParams,
@@ -118,23 +125,34 @@ pub struct Model {
     pub deactivated_dofs: usize,
     /// Constant extra stiffness `(dof_i, dof_j, value)`: ghost penalty on cut bodies.
     pub penalty: Vec<(usize, usize, f64)>,
-    /// Frictionless contact (small sliding): weighted-gap rows `g_k = g0_k + row . u`, the
-    /// integral of each multiplier hat over its paired part, and the augmentation `eps_n`.
+    /// Contact (small sliding): weighted-gap rows `g_k = g0_k + row . u`, the integral of each
+    /// multiplier hat over its paired part, the augmentation `eps_n` (also used as `eps_t`)
+    /// and the Coulomb coefficient of the node's pair.
     pub contact_rows: Vec<ConstraintRow>,
     pub contact_g0: Vec<f64>,
     pub contact_phi: Vec<f64>,
     pub contact_eps: Vec<f64>,
+    pub contact_mu: Vec<f64>,
+    /// Tangential rows (weighted relative tangential displacement `s_j = s0 + row . u`), one
+    /// per paired contact node with `mu > 0` (frictionless pairs carry none), and the normal row
+    /// each belongs to. Multipliers: ties, then contact normals, then these.
+    pub friction_rows: Vec<ConstraintRow>,
+    pub friction_normal: Vec<usize>,
     pub contacts: Vec<ContactInfo>,
 }
 
-/// A frictionless mortar contact pair; multipliers (contact pressure `p = -lambda_n`) on the
-/// mortar surface.
+/// A mortar contact pair; multipliers (contact pressure `p = -lambda_n`, shear `lambda_t` along
+/// `t = n` turned +90 degrees, `n` the mortar body's outward normal) on the mortar surface.
 #[derive(Debug, Clone)]
 pub struct ContactInfo {
     pub name: String,
     pub mortar: usize,
+    /// Coulomb coefficient (0: frictionless, no tangential unknowns).
+    pub mu: f64,
     /// Index of the pair's first row in `Model::contact_rows`.
     pub first_row: usize,
+    /// Per multiplier node, its row in `Model::friction_rows` (none when frictionless or unpaired).
+    pub friction_row: Vec<Option<usize>>,
     pub multipliers: Multipliers,
 }
 
@@ -153,6 +171,7 @@ struct ContactSpec {
     side: MortarSide,
     other: ContactOther,
     young: f64,
+    mu: f64,
 }
 
 /// A mortar tie between a patch (mortar side, multipliers) and a host (virtual surface).
@@ -243,10 +262,12 @@ impl Model {
     /// Reactions `f_int + C^T mu - lambda f_ext` at constrained DOFs of a state, zero elsewhere.
     pub fn reactions(&self, state: &crate::state::SimState) -> Vec<f64> {
         let mut r = state.f_int.clone();
-        for (d, v) in r.iter_mut().enumerate() {
-            *v -= state.load_factor * self.f_ext[d];
+        let mut f = vec![0.0; r.len()];
+        self.external_force(state.time, &mut f);
+        for (v, f) in r.iter_mut().zip(&f) {
+            *v -= f;
         }
-        for (k, row) in self.constraints.iter().chain(self.contact_rows.iter()).enumerate() {
+        for (k, row) in self.multiplier_rows().enumerate() {
             for &(d, c) in row {
                 r[d] += c * state.multipliers[k];
             }
@@ -257,6 +278,45 @@ impl Model {
             }
         }
         r
+    }
+
+    /// Factor of load curve `c` at time `t`.
+    pub fn curve_factor(&self, c: usize, t: f64) -> f64 {
+        if c == 0 {
+            self.load_path.factor(t)
+        } else {
+            self.curves[c - 1].factor(t)
+        }
+    }
+    /// External force at time `t` over all DOFs.
+    pub fn external_force(&self, t: f64, out: &mut [f64]) {
+        let l0 = self.load_path.factor(t);
+        for (o, f) in out.iter_mut().zip(&self.f_ext) {
+            *o = l0 * f;
+        }
+        for (c, f) in self.curves.iter().zip(&self.f_ext_curves) {
+            let l = c.factor(t);
+            for (o, f) in out.iter_mut().zip(f) {
+                *o += l * f;
+            }
+        }
+    }
+    /// `(dof, value)` of every prescribed DOF at time `t`.
+    pub fn prescribed_at(&self, t: f64) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let factors: Vec<f64> = (0..=self.curves.len()).map(|c| self.curve_factor(c, t)).collect();
+        self.prescribed.iter().zip(&self.prescribed_curve).map(move |(&(d, v), &c)| (d, factors[c] * v))
+    }
+    /// Last time of any load curve.
+    pub fn end_time(&self) -> f64 {
+        self.curves.iter().map(|c| c.end_time()).fold(self.load_path.end_time(), f64::max)
+    }
+
+    /// Every multiplier's row over the DOFs, in multiplier order: ties, contact normals, friction.
+    pub fn multiplier_rows(&self) -> impl Iterator<Item = &ConstraintRow> {
+        self.constraints.iter().chain(self.contact_rows.iter()).chain(self.friction_rows.iter())
+    }
+    pub fn num_multipliers(&self) -> usize {
+        self.constraints.len() + self.contact_rows.len() + self.friction_rows.len()
     }
 
     /// Body index of a global element.
@@ -280,13 +340,20 @@ pub struct ModelBuilder {
     bodies: Vec<Body>,
     materials: Vec<Material>,
     material_names: Vec<String>,
-    prescribed: Vec<(usize, f64)>,
-    f_ext: Vec<f64>,
+    /// `(dof, value, curve)`.
+    prescribed: Vec<(usize, f64, usize)>,
+    /// Unit external force per load curve (0: the model's load path).
+    f_curves: Vec<Vec<f64>>,
+    curves: Vec<LoadPath>,
+    /// Curve that loads and prescribed values added now follow.
+    curve: usize,
     ties: Vec<TieSpec>,
     /// Free virtual surfaces: (name, body, surface with the material on its left).
     free_cuts: Vec<(String, usize, VirtualSurface)>,
     ghost_penalty: f64,
     contacts: Vec<ContactSpec>,
+    /// Multi-point constraints `u(node) - u(master) = 0` (rigid sets), global DOFs.
+    rigid_rows: Vec<ConstraintRow>,
 }
 
 impl ModelBuilder {
@@ -297,15 +364,19 @@ impl ModelBuilder {
             materials: vec![],
             material_names: vec![],
             prescribed: vec![],
-            f_ext: vec![],
+            f_curves: vec![vec![]],
+            curves: vec![],
+            curve: 0,
             ties: vec![],
             free_cuts: vec![],
             ghost_penalty: DEFAULT_GHOST_PENALTY,
             contacts: vec![],
+            rigid_rows: vec![],
         }
     }
 
-    /// Frictionless mortar contact (small sliding, fixed pairing from the reference geometry):
+    /// Mortar contact (small sliding, fixed pairing from the reference geometry), frictionless
+    /// when `mu = 0` (no tangential unknowns) or Coulomb with coefficient `mu`:
     /// the mortar surface (edge sets of `mortar`, one polyline) carries the multipliers; the
     /// other surface is the edge sets of `other_body` or the virtual surface of a free cut.
     pub fn add_contact(
@@ -315,14 +386,21 @@ impl ModelBuilder {
         mortar_sets: &[String],
         other_body: usize,
         other: ContactOther,
+        mu: f64,
     ) -> Result<(), ModelError> {
+        if !(mu.is_finite() && mu >= 0.0) {
+            return Err(ModelError::Tie {
+                tie: name.to_string(),
+                msg: format!("the friction coefficient must be finite and >= 0 (got {mu})"),
+            });
+        }
         let side = self.mortar_side(name, mortar, mortar_sets, "contact surface")?;
         let mb = &self.bodies[mortar];
         let young = self.materials[mb.material]
             .elastic()
             .young
             .max(self.materials[self.bodies[other_body].material].elastic().young);
-        self.contacts.push(ContactSpec { name: name.to_string(), mortar, side, other, young });
+        self.contacts.push(ContactSpec { name: name.to_string(), mortar, side, other, young, mu });
         Ok(())
     }
 
@@ -334,6 +412,34 @@ impl ModelBuilder {
             v.extend(self.edge_set(body, set, "contact surface")?.into_iter().map(|e| [e[0] + off, e[1] + off]));
         }
         Ok(v)
+    }
+
+    /// Makes the nodes of a set move as one rigid translation (a rigid platen): constraint rows
+    /// `u(n) - u(master) = 0` for both components, the master being the set's first node.
+    /// Returns the master's body-local node index (load it with [`Self::point_load_node`]).
+    pub fn rigid_set(&mut self, body: usize, set: &str) -> Result<usize, ModelError> {
+        let nodes = self.node_set_or_edges(body, set)?;
+        let Some(&master) = nodes.first() else {
+            return Err(self.unknown_set(body, set));
+        };
+        for &n in &nodes[1..] {
+            for c in 0..2 {
+                self.rigid_rows.push(vec![(2 * n + c, 1.0), (2 * master + c, -1.0)]);
+            }
+        }
+        Ok(master - self.bodies[body].node_offset)
+    }
+
+    /// Global nodes of a node set, or of the edges of an edge set (sorted).
+    fn node_set_or_edges(&self, body: usize, set: &str) -> Result<Vec<usize>, ModelError> {
+        let b = &self.bodies[body];
+        if let Some(edges) = b.mesh.edge_sets.get(set) {
+            let mut v: Vec<usize> = edges.iter().flat_map(|e| [e[0], e[1]]).map(|n| n + b.node_offset).collect();
+            v.sort_unstable();
+            v.dedup();
+            return Ok(v);
+        }
+        self.node_set(body, set)
     }
 
     /// Ghost-penalty factor `gamma` on cut bodies (0 switches it off).
@@ -439,6 +545,23 @@ impl ModelBuilder {
         Ok(())
     }
 
+    /// Adds a load curve (its id, >= 1; curve 0 is the load path given to [`Self::build`]).
+    pub fn add_curve(&mut self, path: LoadPath) -> usize {
+        self.curves.push(path);
+        let n = self.f_curves[0].len();
+        self.f_curves.push(vec![0.0; n]);
+        self.curves.len()
+    }
+    /// Last time of the extra curves (`-inf` without any).
+    pub fn curves_end_time(&self) -> f64 {
+        self.curves.iter().map(|c| c.end_time()).fold(f64::NEG_INFINITY, f64::max)
+    }
+    /// Loads and prescribed displacements added from now on follow curve `c` (0: the load path).
+    pub fn use_curve(&mut self, c: usize) {
+        assert!(c <= self.curves.len(), "curve {c} does not exist");
+        self.curve = c;
+    }
+
     pub fn add_material(&mut self, name: &str, m: Material) -> usize {
         self.materials.push(m);
         self.material_names.push(name.to_string());
@@ -455,7 +578,9 @@ impl ModelBuilder {
     ) -> usize {
         let node_offset = self.bodies.last().map(|b| b.node_offset + b.mesh.num_nodes()).unwrap_or(0);
         let element_offset = self.bodies.last().map(|b| b.element_offset + b.mesh.num_cells()).unwrap_or(0);
-        self.f_ext.resize(2 * (node_offset + mesh.num_nodes()), 0.0);
+        for f in &mut self.f_curves {
+            f.resize(2 * (node_offset + mesh.num_nodes()), 0.0);
+        }
         self.bodies.push(Body {
             name: name.to_string(),
             mesh,
@@ -506,7 +631,7 @@ impl ModelBuilder {
     /// Prescribes displacement component `comp` (0 = x, 1 = y) to `value` on a node set.
     pub fn fix(&mut self, body: usize, set: &str, comp: usize, value: f64) -> Result<(), ModelError> {
         for n in self.node_set(body, set)? {
-            self.prescribed.push((2 * n + comp, value));
+            self.prescribed.push((2 * n + comp, value, self.curve));
         }
         Ok(())
     }
@@ -514,14 +639,14 @@ impl ModelBuilder {
     /// Prescribes component `comp` of one node (body-local index) to `value`.
     pub fn fix_node(&mut self, body: usize, node: usize, comp: usize, value: f64) {
         let off = self.bodies[body].node_offset;
-        self.prescribed.push((2 * (node + off) + comp, value));
+        self.prescribed.push((2 * (node + off) + comp, value, self.curve));
     }
 
     /// Point force at one node (body-local index).
     pub fn point_load_node(&mut self, body: usize, node: usize, f: Vector2<f64>) {
         let off = self.bodies[body].node_offset;
-        self.f_ext[2 * (node + off)] += f.x;
-        self.f_ext[2 * (node + off) + 1] += f.y;
+        self.f_curves[self.curve][2 * (node + off)] += f.x;
+        self.f_curves[self.curve][2 * (node + off) + 1] += f.y;
     }
 
     /// Uniform pressure `p` (positive pushes into the body: traction `-p n`) on an edge set.
@@ -533,8 +658,8 @@ impl ModelBuilder {
             let (n, len) = b.mesh.edge_normal(e);
             let f = -p * n * len * t * 0.5;
             for &a in &e {
-                self.f_ext[2 * (a + off)] += f.x;
-                self.f_ext[2 * (a + off) + 1] += f.y;
+                self.f_curves[self.curve][2 * (a + off)] += f.x;
+                self.f_curves[self.curve][2 * (a + off) + 1] += f.y;
             }
         }
         Ok(())
@@ -549,8 +674,8 @@ impl ModelBuilder {
             let seg = Seg2 { a: b.mesh.nodes[e[0]], b: b.mesh.nodes[e[1]] };
             let f = tr * seg.length() * t * 0.5;
             for &a in &e {
-                self.f_ext[2 * (a + off)] += f.x;
-                self.f_ext[2 * (a + off) + 1] += f.y;
+                self.f_curves[self.curve][2 * (a + off)] += f.x;
+                self.f_curves[self.curve][2 * (a + off) + 1] += f.y;
             }
         }
         Ok(())
@@ -559,8 +684,8 @@ impl ModelBuilder {
     /// Point force applied at every node of a node set.
     pub fn point_load(&mut self, body: usize, set: &str, f: Vector2<f64>) -> Result<(), ModelError> {
         for n in self.node_set(body, set)? {
-            self.f_ext[2 * n] += f.x;
-            self.f_ext[2 * n + 1] += f.y;
+            self.f_curves[self.curve][2 * n] += f.x;
+            self.f_curves[self.curve][2 * n + 1] += f.y;
         }
         Ok(())
     }
@@ -694,6 +819,8 @@ impl ModelBuilder {
             }
         }
         let mut prescribed = self.prescribed;
+        let mut f_ext_curves = std::mem::take(&mut self.f_curves);
+        let f_ext0 = f_ext_curves.remove(0);
         // Deactivate host nodes whose support keeps (almost) no material.
         let mut deactivated_dofs = 0;
         for (b, cut) in cuts.iter().enumerate() {
@@ -704,7 +831,7 @@ impl ModelBuilder {
                         for c in 0..2 {
                             let d = 2 * (n + off) + c;
                             if !prescribed.iter().any(|p| p.0 == d) {
-                                prescribed.insert(0, (d, 0.0));
+                                prescribed.insert(0, (d, 0.0, 0));
                                 deactivated_dofs += 1;
                             }
                         }
@@ -753,9 +880,10 @@ impl ModelBuilder {
             });
             constraints.extend(rows);
         }
+        constraints.extend(self.rigid_rows.iter().cloned());
         // Last value wins for duplicates; keep one entry per DOF.
         let mut seen = std::collections::HashMap::new();
-        for (i, (d, _)) in prescribed.iter().enumerate() {
+        for (i, (d, _, _)) in prescribed.iter().enumerate() {
             seen.insert(*d, i);
         }
         let mut keep: Vec<usize> = seen.into_values().collect();
@@ -768,8 +896,9 @@ impl ModelBuilder {
             return Err(ModelError::NoFreeDofs);
         }
         // Contact pairs: weighted-gap rows from the reference geometry.
-        let (mut contact_rows, mut contact_g0, mut contact_phi, mut contact_eps, mut contacts) =
-            (vec![], vec![], vec![], vec![], vec![]);
+        let (mut contact_rows, mut contact_g0, mut contact_phi, mut contact_eps, mut contact_mu, mut contacts) =
+            (vec![], vec![], vec![], vec![], vec![], vec![]);
+        let (mut friction_rows, mut friction_normal) = (vec![], vec![]);
         for c in &self.contacts {
             let lm = build_multipliers(&c.side, MultiplierSpace::Classical, 1.0);
             let nseg = c.side.num_segments();
@@ -798,19 +927,31 @@ impl ModelBuilder {
                     )
                 }
             };
+            let first_row = contact_rows.len();
+            let mut friction_row = Vec::with_capacity(rows.len());
+            for r in rows {
+                friction_row.push(if c.mu > 0.0 && r.phi > 0.0 {
+                    friction_rows.push(r.tangent);
+                    friction_normal.push(contact_rows.len());
+                    Some(friction_rows.len() - 1)
+                } else {
+                    None
+                });
+                contact_rows.push(r.normal);
+                contact_g0.push(r.g0);
+                contact_phi.push(r.phi);
+                // Augmentation from the local bulk stiffness: E / h.
+                contact_eps.push(c.young / h);
+                contact_mu.push(c.mu);
+            }
             contacts.push(ContactInfo {
                 name: c.name.clone(),
                 mortar: c.mortar,
-                first_row: contact_rows.len(),
+                mu: c.mu,
+                first_row,
+                friction_row,
                 multipliers: lm,
             });
-            for (row, g0, phi) in rows {
-                contact_rows.push(row);
-                contact_g0.push(g0);
-                contact_phi.push(phi);
-                // Augmentation from the local bulk stiffness: E / h.
-                contact_eps.push(c.young / h);
-            }
         }
         Ok(Model {
             hypothesis: self.hypothesis,
@@ -821,9 +962,12 @@ impl ModelBuilder {
             elements: el,
             rules,
             dofs,
-            prescribed,
-            f_ext: self.f_ext,
+            prescribed: prescribed.iter().map(|p| (p.0, p.1)).collect(),
+            prescribed_curve: prescribed.iter().map(|p| p.2).collect(),
+            f_ext: f_ext0,
             load_path,
+            curves: self.curves,
+            f_ext_curves,
             times,
             newton,
             linear_solver: if constraints.is_empty() && contact_rows.is_empty() {
@@ -840,6 +984,9 @@ impl ModelBuilder {
             contact_g0,
             contact_phi,
             contact_eps,
+            contact_mu,
+            friction_rows,
+            friction_normal,
             contacts,
         })
     }

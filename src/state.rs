@@ -19,6 +19,15 @@ pub struct SimState {
     pub stress: Vec<Stress4>,
     /// Internal force at every DOF (reactions at constrained DOFs).
     pub f_int: Vec<f64>,
-    /// Lagrange multipliers of the model's linear constraints (mortar tying), one per row.
+    /// Lagrange multipliers: tying rows, contact normals (`lambda_n`), contact tangents
+    /// (`lambda_t`), in the model's multiplier order.
     pub multipliers: Vec<f64>,
+    /// Per friction row: Coulomb status of the last converged increment (0 open, 1 stick, 2 slip).
+    pub friction_status: Vec<u8>,
+    /// Per friction row: weighted slip `int Phi ds_t` of the last converged increment.
+    pub slip_increment: Vec<f64>,
+    /// Per friction row: accumulated `|int Phi ds_t|` over the run (Archard wear reads it).
+    pub accumulated_slip: Vec<f64>,
+    /// Frictional energy dissipated so far, `sum lambda_t . int Phi ds_t` (per unit thickness).
+    pub dissipation: f64,
 }

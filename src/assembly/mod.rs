@@ -89,6 +89,9 @@ pub struct SparsityPattern {
     /// to the analysis, and each has a diagonal entry at `diag_scatter[r - fixed_rows]`.
     pub fixed_rows: usize,
     pub diag_scatter: Vec<usize>,
+    /// Position of each requested multiplier-block entry `(row r, column c)` (both >= `fixed_rows`;
+    /// the Coulomb slip rows `lambda_t + mu s lambda_n = 0` couple a tangential to a normal row).
+    pub coupling_scatter: Vec<usize>,
     /// `(position, value)` of every constant penalty entry.
     penalty_scatter: Vec<(usize, f64)>,
 }
@@ -97,7 +100,7 @@ impl SparsityPattern {
     /// Builds the pattern from node adjacency (no triplet sort): column `j` of node `n` holds the
     /// free DOFs of all nodes sharing a cell with `n`, in increasing order.
     pub fn new(num_nodes: usize, elements: &ElementTable, dofs: &DofMap) -> Self {
-        Self::with_constraints(num_nodes, elements, dofs, &[], &[], 0)
+        Self::with_constraints(num_nodes, elements, dofs, &[], &[], 0, &[])
     }
 
     /// Pattern of the saddle-point matrix `[K + P, C^T; C 0]`: the free DOFs first, then one
@@ -110,7 +113,13 @@ impl SparsityPattern {
         constraints: &[Vec<(usize, f64)>],
         penalty: &[(usize, usize, f64)],
         fixed_rows: usize,
+        couplings: &[(usize, usize)],
     ) -> Self {
+        let mut coupled_rows: Vec<Vec<usize>> = vec![Vec::new(); constraints.len()];
+        for &(r, c) in couplings {
+            assert!(r >= fixed_rows && c >= fixed_rows && r < constraints.len() && c < constraints.len());
+            coupled_rows[c].push(r);
+        }
         let mut adj: Vec<Vec<usize>> = vec![Vec::new(); num_nodes];
         for (e, nodes) in elements.nodes.iter().enumerate() {
             let nn = elements.kind[e].num_nodes();
@@ -174,6 +183,7 @@ impl SparsityPattern {
             if r >= fixed_rows {
                 rows.push(nf + r);
             }
+            rows.extend(coupled_rows[r].iter().map(|&q| nf + q));
             rows.sort_unstable();
             rows.dedup();
             row_idx.extend_from_slice(&rows);
@@ -186,6 +196,14 @@ impl SparsityPattern {
                 diag_scatter.push(col_ptr[c] + p);
             }
         }
+        let coupling_scatter = couplings
+            .iter()
+            .map(|&(r, c)| {
+                let col = nf + c;
+                // Always found: the entry was inserted above.
+                row_idx[col_ptr[col]..col_ptr[col + 1]].binary_search(&(nf + r)).map_or(usize::MAX, |p| col_ptr[col] + p)
+            })
+            .collect();
         // Where each constraint coefficient goes: (row r, column e) and (row e, column r).
         let mut constraint_scatter = Vec::new();
         for (r, row) in constraints.iter().enumerate() {
@@ -235,7 +253,7 @@ impl SparsityPattern {
             }
         }
         let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
-        SparsityPattern { symbolic, scatter, constraint_scatter, fixed_rows, diag_scatter, penalty_scatter }
+        SparsityPattern { symbolic, scatter, constraint_scatter, fixed_rows, diag_scatter, coupling_scatter, penalty_scatter }
     }
 
     pub fn nnz(&self) -> usize {

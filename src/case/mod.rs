@@ -66,6 +66,9 @@ pub struct CaseFile {
     pub bcs: Vec<BcSpec>,
     #[serde(default)]
     pub loads: Vec<LoadSpec>,
+    /// Named load curves beyond `steps.path` (for loads with their own history).
+    #[serde(default)]
+    pub curves: Vec<CurveSpec>,
     #[serde(default)]
     pub steps: StepsSpec,
     #[serde(default)]
@@ -92,6 +95,9 @@ pub struct ContactSpec {
     pub other: String,
     pub other_surface: Option<Vec<String>>,
     pub other_cut: Option<String>,
+    /// Coulomb coefficient (default 0: frictionless, no tangential unknowns).
+    #[serde(default)]
+    pub friction: f64,
 }
 
 /// A free virtual surface cutting a body's mesh (X-FEM): the body keeps its material on one
@@ -247,6 +253,16 @@ pub struct BcSpec {
     pub set: String,
     pub ux: Option<f64>,
     pub uy: Option<f64>,
+    /// Load curve scaling the values (default: `steps.path`).
+    pub curve: Option<String>,
+}
+
+/// A piecewise-linear load curve `[[time, factor], ...]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CurveSpec {
+    pub name: String,
+    pub path: Vec<[f64; 2]>,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -260,6 +276,8 @@ pub struct LoadSpec {
     pub traction: Option<[f64; 2]>,
     /// Force applied at every node of a node set.
     pub force: Option<[f64; 2]>,
+    /// Load curve scaling the load (default: `steps.path`).
+    pub curve: Option<String>,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -454,6 +472,26 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         b.add_body(&bs.name, mesh, mi, formulation, thickness);
     }
 
+    // Load curves (id 0 is steps.path).
+    let mut curve_names: Vec<String> = Vec::new();
+    for (i, c) in raw.curves.iter().enumerate() {
+        if curve_names.contains(&c.name) || c.name == "path" {
+            return Err(cx.err(format!("curves[{i}].name"), format!("curve name '{}' is used twice", c.name)));
+        }
+        let pts: Vec<(f64, f64)> = c.path.iter().map(|p| (p[0], p[1])).collect();
+        let path = LoadPath::new(pts).map_err(|e| model_err(&cx, format!("curves[{i}].path"), e))?;
+        b.add_curve(path);
+        curve_names.push(c.name.clone());
+    }
+    let curve_id = |name: &Option<String>, key: String| -> Result<usize, CaseError> {
+        match name {
+            None => Ok(0),
+            Some(n) => curve_names.iter().position(|c| c == n).map(|i| i + 1).ok_or_else(|| {
+                cx.err(key, format!("no curve named '{n}' (defined: {})", curve_names.join(", ")))
+            }),
+        }
+    };
+
     // Boundary conditions.
     for (i, bc) in raw.bcs.iter().enumerate() {
         let k = |f: &str| format!("bcs[{i}].{f}");
@@ -463,6 +501,7 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         if bc.ux.is_none() && bc.uy.is_none() {
             return Err(cx.err(format!("bcs[{i}]"), "give ux, uy or both"));
         }
+        b.use_curve(curve_id(&bc.curve, k("curve"))?);
         for (comp, v, f) in [(0, bc.ux, "ux"), (1, bc.uy, "uy")] {
             if let Some(v) = v {
                 let v = cx.finite(&k(f), v)?;
@@ -481,6 +520,7 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         if given != 1 {
             return Err(cx.err(format!("loads[{i}]"), "give exactly one of pressure, traction, force"));
         }
+        b.use_curve(curve_id(&l.curve, k("curve"))?);
         if let Some(p) = l.pressure {
             b.pressure(bi, &l.set, cx.finite(&k("pressure"), p)?).map_err(|e| model_err(&cx, k("set"), e))?;
         }
@@ -493,6 +533,9 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
             b.point_load(bi, &l.set, f).map_err(|e| model_err(&cx, k("set"), e))?;
         }
     }
+
+    b.use_curve(0);
+    let curves_end = b.curves_end_time();
 
     // Ties (mortar coupling of overlapping meshes).
     for (i, t) in raw.ties.iter().enumerate() {
@@ -549,7 +592,10 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                 _ => return Err(cx.err(format!("contacts[{i}]"), "give exactly one of other_surface, other_cut")),
             };
         let name = c.name.clone().unwrap_or_else(|| format!("contact{i}"));
-        b.add_contact(&name, mortar, &c.mortar_surface, other_body, other)
+        if !(c.friction.is_finite() && c.friction >= 0.0) {
+            return Err(cx.err(k("friction"), format!("the friction coefficient must be finite and >= 0, got {}", c.friction)));
+        }
+        b.add_contact(&name, mortar, &c.mortar_surface, other_body, other, c.friction)
             .map_err(|e| model_err(&cx, k("mortar_surface"), e))?;
     }
 
@@ -563,7 +609,7 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
     // Steps.
     let path_pts: Vec<(f64, f64)> = raw.steps.path.iter().map(|p| (p[0], p[1])).collect();
     let load_path = LoadPath::new(path_pts).map_err(|e| model_err(&cx, "steps.path".into(), e))?;
-    let (t0, t1) = (load_path.points[0].0, load_path.end_time());
+    let (t0, t1) = (load_path.points[0].0, load_path.end_time().max(curves_end));
     let times = match &raw.steps.times {
         Some(ts) => {
             if ts.is_empty() || ts.windows(2).any(|w| w[1] <= w[0]) || ts.iter().any(|t| !t.is_finite() || *t <= t0) {

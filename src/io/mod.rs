@@ -16,7 +16,10 @@
 //!   `normals` `(l, 2)` of the multiplier nodes (outward normal of the patch) and per step
 //!   `/steps/NNNNNN/ties/<tie>/traction` `(l, 2)`: the traction on the patch, `t = sigma n = -lambda`.
 //! * Contacts: `/mesh/contacts/<pair>/points` `(l, 2)` and per step
-//!   `/steps/NNNNNN/contacts/<pair>/pressure` `(l)` (`p = -lambda_n >= 0`).
+//!   `/steps/NNNNNN/contacts/<pair>/pressure` `(l)` (`p = -lambda_n >= 0`); with friction also
+//!   `shear` (`lambda_t` along `t = n` turned +90 degrees), `slip` (slip of the step),
+//!   `accumulated_slip` and `status` (0 open, 1 stick, 2 slip); `/steps/NNNNNN/contacts/
+//!   dissipation` (frictional energy dissipated so far, per unit thickness).
 //!
 //! The file is written as `<name>.h5.partial` and renamed when closed, so an earlier result is
 //! never replaced by a half-written file; the XDMF is rewritten after every step.
@@ -208,11 +211,31 @@ impl ResultWriter {
             if !model.contacts.is_empty() {
                 let cg = g.create_group("contacts")?;
                 let nt = model.constraints.len();
+                let nn = model.contact_rows.len();
                 for c in &model.contacts {
                     let nl = c.multipliers.num_nodes;
                     let p: Vec<f64> = (0..nl).map(|l| -state.multipliers[nt + c.first_row + l]).collect();
-                    cg.create_group(&c.name)?.new_dataset_builder().with_data(&Array1::from(p)).create("pressure")?;
+                    let pg = cg.create_group(&c.name)?;
+                    pg.new_dataset_builder().with_data(&Array1::from(p)).create("pressure")?;
+                    if c.mu > 0.0 {
+                        // Per node: shear lambda_t, slip of the step and accumulated slip (weighted
+                        // slips divided by int Phi: lengths), status 0 open / 1 stick / 2 slip.
+                        let at = |f: &dyn Fn(usize) -> f64| -> Vec<f64> {
+                            c.friction_row.iter().map(|r| r.map_or(0.0, f)).collect()
+                        };
+                        let phi = |j: usize| model.contact_phi[model.friction_normal[j]];
+                        let shear = at(&|j| state.multipliers[nt + nn + j]);
+                        let slip = at(&|j| state.slip_increment[j] / phi(j));
+                        let acc = at(&|j| state.accumulated_slip[j] / phi(j));
+                        let status: Vec<u8> =
+                            c.friction_row.iter().map(|r| r.map_or(0, |j| state.friction_status[j])).collect();
+                        pg.new_dataset_builder().with_data(&Array1::from(shear)).create("shear")?;
+                        pg.new_dataset_builder().with_data(&Array1::from(slip)).create("slip")?;
+                        pg.new_dataset_builder().with_data(&Array1::from(acc)).create("accumulated_slip")?;
+                        pg.new_dataset_builder().with_data(&Array1::from(status)).create("status")?;
+                    }
                 }
+                cg.new_dataset_builder().with_data(&Array1::from(vec![state.dissipation])).create("dissipation")?;
             }
             let pg = g.create_group("points")?;
             let np = state.stress.len();

@@ -42,6 +42,33 @@ pub fn graded_to_centre(n: usize, ratio: f64) -> Vec<f64> {
     x
 }
 
+/// `n` intervals on [0, 1] growing geometrically from a first interval `first` (a fraction of
+/// the length) at 0: fine where a contact surface is, coarse far from it.
+pub fn geometric_from_start(n: usize, first: f64) -> Vec<f64> {
+    let n = n.max(1);
+    let first = first.clamp(1e-12, 1.0);
+    let total = |q: f64| (0..n).map(|i| first * q.powi(i as i32)).sum::<f64>();
+    let (mut lo, mut hi) = (1e-3f64, 10.0f64);
+    for _ in 0..200 {
+        let q = 0.5 * (lo + hi);
+        if total(q) < 1.0 {
+            lo = q
+        } else {
+            hi = q
+        }
+    }
+    let q = 0.5 * (lo + hi);
+    let scale = total(q);
+    let mut acc = 0.0;
+    let mut x = vec![0.0];
+    for i in 0..n {
+        acc += first * q.powi(i as i32);
+        x.push(acc / scale);
+    }
+    x[n] = 1.0;
+    x
+}
+
 /// Coordinates in `[0, 1]` with a uniform fine plateau of relative width `plateau` in the middle
 /// (`n_fine` divisions) and `n_side` geometrically growing divisions on each side, starting from
 /// the plateau spacing (growth factor found by bisection). For contact zones resolved uniformly.

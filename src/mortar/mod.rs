@@ -248,8 +248,9 @@ struct MortarPoint {
     tau: f64,
     /// Quadrature weight (mortar-side measure).
     wt: f64,
-    /// Outward normal of the mortar body on this segment.
+    /// Outward normal of the mortar body on this segment, and of the other body on its segment.
     n: Vector2<f64>,
+    n_other: Vector2<f64>,
     /// The point on the mortar side and its partner on the other side.
     xm: Point2<f64>,
     xo: Point2<f64>,
@@ -317,6 +318,7 @@ fn for_each_mortar_point(
                         tau,
                         wt: 0.5 * w * (hi - lo) * len,
                         n,
+                        n_other: right_normal(pa, pb),
                         xm: a + d * tau,
                         xo: pa + (pb - pa) * sigma,
                         other: pi,
@@ -361,20 +363,29 @@ pub fn tying_rows(side: &MortarSide, lm: &Multipliers, other: &OtherSide) -> Vec
     rows.into_iter().map(|r| r.into_iter().filter(|(_, v)| *v != 0.0).collect()).collect()
 }
 
-/// Weighted normal gaps for contact (small sliding): per multiplier node `l`,
-/// `g_l = int Phi_l (x_other - x_mortar) . n dS = g0_l + sum coef u`, with `n` the outward
-/// normal of the mortar body on each mortar segment (right normal, the body being on the left).
-/// Other-side segments are paired by orthogonal projection onto the mortar segment; only those
-/// facing it (normals opposed) and within `max_gap` of it (either side: penetration counts)
-/// contribute. Returns `(coefficient row over global DOFs, g0_l, int Phi_l over the paired
-/// part)` per multiplier node.
-pub fn weighted_gaps(
-    side: &MortarSide,
-    lm: &Multipliers,
-    other: &OtherSide,
-    max_gap: f64,
-) -> Vec<(ConstraintRow, f64, f64)> {
-    let mut rows: Vec<BTreeMap<usize, f64>> = vec![BTreeMap::new(); lm.num_nodes];
+/// The mortar integrals of one contact multiplier node `l` (small sliding, reference geometry).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContactRow {
+    /// `g_l = int Phi_l (x_other - x_mortar) . n dS = g0 + normal . u`.
+    pub normal: ConstraintRow,
+    pub g0: f64,
+    /// `s_l = int Phi_l (x_other - x_mortar) . t dS = s0 + tangent . u`, `t` the averaged normal
+    /// `(n - n_other) / |n - n_other|` turned +90 deg;
+    /// only its increments matter (the Coulomb slip increment of a step).
+    pub tangent: ConstraintRow,
+    /// `int Phi_l dS` over the paired part of the hat (0: the node sees no other side).
+    pub phi: f64,
+}
+
+/// Weighted normal gaps and tangential relative displacements for contact (small sliding): per
+/// multiplier node `l`, `g_l = int Phi_l (x_other - x_mortar) . n dS`, with `n` the outward
+/// normal of the mortar body on each mortar segment (right normal, the body being on the left)
+/// and `t` the averaged interface normal turned +90 degrees (see below). Other-side segments are paired by orthogonal projection onto the
+/// mortar segment; only those facing it (normals opposed) and within `max_gap` of it (either
+/// side: penetration counts) contribute.
+pub fn weighted_gaps(side: &MortarSide, lm: &Multipliers, other: &OtherSide, max_gap: f64) -> Vec<ContactRow> {
+    let mut normal: Vec<BTreeMap<usize, f64>> = vec![BTreeMap::new(); lm.num_nodes];
+    let mut tangent: Vec<BTreeMap<usize, f64>> = vec![BTreeMap::new(); lm.num_nodes];
     let mut g0 = vec![0.0; lm.num_nodes];
     let mut phi_int = vec![0.0; lm.num_nodes];
     let mut shape = Vec::new();
@@ -387,6 +398,13 @@ pub fn weighted_gaps(
         if gap.abs() > max_gap {
             return;
         }
+        // Tangent of the interface: the averaged normal (n - n_other) / |.| turned +90 deg. Between
+        // curved surfaces the reference tangent of one side is tilted against the contact
+        // interface by x / R, and the closing of the initial gap, projected on it, would read
+        // as slip (of the order of the partial-slip displacements themselves); the averaged
+        // normal is the interface normal of elastically similar bodies.
+        let n_avg = (p.n - p.n_other).try_normalize(1e-12).unwrap_or(p.n);
+        let t = Vector2::new(-n_avg.y, n_avg.x);
         other.shape_at(p.other, p.xo, p.sigma, &mut shape);
         let nm = [1.0 - p.tau, p.tau];
         for (l, phi) in p.hats {
@@ -395,21 +413,24 @@ pub fn weighted_gaps(
             }
             g0[l] += p.wt * phi * gap;
             phi_int[l] += p.wt * phi;
-            let row = &mut rows[l];
-            for c in 0..2 {
-                for (q, &v) in [p.va, p.vb].iter().enumerate() {
-                    *row.entry(2 * side.nodes[v % n_pts] + c).or_insert(0.0) -= p.wt * phi * nm[q] * p.n[c];
-                }
-                for &(node, nv) in shape.iter() {
-                    *row.entry(2 * node + c).or_insert(0.0) += p.wt * phi * nv * p.n[c];
+            for (rows, dir) in [(&mut normal[l], p.n), (&mut tangent[l], t)] {
+                for c in 0..2 {
+                    for (q, &v) in [p.va, p.vb].iter().enumerate() {
+                        *rows.entry(2 * side.nodes[v % n_pts] + c).or_insert(0.0) -= p.wt * phi * nm[q] * dir[c];
+                    }
+                    for &(node, nv) in shape.iter() {
+                        *rows.entry(2 * node + c).or_insert(0.0) += p.wt * phi * nv * dir[c];
+                    }
                 }
             }
         }
     });
-    rows.into_iter()
-        .zip(g0)
-        .zip(phi_int)
-        .map(|((r, g), f)| (r.into_iter().filter(|(_, v)| *v != 0.0).collect(), g, f))
+    let clean = |r: BTreeMap<usize, f64>| -> ConstraintRow { r.into_iter().filter(|(_, v)| *v != 0.0).collect() };
+    normal
+        .into_iter()
+        .zip(tangent)
+        .zip(g0.into_iter().zip(phi_int))
+        .map(|((n, t), (g0, phi))| ContactRow { normal: clean(n), g0, tangent: clean(t), phi })
         .collect()
 }
 
@@ -425,7 +446,7 @@ mod tests {
     /// Mortar side: the top of a lower body along y = 0, x in [0, 4] (5 nodes, ids 0..4, body
     /// below so the polyline runs right-to-left). Other side: the bottom of an upper body along
     /// `y = d + s x` (3 edges, non-matching, ids 10..13, running left-to-right).
-    fn scene(d: f64, slope: f64, space: MultiplierSpace) -> (Vec<(ConstraintRow, f64, f64)>, Multipliers) {
+    fn scene(d: f64, slope: f64, space: MultiplierSpace) -> (Vec<ContactRow>, Multipliers) {
         let xs = [4.0, 3.0, 2.0, 1.0, 0.0];
         let side = MortarSide {
             nodes: (0..5).collect(),
@@ -447,7 +468,7 @@ mod tests {
             // Hats sum to one over the chain: sum_l g0_l = int_0^4 (d + s x) dx = 4 d + 8 s.
             for (d, s) in [(0.01, 0.0), (0.02, 0.003), (-0.005, 0.002)] {
                 let (rows, _) = scene(d, s, space);
-                let total: f64 = rows.iter().map(|r| r.1).sum();
+                let total: f64 = rows.iter().map(|r| r.g0).sum();
                 let exact = 4.0 * d + 8.0 * s;
                 // Gauss rules exact for linear gaps: round-off only.
                 assert!((total - exact).abs() < 1e-14, "{space:?}: sum of weighted gaps {total} vs {exact}");
@@ -460,13 +481,19 @@ mod tests {
         // Moving the upper body up by delta changes every g_l by delta int Phi_l; a common
         // translation of both bodies changes nothing.
         let (rows, _) = scene(0.01, 0.0, MultiplierSpace::Classical);
-        for (row, g0, phi) in &rows {
+        for r in &rows {
+            let (row, g0, phi) = (&r.normal, &r.g0, &r.phi);
             assert!((g0 - 0.01 * phi).abs() < 1e-15, "uniform gap: g0 = d int Phi");
             let up_other: f64 = row.iter().filter(|(dof, _)| *dof >= 20 && dof % 2 == 1).map(|(_, c)| c).sum();
             let up_mortar: f64 = row.iter().filter(|(dof, _)| *dof < 20 && dof % 2 == 1).map(|(_, c)| c).sum();
             // int Phi_l = g0_l / d for a uniform gap d.
             assert!((up_other - g0 / 0.01).abs() < 1e-13 && (up_mortar + g0 / 0.01).abs() < 1e-13);
             let sideways: f64 = row.iter().filter(|(dof, _)| dof % 2 == 0).map(|(_, c)| c).sum();
+            // Tangent t = n turned +90 deg = (-1, 0): sliding the other body by +delta in x
+            // changes s_l by -delta int Phi_l; a vertical move leaves it alone.
+            let t_other_x: f64 = r.tangent.iter().filter(|(dof, _)| *dof >= 20 && dof % 2 == 0).map(|(_, c)| c).sum();
+            let t_up: f64 = r.tangent.iter().filter(|(dof, _)| dof % 2 == 1).map(|(_, c)| c).sum();
+            assert!((t_other_x + phi).abs() < 1e-13 && t_up.abs() < 1e-14, "tangent row {t_other_x} vs {phi}");
             assert!(sideways.abs() < 1e-14, "a tangential translation must not change a normal gap");
         }
     }

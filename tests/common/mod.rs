@@ -73,3 +73,138 @@ pub fn build_one_step(b: mortex::model::ModelBuilder) -> Model {
     )
     .expect("valid model")
 }
+
+/// Two cylinders (R = 10 mm each, half discs), both steel (E = 210000 MPa, nu = 0.3), plane
+/// strain, touching at the origin: the Hertz / Cattaneo-Mindlin scene of issue 4 (the seed's
+/// example; the point symmetry of the pair keeps the normal and tangential problems uncoupled,
+/// which a cylinder on a shear-loaded block does not quite do). Each mesh is uniformly fine over
+/// |x| <= 0.25 mm (upper: 0.5 mm / (1.5 n_fine) along the arc, lower: 0.5 mm / n_fine) and
+/// coarse away from the contact. The upper cylinder's flat top is a rigid platen (no rotation)
+/// loaded at its master node: normal force `-P` on curve 0 (the load path), tangential force
+/// `Q` on curve 1; the lower cylinder's flat bottom is fixed. `virtual_lower`: the lower cylinder
+/// is a circle cut out of a rectangular host mesh (21 x 10 mm, fine under the contact) by a
+/// virtual surface (MorteX); otherwise its own half-disc mesh (classical mortar).
+pub struct CylinderPair {
+    pub n_fine: usize,
+    pub virtual_lower: bool,
+    pub mu: f64,
+    pub normal_load: f64,
+    /// `(time, factor)` of the normal force (factor 1 = `normal_load`).
+    pub normal_path: Vec<(f64, f64)>,
+    /// `(time, Q)` of the tangential force on the platen (N/mm).
+    pub tangential_path: Vec<(f64, f64)>,
+    pub times: Vec<f64>,
+}
+
+pub const CYL_E: f64 = 210_000.0;
+pub const CYL_NU: f64 = 0.3;
+pub const CYL_R: f64 = 10.0;
+
+impl CylinderPair {
+    pub fn build(&self) -> Model {
+        use mortex::fem::kernel::Formulation;
+        use mortex::fem::material::{Elastic, Material, PlaneHypothesis};
+        use mortex::mesh::{generate, CellKind};
+        use mortex::model::{ContactOther, LoadPath, ModelBuilder};
+        use nalgebra::Vector2;
+        use std::f64::consts::PI;
+        let hyp = PlaneHypothesis::PlaneStrain;
+        let mut b = ModelBuilder::new(hyp);
+        let mi = b.add_material("steel", Material::Elastic(Elastic { young: CYL_E, poisson: CYL_NU, hypothesis: hyp }));
+        let h = 0.5 / self.n_fine as f64;
+        let rs = generate::graded(80, 1.0 / 200.0);
+        let arc_grid = |n: usize| generate::plateau_graded(n, (0.5 / CYL_R) / PI, 40);
+        let upper = generate::half_disc_from_divisions(Point2::new(0.0, CYL_R), CYL_R, &rs, &arc_grid(3 * self.n_fine / 2))
+            .expect("cylinder mesh");
+        let lower = if self.virtual_lower {
+            let gx = generate::plateau_graded(self.n_fine, 0.5 / 21.0, 40);
+            let height = CYL_R + 0.013;
+            let mut gy: Vec<f64> =
+                generate::geometric_from_start(70, h / height).iter().map(|y| 1.0 - y).collect();
+            gy.reverse();
+            generate::rectangle_from_divisions(-10.5, -CYL_R, 21.0, height, &gx, &gy, CellKind::Quad4).expect("host mesh")
+        } else {
+            // The upper half disc turned by 180 degrees (a rotation keeps the cells' orientation).
+            let mut m = generate::half_disc_from_divisions(Point2::new(0.0, CYL_R), CYL_R, &rs, &arc_grid(self.n_fine))
+                .expect("cylinder mesh");
+            m.nodes.iter_mut().for_each(|p| *p = Point2::new(-p.x, -p.y));
+            m
+        };
+        let lo = b.add_body("lower", lower, mi, Formulation::Standard, 1.0);
+        let up = b.add_body("upper", upper, mi, Formulation::Standard, 1.0);
+        let base = if self.virtual_lower { "bottom" } else { "top" };
+        b.fix(lo, base, 0, 0.0).expect("set");
+        b.fix(lo, base, 1, 0.0).expect("set");
+        let master = b.rigid_set(up, "top").expect("set");
+        b.point_load_node(up, master, Vector2::new(0.0, -self.normal_load));
+        let tc = b.add_curve(LoadPath::new(self.tangential_path.clone()).expect("path"));
+        b.use_curve(tc);
+        b.point_load_node(up, master, Vector2::new(1.0, 0.0));
+        b.use_curve(0);
+        let other = if self.virtual_lower {
+            // Left end to right end over the top (the circle's inside on the right), leaving the
+            // host through its bottom along vertical tangents (no vertex on the host boundary).
+            let arc: Vec<Point2<f64>> = arc_grid(2 * self.n_fine)
+                .iter()
+                .map(|t| PI * (t - 0.5))
+                .filter(|th| th.cos() > 0.05)
+                .map(|th| Point2::new(CYL_R * th.sin(), -CYL_R + CYL_R * th.cos()))
+                .collect();
+            let mut v = vec![Point2::new(arc[0].x, -CYL_R - 1.0)];
+            v.extend(arc.iter().copied());
+            v.push(Point2::new(arc[arc.len() - 1].x, -CYL_R - 1.0));
+            b.add_cut("surface", lo, v, false, false).expect("cut");
+            ContactOther::Cut("surface".into())
+        } else {
+            ContactOther::Edges(b.global_edges(lo, &["arc".to_string()]).expect("set"))
+        };
+        b.add_contact("c", up, &["arc".to_string()], lo, other, self.mu).expect("contact");
+        let newton = mortex::solver::newton::NewtonParams { max_iterations: 60, ..Default::default() };
+        b.build(LoadPath::new(self.normal_path.clone()).expect("path"), self.times.clone(), newton, Default::default())
+            .expect("model")
+    }
+}
+
+/// Hertz half-width and peak pressure of the pair (R_eff = R / 2) for a normal load `p`.
+pub fn hertz_a_p0(p: f64) -> (f64, f64) {
+    let e_star = CYL_E / (2.0 * (1.0 - CYL_NU * CYL_NU));
+    let a = (4.0 * p * (CYL_R / 2.0) / (std::f64::consts::PI * e_star)).sqrt();
+    (a, 2.0 * p / (std::f64::consts::PI * a))
+}
+
+
+/// `(x, p, q, status)` at each multiplier node of contact 0, sorted by x: pressure `-lambda_n`,
+/// shear `lambda_t` and Coulomb status (0 open, 1 stick, 2 slip; 0 for frictionless nodes).
+pub fn contact_profile(model: &Model, s: &SimState) -> Vec<(f64, f64, f64, u8)> {
+    let c = &model.contacts[0];
+    let (nt, nn) = (model.constraints.len(), model.contact_rows.len());
+    let mut v: Vec<(f64, f64, f64, u8)> = (0..c.multipliers.num_nodes)
+        .map(|l| {
+            let (q, st) = c.friction_row[l].map_or((0.0, 0), |j| (s.multipliers[nt + nn + j], s.friction_status[j]));
+            (c.multipliers.points[l].x, -s.multipliers[nt + c.first_row + l], q, st)
+        })
+        .collect();
+    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+    v
+}
+
+/// Relative L2 error over [lo, hi] of the piecewise-linear nodal field `(x, value)` against
+/// `exact`, 40 sub-samples per interval (exact fields with square-root edges are not node-exact).
+pub fn l2_error(v: &[(f64, f64)], exact: impl Fn(f64) -> f64, lo: f64, hi: f64) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for w in v.windows(2) {
+        let (x0, x1) = (w[0].0, w[1].0);
+        let k = 40;
+        for i in 0..k {
+            let x = x0 + (x1 - x0) * (i as f64 + 0.5) / k as f64;
+            if x < lo || x > hi {
+                continue;
+            }
+            let ph = w[0].1 + (w[1].1 - w[0].1) * (x - x0) / (x1 - x0);
+            let dx = (x1 - x0) / k as f64;
+            num += (ph - exact(x)).powi(2) * dx;
+            den += exact(x).powi(2) * dx;
+        }
+    }
+    (num / den).sqrt()
+}

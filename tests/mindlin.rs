@@ -1,0 +1,127 @@
+//! Cattaneo-Mindlin partial slip (Johnson, *Contact Mechanics*, 1985, sec. 7.1; Hills & Nowell,
+//! *Mechanics of Fretting Fatigue*, 1994; REFERENCES.md) and the Mindlin-Deresiewicz fretting
+//! loop, plane strain, elastically similar bodies (normal and tangential problems uncouple).
+//!
+//!        ___  <- rigid platen: normal force P, then tangential force Q (mu = 0.3)
+//!       /   \
+//!       \___/     stick |x| <= c = a sqrt(1 - Q / (mu P)), slip c <= |x| <= a
+//!   +-----o-----+
+//!   |   block   |  bottom fixed
+//!   +-----------+
+//!
+//! q(x) = mu p0 sqrt(1 - x^2/a^2) - mu p0 (c/a) sqrt(1 - x^2/c^2) [|x| < c].
+
+mod common;
+use common::{contact_profile, hertz_a_p0, l2_error, solve, CylinderPair};
+
+const P: f64 = 100.0;
+const MU: f64 = 0.3;
+
+fn cm_exact(x: f64, a: f64, c: f64, p0: f64) -> f64 {
+    let full = if x.abs() < a { MU * p0 * (1.0 - x * x / (a * a)).sqrt() } else { 0.0 };
+    let corr = if x.abs() < c { MU * p0 * (c / a) * (1.0 - x * x / (c * c)).sqrt() } else { 0.0 };
+    full - corr
+}
+
+/// Stick-zone half-width: halfway between the outermost stick node and the next slip node, on
+/// each side, averaged.
+fn stick_half_width(v: &[(f64, f64, f64, u8)]) -> f64 {
+    let stick: Vec<usize> = (0..v.len()).filter(|&i| v[i].3 == 1).collect();
+    let (Some(&lo), Some(&hi)) = (stick.first(), stick.last()) else { return 0.0 };
+    let left = if lo > 0 { 0.5 * (v[lo].0 + v[lo - 1].0) } else { v[lo].0 };
+    let right = if hi + 1 < v.len() { 0.5 * (v[hi].0 + v[hi + 1].0) } else { v[hi].0 };
+    0.5 * (right - left)
+}
+
+struct CmResult {
+    c_err: f64,
+    resultant: f64,
+    q_l2: f64,
+    q: Vec<(f64, f64)>,
+}
+
+fn cattaneo_mindlin(n_fine: usize, virtual_lower: bool, ratio: f64) -> CmResult {
+    let q_load = ratio * MU * P;
+    let scene = CylinderPair {
+        n_fine,
+        virtual_lower,
+        mu: MU,
+        normal_load: P,
+        normal_path: vec![(0.0, 0.0), (1.0, 1.0)],
+        tangential_path: vec![(0.0, 0.0), (1.0, 0.0), (2.0, q_load)],
+        times: vec![1.0, 2.0],
+    };
+    let model = scene.build();
+    let s = solve(&model);
+    let v = contact_profile(&model, &s);
+    let (a, p0) = hertz_a_p0(P);
+    let c = a * (1.0 - ratio).sqrt();
+    // Sign: the shear on the cylinder opposes Q; compare magnitudes with the sign of the resultant.
+    let sign = v.iter().map(|p| p.2).sum::<f64>().signum();
+    let q: Vec<(f64, f64)> = v.iter().map(|p| (p.0, sign * p.2)).collect();
+    let c_num = stick_half_width(&v);
+    let q_l2 = l2_error(&q, |x| cm_exact(x, a, c, p0), -a, a);
+    if std::env::var("CM_DUMP").is_ok() {
+        for p in &v {
+            if p.0.abs() < 1.2 * a {
+                eprintln!("{:.5} p {:.2} ({:.2}) q {:.3} ({:.3}) st {}", p.0, p.1, if p.0.abs() < a { p0 * (1.0 - p.0 * p.0 / (a * a)).sqrt() } else { 0.0 }, sign * p.2, cm_exact(p.0, a, c, p0), p.3);
+            }
+        }
+        let pp: Vec<(f64, f64)> = v.iter().map(|p| (p.0, p.1)).collect();
+        eprintln!("pressure L2 {:.3}%", 100.0 * l2_error(&pp, |x| if x.abs() < a { p0 * (1.0 - x * x / (a * a)).sqrt() } else { 0.0 }, -2.0 * a, 2.0 * a));
+    }
+    eprintln!(
+        "Cattaneo-Mindlin n = {n_fine}, virtual {virtual_lower}, Q/(mu P) = {ratio}: {} DOFs, c {c_num:.5} vs {c:.5} ({:+.2}%), shear L2 {:.2}%",
+        model.dofs.num_dofs,
+        100.0 * (c_num / c - 1.0),
+        100.0 * q_l2
+    );
+    let cinfo = &model.contacts[0];
+    let nn = model.contact_rows.len();
+    let resultant: f64 = cinfo
+        .friction_row
+        .iter()
+        .flatten()
+        .map(|&j| s.multipliers[model.constraints.len() + nn + j] * model.contact_phi[model.friction_normal[j]])
+        .sum::<f64>()
+        .abs();
+    CmResult { c_err: c_num / c - 1.0, resultant, q_l2, q }
+}
+
+/// Issue 4: stick-zone half-width within 3% of a sqrt(1 - Q/(mu P)) at Q/(mu P) = 0.25, 0.5,
+/// 0.75, with the lower surface real (classical mortar) and virtual (MorteX); the shear
+/// resultant equals Q (equilibrium: round-off). Reported, not asserted (targets missed, see the
+/// README): the shear-traction L2 error (issue: 3%) and the MorteX-classical difference (1%).
+#[test]
+fn cattaneo_mindlin_partial_slip() {
+    for ratio in [0.25, 0.5, 0.75] {
+        let real = cattaneo_mindlin(100, false, ratio);
+        let virt = cattaneo_mindlin(100, true, ratio);
+        for (r, name) in [(&real, "real"), (&virt, "virtual")] {
+            assert!(r.c_err.abs() < 0.03, "{name}, Q/(mu P) = {ratio}: stick zone error {:.2}%", 100.0 * r.c_err);
+            // Equilibrium of the platen: sum lambda_t int Phi = Q up to the solver tolerance (1e-9).
+            assert!((r.resultant / (ratio * MU * P) - 1.0).abs() < 1e-7, "{name}: shear resultant {}", r.resultant);
+        }
+        // MorteX vs classical mortar on the same scene (same mortar side, so the same nodes).
+        let (mut num, mut den) = (0.0, 0.0);
+        for (p, q) in real.q.iter().zip(&virt.q) {
+            assert!((p.0 - q.0).abs() < 1e-12);
+            num += (p.1 - q.1).powi(2);
+            den += p.1 * p.1;
+        }
+        eprintln!(
+            "Q/(mu P) = {ratio}: shear L2 {:.2}% (real) / {:.2}% (virtual); MorteX vs classical {:.2}%",
+            100.0 * real.q_l2,
+            100.0 * virt.q_l2,
+            100.0 * (num / den).sqrt()
+        );
+    }
+}
+
+#[test]
+#[ignore]
+fn cattaneo_mindlin_explore() {
+    let n: usize = std::env::var("CM_N").ok().and_then(|s| s.parse().ok()).unwrap_or(50);
+    let r: f64 = std::env::var("CM_RATIO").ok().and_then(|s| s.parse().ok()).unwrap_or(0.5);
+    cattaneo_mindlin(n, std::env::var("CM_VIRTUAL").is_ok(), r);
+}
