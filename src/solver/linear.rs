@@ -81,8 +81,13 @@ impl SparseSolver {
 
     /// Solves in place: `rhs <- A^{-1} rhs`.
     pub fn solve(&self, rhs: &mut [f64]) -> Result<(), LinearSolverError> {
-        let n = rhs.len();
-        let b = MatMut::from_column_major_slice_mut(rhs, n, 1);
+        self.solve_many(rhs, 1)
+    }
+
+    /// Solves for `ncols` right-hand sides stored column after column in `rhs`.
+    pub fn solve_many(&self, rhs: &mut [f64], ncols: usize) -> Result<(), LinearSolverError> {
+        let n = rhs.len() / ncols.max(1);
+        let b = MatMut::from_column_major_slice_mut(rhs, n, ncols);
         match &self.numeric {
             Numeric::Llt(f) => f.solve_in_place(b),
             Numeric::Lu(f) => f.solve_in_place(b),
