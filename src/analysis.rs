@@ -576,12 +576,9 @@ impl<'m> StaticAnalysis<'m> {
         step: usize,
         t: f64,
     ) -> Result<Result<(usize, f64), (usize, f64)>, AnalysisError> {
-        let m = self.model;
-        let p = m.newton;
         let Some(cd) = self.condensed.take() else { return Ok(Err((0, f64::INFINITY))) };
         let result = self.condensed_step(&cd, state, step, t);
         self.condensed = Some(cd);
-        let _ = p;
         result
     }
 
