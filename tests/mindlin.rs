@@ -184,3 +184,96 @@ fn condensed_and_monolithic_solves_agree() {
         }
     }
 }
+
+/// Frictional energy dissipated per full cycle of the Mindlin-Deresiewicz loop (tangential
+/// force cycled between +Q* and -Q*, Q* = 0.5 mu P, after the normal load): in the slip annulus
+/// c < |x| < a (c = a sqrt(1 - Q*/(mu P)), the stick zone at the load reversals) each point slips
+/// by 2 mu g_c(x) per half cycle under the traction mu p(x), so
+/// `W = 4 mu^2 int_{c<|x|<a} p(x) g_c(x) dx`, with `g_c` the 2D Hertz gap of half-width c and the
+/// same radius, `g_c(x) = c^2/(2R) [xi sqrt(xi^2-1) - ln(xi + sqrt(xi^2-1))]`, xi = |x|/c
+/// (Johnson 1985, sec. 4.3 and 7.1). The code's two measures: the dissipation sum_j lambda_t,j
+/// ds_j (backward Euler over the increments) and the area of the platen's Q-delta loop
+/// (trapezoid), over the second cycle.
+fn fretting_cycle(n_fine: usize, virtual_lower: bool, per_quarter: usize) -> (f64, f64, f64) {
+    let q_star = 0.5 * MU * P;
+    // t in [1, 2]: 0 -> Q*; then cycles of 4 quarters: Q* -> 0 -> -Q* -> 0 -> Q*.
+    let mut tp = vec![(0.0, 0.0), (1.0, 0.0), (2.0, q_star)];
+    for c in 0..2 {
+        let t0 = 2.0 + 4.0 * c as f64;
+        tp.extend([(t0 + 2.0, -q_star), (t0 + 4.0, q_star)]);
+    }
+    let n_out = 1 + 8 * per_quarter;
+    let mut times = vec![1.0, 2.0];
+    times.extend((1..=n_out - 1).map(|i| 2.0 + 8.0 * i as f64 / (n_out - 1) as f64));
+    let scene = CylinderPair {
+        n_fine,
+        virtual_lower,
+        mu: MU,
+        normal_load: P,
+        normal_path: vec![(0.0, 0.0), (1.0, 1.0)],
+        tangential_path: tp.clone(),
+        times,
+    };
+    let model = scene.build();
+    let master_x = {
+        // The platen's master node: the first node of the upper body's top set.
+        let b = &model.bodies[1];
+        let mut top: Vec<usize> = b.mesh.edge_sets["top"].iter().flat_map(|e| [e[0], e[1]]).collect();
+        top.sort_unstable();
+        2 * (top[0] + b.node_offset)
+    };
+    let path = mortex::model::LoadPath::new(tp).expect("path");
+    let mut a = StaticAnalysis::new(&model).expect("setup");
+    let mut s = a.initial_state();
+    let mut hist: Vec<(f64, f64, f64)> = Vec::new(); // (Q, delta, dissipation)
+    a.run(&mut s, |_, st| {
+        hist.push((path.factor(st.time), st.u[master_x], st.dissipation));
+        Ok(())
+    })
+    .expect("analysis");
+    // Second cycle: the last 4 per_quarter + 1 states.
+    let cyc = &hist[hist.len() - 4 * per_quarter - 1..];
+    let w_diss = cyc[cyc.len() - 1].2 - cyc[0].2;
+    let w_loop: f64 = cyc.windows(2).map(|w| 0.5 * (w[0].0 + w[1].0) * (w[1].1 - w[0].1)).sum::<f64>().abs();
+    let (a_h, p0) = hertz_a_p0(P);
+    let c = a_h * (1.0 - q_star / (MU * P)).sqrt();
+    let r_eff = common::CYL_R / 2.0;
+    let n = 20000;
+    let mut w_exact = 0.0;
+    for i in 0..n {
+        let x = c + (a_h - c) * (i as f64 + 0.5) / n as f64;
+        let xi = x / c;
+        let g = c * c / (2.0 * r_eff) * (xi * (xi * xi - 1.0).sqrt() - (xi + (xi * xi - 1.0).sqrt()).ln());
+        let p = p0 * (1.0 - x * x / (a_h * a_h)).sqrt();
+        w_exact += 2.0 * 4.0 * MU * MU * p * g * (a_h - c) / n as f64; // both sides of the centre
+    }
+    eprintln!(
+        "fretting n = {n_fine}, virtual {virtual_lower}, {per_quarter} increments per quarter: dissipation {w_diss:.4e}, loop area {w_loop:.4e}, analytical {w_exact:.4e} ({:+.2}% / {:+.2}%)",
+        100.0 * (w_diss / w_exact - 1.0),
+        100.0 * (w_loop / w_exact - 1.0)
+    );
+    (w_diss, w_loop, w_exact)
+}
+
+#[test]
+#[ignore]
+fn fretting_explore() {
+    let n: usize = std::env::var("CM_N").ok().and_then(|s| s.parse().ok()).unwrap_or(50);
+    let k: usize = std::env::var("CM_K").ok().and_then(|s| s.parse().ok()).unwrap_or(8);
+    fretting_cycle(n, std::env::var("CM_VIRTUAL").is_ok(), k);
+}
+
+/// Issue 4: dissipated energy per fretting cycle (Q* = 0.5 mu P, second cycle, 8 increments per
+/// quarter cycle) within 5% of the analytical Mindlin-Deresiewicz value (the issue's tolerance),
+/// real and virtual lower surface; the code's two measures (sum lambda_t ds and the Q-delta loop
+/// area) within 1% of each other (backward-Euler sum vs trapezoidal area: O(increment) apart).
+/// Measured: real +0.81% / +0.41% (dissipation / loop).
+#[test]
+fn fretting_loop_dissipation() {
+    for virtual_lower in [false, true] {
+        let (w_diss, w_loop, w_exact) = fretting_cycle(100, virtual_lower, 8);
+        assert!((w_diss / w_exact - 1.0).abs() < 0.05, "virtual {virtual_lower}: dissipation {w_diss:.4e} vs {w_exact:.4e}");
+        assert!((w_loop / w_exact - 1.0).abs() < 0.05, "virtual {virtual_lower}: loop area {w_loop:.4e} vs {w_exact:.4e}");
+        assert!((w_diss / w_loop - 1.0).abs() < 0.01, "virtual {virtual_lower}: {w_diss:.4e} vs loop {w_loop:.4e}");
+    }
+}
