@@ -39,6 +39,11 @@ pub enum AnalysisError {
     Setup(#[from] LinearSolverError),
     #[error("step {step}: {msg}")]
     Observer { step: usize, msg: String },
+    #[error(
+        "step {step} (time {time}): gross sliding: all {slipping} contact nodes in contact slip in one direction and \
+         nothing else restrains the body (the tangential load exceeds mu times the normal load?)"
+    )]
+    GrossSliding { step: usize, time: f64, slipping: usize },
 }
 
 pub struct StaticAnalysis<'m> {
@@ -63,6 +68,15 @@ pub struct StaticAnalysis<'m> {
 fn friction_couplings(m: &Model) -> Vec<(usize, usize)> {
     let (nt, nc) = (m.constraints.len(), m.contact_rows.len());
     m.friction_normal.iter().enumerate().map(|(j, &k)| (nt + nc + j, nt + k)).collect()
+}
+
+/// Every friction node in contact slips, all in one direction: a load-controlled body held only
+/// by friction then has no equilibrium (gross sliding).
+fn gross_sliding(status: &[FrictionStatus]) -> Option<usize> {
+    let slipping: Vec<bool> =
+        status.iter().filter_map(|s| if let FrictionStatus::Slip(d) = s { Some(*d) } else { None }).collect();
+    let stick = status.iter().any(|s| *s == FrictionStatus::Stick);
+    (!stick && !slipping.is_empty() && slipping.iter().all(|&d| d == slipping[0])).then_some(slipping.len())
 }
 
 /// Coulomb status of a tangential multiplier in one Newton iteration.
@@ -473,6 +487,9 @@ impl<'m> StaticAnalysis<'m> {
             }
             tracing::debug!(step, t, it, residual = res, "Newton iteration");
             if !res.is_finite() || (it > 0 && res > p.divergence_factor * first_res.max(p.rtol)) {
+                if let Some(slipping) = gross_sliding(&status) {
+                    return Err(AnalysisError::GrossSliding { step, time: t, slipping });
+                }
                 return Ok(Err((it, res)));
             }
             if !set_changed && (res <= p.rtol || (rn == 0.0 && gn == 0.0 && free_mu == 0.0)) {
@@ -490,6 +507,9 @@ impl<'m> StaticAnalysis<'m> {
                     // never changes, so there the failure is final (insufficient supports).
                     Err(e) if !linear => {
                         tracing::warn!(step, t, it, error = %e, "tangent factorisation failed");
+                        if let Some(slipping) = gross_sliding(&status) {
+                            return Err(AnalysisError::GrossSliding { step, time: t, slipping });
+                        }
                         return Ok(Err((it, res)));
                     }
                     Err(source) => return Err(NewtonError::Linear { step, iteration: it, source }.into()),
@@ -647,6 +667,9 @@ impl<'m> StaticAnalysis<'m> {
                 }
             }
             if it == p.max_iterations {
+                if let Some(slipping) = gross_sliding(&status) {
+                    return Err(AnalysisError::GrossSliding { step, time: t, slipping });
+                }
                 return Ok(Err((it, f64::INFINITY)));
             }
             prev = Some((active.clone(), status.clone()));
@@ -719,6 +742,9 @@ impl<'m> StaticAnalysis<'m> {
             }
             let Some(x) = a_mat.lu().solve(&rhs) else {
                 tracing::warn!(step, t, it, "condensed interface system is singular");
+                if let Some(slipping) = gross_sliding(&status) {
+                    return Err(AnalysisError::GrossSliding { step, time: t, slipping });
+                }
                 return Ok(Err((it, f64::INFINITY)));
             };
             for (a, law) in laws.iter().enumerate() {
@@ -778,6 +804,9 @@ impl<'m> StaticAnalysis<'m> {
         let res = if scale > 0.0 { norm(&r) / scale } else { norm(&r) };
         tracing::debug!(step, t, iterations, residual = res, "condensed step");
         if !res.is_finite() || res > p.rtol {
+            if let Some(slipping) = gross_sliding(&status) {
+                return Err(AnalysisError::GrossSliding { step, time: t, slipping });
+            }
             return Ok(Err((iterations, res)));
         }
         self.commit(state, u, mu, t, &status, &slip);

@@ -277,3 +277,30 @@ fn fretting_loop_dissipation() {
         assert!((w_diss / w_loop - 1.0).abs() < 0.01, "virtual {virtual_lower}: {w_diss:.4e} vs loop {w_loop:.4e}");
     }
 }
+
+/// Issue 4, bad input: a tangential force above mu P on a load-controlled platen (gross sliding,
+/// nothing else restrains the cylinder) stops with a typed error naming the step instead of a
+/// diverging loop (condensed solve, the default for elastic bodies; the monolithic solve of the
+/// small-sliding model finds a far-slid "equilibrium" on the tilted normals: see the note).
+#[test]
+fn tangential_load_beyond_mu_p_is_a_clear_error() {
+    let scene = CylinderPair {
+        n_fine: 20,
+        virtual_lower: false,
+        mu: MU,
+        normal_load: P,
+        normal_path: vec![(0.0, 0.0), (1.0, 1.0)],
+        tangential_path: vec![(0.0, 0.0), (1.0, 0.0), (2.0, 1.2 * MU * P)],
+        times: vec![1.0, 2.0],
+    };
+    let model = scene.build();
+    for condense in [true] {
+        let mut a = StaticAnalysis::with_condensation(&model, condense).expect("setup");
+        let mut s = a.initial_state();
+        let err = a.run(&mut s, |_, _| Ok(())).expect_err("gross sliding must fail");
+        let msg = err.to_string();
+        eprintln!("condensed {condense}: {msg}");
+        assert!(matches!(err, mortex::analysis::AnalysisError::GrossSliding { step: 2, .. }), "{msg}");
+        assert_eq!(s.step, 1, "the last converged state (the normal step) is kept");
+    }
+}
