@@ -632,6 +632,9 @@ impl<'m> StaticAnalysis<'m> {
                 ct[d] += c * lam0[i];
             }
         }
+        // Force scale of the step: what the start of the step has seen too (a contact that opens
+        // leaves the bodies unloaded, where the final forces are all round-off).
+        let scale0 = norm(&f_ext).max(norm(&self.trial_f_int)).max(norm(&ct));
         let mut z: Vec<f64> = m.dofs.free.iter().map(|&g| f_ext[g] - self.trial_f_int[g] - ct[g]).collect();
         let solve_err = |iteration: usize| move |source| NewtonError::Linear { step, iteration, source };
         self.solver.solve(&mut z).map_err(solve_err(0))?;
@@ -800,7 +803,7 @@ impl<'m> StaticAnalysis<'m> {
             }
         }
         let r: Vec<f64> = m.dofs.free.iter().map(|&g| f_ext[g] - self.trial_f_int[g] - ct[g]).collect();
-        let scale = norm(&f_ext).max(norm(&self.trial_f_int)).max(norm(&ct));
+        let scale = scale0.max(norm(&self.trial_f_int)).max(norm(&ct));
         let res = if scale > 0.0 { norm(&r) / scale } else { norm(&r) };
         tracing::debug!(step, t, iterations, residual = res, "condensed step");
         if !res.is_finite() || res > p.rtol {
