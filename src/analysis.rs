@@ -538,7 +538,15 @@ impl<'m> StaticAnalysis<'m> {
     }
 
     /// Commits a converged trial state (history advances only here).
-    fn commit(&mut self, state: &mut SimState, u: Vec<f64>, mu: Vec<f64>, t: f64, status: &[FrictionStatus], slip: &[f64]) {
+    fn commit(
+        &mut self,
+        state: &mut SimState,
+        u: Vec<f64>,
+        mu: Vec<f64>,
+        t: f64,
+        status: &[FrictionStatus],
+        slip: &[f64],
+    ) {
         let m = self.model;
         let first_t = m.constraints.len() + m.contact_rows.len();
         for (j, st) in status.iter().enumerate() {
@@ -641,9 +649,8 @@ impl<'m> StaticAnalysis<'m> {
         let cz: Vec<f64> = cd.rows_free.iter().map(|r| r.iter().map(|&(e, c)| c * z[e]).sum()).collect();
         // Row values at u0: w0 = C u0; the law's targets per live row.
         let w0: Vec<f64> = cd.live.iter().map(|&i| all[i].iter().map(|&(d, c)| c * u[d]).sum()).collect();
-        let slip0: Vec<f64> = (0..nfr)
-            .map(|j| m.friction_rows[j].iter().map(|&(d, c)| c * (u[d] - state.u[d])).sum())
-            .collect();
+        let slip0: Vec<f64> =
+            (0..nfr).map(|j| m.friction_rows[j].iter().map(|&(d, c)| c * (u[d] - state.u[d])).sum()).collect();
         let mut dlam = vec![0.0; nl];
         let mut dw = vec![0.0; nl];
         let mut active = vec![false; nc];

@@ -67,11 +67,28 @@ fn cattaneo_mindlin(n_fine: usize, virtual_lower: bool, ratio: f64) -> CmResult 
     if std::env::var("CM_DUMP").is_ok() {
         for p in &v {
             if p.0.abs() < 1.2 * a {
-                eprintln!("{:.5} p {:.2} ({:.2}) q {:.3} ({:.3}) st {}", p.0, p.1, if p.0.abs() < a { p0 * (1.0 - p.0 * p.0 / (a * a)).sqrt() } else { 0.0 }, sign * p.2, cm_exact(p.0, a, c, p0), p.3);
+                eprintln!(
+                    "{:.5} p {:.2} ({:.2}) q {:.3} ({:.3}) st {}",
+                    p.0,
+                    p.1,
+                    if p.0.abs() < a { p0 * (1.0 - p.0 * p.0 / (a * a)).sqrt() } else { 0.0 },
+                    sign * p.2,
+                    cm_exact(p.0, a, c, p0),
+                    p.3
+                );
             }
         }
         let pp: Vec<(f64, f64)> = v.iter().map(|p| (p.0, p.1)).collect();
-        eprintln!("pressure L2 {:.3}%", 100.0 * l2_error(&pp, |x| if x.abs() < a { p0 * (1.0 - x * x / (a * a)).sqrt() } else { 0.0 }, -2.0 * a, 2.0 * a));
+        eprintln!(
+            "pressure L2 {:.3}%",
+            100.0
+                * l2_error(
+                    &pp,
+                    |x| if x.abs() < a { p0 * (1.0 - x * x / (a * a)).sqrt() } else { 0.0 },
+                    -2.0 * a,
+                    2.0 * a
+                )
+        );
     }
     eprintln!(
         "Cattaneo-Mindlin n = {n_fine}, virtual {virtual_lower}, Q/(mu P) = {ratio}: {} DOFs, c {c_num:.5} vs {c:.5} ({:+.2}%), shear L2 {:.2}%",
@@ -84,7 +101,9 @@ fn cattaneo_mindlin(n_fine: usize, virtual_lower: bool, ratio: f64) -> CmResult 
     let resultant = model
         .multiplier_rows()
         .zip(&s.multipliers)
-        .map(|(row, l)| l * row.iter().filter(|(d, _)| *d >= first_upper_dof && d % 2 == 0).map(|(_, c)| c).sum::<f64>())
+        .map(|(row, l)| {
+            l * row.iter().filter(|(d, _)| *d >= first_upper_dof && d % 2 == 0).map(|(_, c)| c).sum::<f64>()
+        })
         .sum::<f64>()
         .abs();
     // Coulomb law at the nodes: slip |q| = mu p, stick |q| <= mu p (relative to mu p0).
@@ -272,8 +291,14 @@ fn fretting_explore() {
 fn fretting_loop_dissipation() {
     for virtual_lower in [false, true] {
         let (w_diss, w_loop, w_exact) = fretting_cycle(100, virtual_lower, 8);
-        assert!((w_diss / w_exact - 1.0).abs() < 0.05, "virtual {virtual_lower}: dissipation {w_diss:.4e} vs {w_exact:.4e}");
-        assert!((w_loop / w_exact - 1.0).abs() < 0.05, "virtual {virtual_lower}: loop area {w_loop:.4e} vs {w_exact:.4e}");
+        assert!(
+            (w_diss / w_exact - 1.0).abs() < 0.05,
+            "virtual {virtual_lower}: dissipation {w_diss:.4e} vs {w_exact:.4e}"
+        );
+        assert!(
+            (w_loop / w_exact - 1.0).abs() < 0.05,
+            "virtual {virtual_lower}: loop area {w_loop:.4e} vs {w_exact:.4e}"
+        );
         assert!((w_diss / w_loop - 1.0).abs() < 0.01, "virtual {virtual_lower}: {w_diss:.4e} vs loop {w_loop:.4e}");
     }
 }

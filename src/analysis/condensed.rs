@@ -57,7 +57,9 @@ pub(super) fn setup(
     }
     let rows_free: Vec<Vec<(usize, f64)>> = live
         .iter()
-        .map(|&i| all[i].iter().filter(|&&(d, _)| m.dofs.eq[d] != CONSTRAINED).map(|&(d, c)| (m.dofs.eq[d], c)).collect())
+        .map(|&i| {
+            all[i].iter().filter(|&&(d, _)| m.dofs.eq[d] != CONSTRAINED).map(|&(d, c)| (m.dofs.eq[d], c)).collect()
+        })
         .collect();
     // rho |C|^2 about a tenth of the bulk stiffness E: K_rho stays well conditioned and the
     // floating modes of contact-held bodies are fixed.
@@ -83,8 +85,20 @@ pub(super) fn setup(
     let mut stress = vec![Stress4::zeros(); m.elements.num_points()];
     let mut f_int = vec![0.0; m.dofs.num_dofs];
     assembler.assemble(
-        &AssemblyInput { coords: &m.coords, elements: &m.elements, materials: &m.materials, rules: &m.rules, u: &u, state_old: &history },
-        AssemblyOutput { values: Some(&mut values), f_int: &mut f_int, stress: &mut stress, state_new: &mut history_new },
+        &AssemblyInput {
+            coords: &m.coords,
+            elements: &m.elements,
+            materials: &m.materials,
+            rules: &m.rules,
+            u: &u,
+            state_old: &history,
+        },
+        AssemblyOutput {
+            values: Some(&mut values),
+            f_int: &mut f_int,
+            stress: &mut stress,
+            state_new: &mut history_new,
+        },
         parallel,
     );
     solver.factor(&values)?;

@@ -201,7 +201,9 @@ impl SparsityPattern {
             .map(|&(r, c)| {
                 let col = nf + c;
                 // Always found: the entry was inserted above.
-                row_idx[col_ptr[col]..col_ptr[col + 1]].binary_search(&(nf + r)).map_or(usize::MAX, |p| col_ptr[col] + p)
+                row_idx[col_ptr[col]..col_ptr[col + 1]]
+                    .binary_search(&(nf + r))
+                    .map_or(usize::MAX, |p| col_ptr[col] + p)
             })
             .collect();
         // Where each constraint coefficient goes: (row r, column e) and (row e, column r).
@@ -253,7 +255,15 @@ impl SparsityPattern {
             }
         }
         let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
-        SparsityPattern { symbolic, scatter, constraint_scatter, fixed_rows, diag_scatter, coupling_scatter, penalty_scatter }
+        SparsityPattern {
+            symbolic,
+            scatter,
+            constraint_scatter,
+            fixed_rows,
+            diag_scatter,
+            coupling_scatter,
+            penalty_scatter,
+        }
     }
 
     pub fn nnz(&self) -> usize {

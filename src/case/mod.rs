@@ -486,9 +486,11 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
     let curve_id = |name: &Option<String>, key: String| -> Result<usize, CaseError> {
         match name {
             None => Ok(0),
-            Some(n) => curve_names.iter().position(|c| c == n).map(|i| i + 1).ok_or_else(|| {
-                cx.err(key, format!("no curve named '{n}' (defined: {})", curve_names.join(", ")))
-            }),
+            Some(n) => curve_names
+                .iter()
+                .position(|c| c == n)
+                .map(|i| i + 1)
+                .ok_or_else(|| cx.err(key, format!("no curve named '{n}' (defined: {})", curve_names.join(", ")))),
         }
     };
 
@@ -593,7 +595,9 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
             };
         let name = c.name.clone().unwrap_or_else(|| format!("contact{i}"));
         if !(c.friction.is_finite() && c.friction >= 0.0) {
-            return Err(cx.err(k("friction"), format!("the friction coefficient must be finite and >= 0, got {}", c.friction)));
+            return Err(
+                cx.err(k("friction"), format!("the friction coefficient must be finite and >= 0, got {}", c.friction))
+            );
         }
         b.add_contact(&name, mortar, &c.mortar_surface, other_body, other, c.friction)
             .map_err(|e| model_err(&cx, k("mortar_surface"), e))?;

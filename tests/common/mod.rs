@@ -114,15 +114,16 @@ impl CylinderPair {
         let h = 0.5 / self.n_fine as f64;
         let rs = generate::graded(80, 1.0 / 200.0);
         let arc_grid = |n: usize| generate::plateau_graded(n, (0.5 / CYL_R) / PI, 40);
-        let upper = generate::half_disc_from_divisions(Point2::new(0.0, CYL_R), CYL_R, &rs, &arc_grid(3 * self.n_fine / 2))
-            .expect("cylinder mesh");
+        let upper =
+            generate::half_disc_from_divisions(Point2::new(0.0, CYL_R), CYL_R, &rs, &arc_grid(3 * self.n_fine / 2))
+                .expect("cylinder mesh");
         let lower = if self.virtual_lower {
             let gx = generate::plateau_graded(self.n_fine, 0.5 / 21.0, 40);
             let height = CYL_R + 0.013;
-            let mut gy: Vec<f64> =
-                generate::geometric_from_start(70, h / height).iter().map(|y| 1.0 - y).collect();
+            let mut gy: Vec<f64> = generate::geometric_from_start(70, h / height).iter().map(|y| 1.0 - y).collect();
             gy.reverse();
-            generate::rectangle_from_divisions(-10.5, -CYL_R, 21.0, height, &gx, &gy, CellKind::Quad4).expect("host mesh")
+            generate::rectangle_from_divisions(-10.5, -CYL_R, 21.0, height, &gx, &gy, CellKind::Quad4)
+                .expect("host mesh")
         } else {
             // The upper half disc turned by 180 degrees (a rotation keeps the cells' orientation).
             let mut m = generate::half_disc_from_divisions(Point2::new(0.0, CYL_R), CYL_R, &rs, &arc_grid(self.n_fine))
@@ -171,7 +172,6 @@ pub fn hertz_a_p0(p: f64) -> (f64, f64) {
     let a = (4.0 * p * (CYL_R / 2.0) / (std::f64::consts::PI * e_star)).sqrt();
     (a, 2.0 * p / (std::f64::consts::PI * a))
 }
-
 
 /// `(x, p, q, status)` at each multiplier node of contact 0, sorted by x: pressure `-lambda_n`,
 /// shear `lambda_t` and Coulomb status (0 open, 1 stick, 2 slip; 0 for frictionless nodes).
