@@ -136,6 +136,27 @@ fn contact_sets(
     }
 }
 
+/// Sets the multipliers of open contact nodes (normal and tangential) to exactly zero.
+fn zero_open_multipliers(m: &Model, mult: &mut [f64], active: &[bool], status: &[FrictionStatus]) {
+    let (nt, nc) = (m.constraints.len(), m.contact_rows.len());
+    for (k, _) in active.iter().enumerate().filter(|(_, a)| !**a) {
+        mult[nt + k] = 0.0;
+    }
+    for (j, _) in status.iter().enumerate().filter(|(_, s)| **s == FrictionStatus::Open) {
+        mult[nt + nc + j] = 0.0;
+    }
+}
+
+/// `C^T lambda` over all DOFs.
+fn constraint_forces(m: &Model, mult: &[f64], out: &mut [f64]) {
+    out.iter_mut().for_each(|v| *v = 0.0);
+    for (row, l) in m.multiplier_rows().zip(mult) {
+        for &(d, c) in row {
+            out[d] += c * l;
+        }
+    }
+}
+
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
@@ -522,17 +543,8 @@ impl<'m> StaticAnalysis<'m> {
             for k in 0..nm {
                 mu[k] += self.alpha * r[nf + k];
             }
-            // The inactive-row equation lambda = 0 is linear: its Newton step is exact.
-            for k in 0..nc {
-                if !active[k] {
-                    mu[nt + k] = 0.0;
-                }
-            }
-            for j in 0..nfr {
-                if status[j] == FrictionStatus::Open {
-                    mu[nt + nc + j] = 0.0;
-                }
-            }
+            // The open-node equation lambda = 0 is linear: its Newton step is exact.
+            zero_open_multipliers(m, &mut mu, &active, &status);
         }
         Ok(Err((p.max_iterations, res)))
     }
@@ -635,11 +647,7 @@ impl<'m> StaticAnalysis<'m> {
         let history = state.history.clone();
         self.internal_force(&u, &history);
         let mut ct = vec![0.0; m.dofs.num_dofs];
-        for (i, row) in all.iter().enumerate() {
-            for &(d, c) in row.iter() {
-                ct[d] += c * lam0[i];
-            }
-        }
+        constraint_forces(m, &lam0, &mut ct);
         // Force scale of the step: what the start of the step has seen too (a contact that opens
         // leaves the bodies unloaded, where the final forces are all round-off).
         let scale0 = norm(&f_ext).max(norm(&self.trial_f_int)).max(norm(&ct));
@@ -791,24 +799,10 @@ impl<'m> StaticAnalysis<'m> {
             mu[i] += dlam[a];
         }
         // Exact zeros where the law says so (open nodes).
-        for k in 0..nc {
-            if !active[k] {
-                mu[nt + k] = 0.0;
-            }
-        }
-        for j in 0..nfr {
-            if status[j] == FrictionStatus::Open {
-                mu[nt + nc + j] = 0.0;
-            }
-        }
+        zero_open_multipliers(m, &mut mu, &active, &status);
         // Check: the equilibrium residual of the recovered state.
         self.internal_force(&u, &history);
-        ct.iter_mut().for_each(|v| *v = 0.0);
-        for (i, row) in all.iter().enumerate() {
-            for &(d, c) in row.iter() {
-                ct[d] += c * mu[i];
-            }
-        }
+        constraint_forces(m, &mu, &mut ct);
         let r: Vec<f64> = m.dofs.free.iter().map(|&g| f_ext[g] - self.trial_f_int[g] - ct[g]).collect();
         let scale = scale0.max(norm(&self.trial_f_int)).max(norm(&ct));
         let res = if scale > 0.0 { norm(&r) / scale } else { norm(&r) };
