@@ -136,6 +136,9 @@ fn contact_sets(
     }
 }
 
+/// Passes of iterative refinement of one condensed step.
+const MAX_REFINEMENTS: usize = 3;
+
 /// Sets the multipliers of open contact nodes (normal and tangential) to exactly zero.
 fn zero_open_multipliers(m: &Model, mult: &mut [f64], active: &[bool], status: &[FrictionStatus]) {
     let (nt, nc) = (m.constraints.len(), m.contact_rows.len());
@@ -616,8 +619,8 @@ impl<'m> StaticAnalysis<'m> {
         step: usize,
         t: f64,
     ) -> Result<Result<(usize, f64), (usize, f64)>, AnalysisError> {
-        let Some(cd) = self.condensed.take() else { return Ok(Err((0, f64::INFINITY))) };
-        let result = self.condensed_step(&cd, state, step, t);
+        let Some(mut cd) = self.condensed.take() else { return Ok(Err((0, f64::INFINITY))) };
+        let result = self.condensed_step(&mut cd, state, step, t);
         self.condensed = Some(cd);
         result
     }
@@ -625,7 +628,7 @@ impl<'m> StaticAnalysis<'m> {
     #[allow(clippy::type_complexity)]
     fn condensed_step(
         &mut self,
-        cd: &condensed::Condensed,
+        cd: &mut condensed::Condensed,
         state: &mut SimState,
         step: usize,
         t: f64,
@@ -634,7 +637,6 @@ impl<'m> StaticAnalysis<'m> {
         let p = m.newton;
         let (nt, nc, nfr) = (m.constraints.len(), m.contact_rows.len(), m.friction_rows.len());
         let nf = m.dofs.num_free;
-        let nl = cd.live.len();
         let all: Vec<&Vec<(usize, f64)>> = m.multiplier_rows().collect();
         let mut u = state.u.clone();
         for (d, v) in m.prescribed_at(t) {
@@ -642,179 +644,218 @@ impl<'m> StaticAnalysis<'m> {
         }
         let mut f_ext = vec![0.0; m.dofs.num_dofs];
         m.external_force(t, &mut f_ext);
-        let lam0 = state.multipliers.clone();
-        // r_u = f - f_int(u0) - C^T lambda0 on the free equations, z = K_rho^{-1} r_u.
-        let history = state.history.clone();
-        self.internal_force(&u, &history);
-        let mut ct = vec![0.0; m.dofs.num_dofs];
-        constraint_forces(m, &lam0, &mut ct);
-        // Force scale of the step: what the start of the step has seen too (a contact that opens
-        // leaves the bodies unloaded, where the final forces are all round-off).
-        let scale0 = norm(&f_ext).max(norm(&self.trial_f_int)).max(norm(&ct));
-        let mut z: Vec<f64> = m.dofs.free.iter().map(|&g| f_ext[g] - self.trial_f_int[g] - ct[g]).collect();
-        let solve_err = |iteration: usize| move |source| NewtonError::Linear { step, iteration, source };
-        self.solver.solve(&mut z).map_err(solve_err(0))?;
-        let cz: Vec<f64> = cd.rows_free.iter().map(|r| r.iter().map(|&(e, c)| c * z[e]).sum()).collect();
-        // Row values at u0: w0 = C u0; the law's targets per live row.
-        let w0: Vec<f64> = cd.live.iter().map(|&i| all[i].iter().map(|&(d, c)| c * u[d]).sum()).collect();
-        let slip0: Vec<f64> =
-            (0..nfr).map(|j| m.friction_rows[j].iter().map(|&(d, c)| c * (u[d] - state.u[d])).sum()).collect();
-        let mut dlam = vec![0.0; nl];
-        let mut dw = vec![0.0; nl];
-        let mut active = vec![false; nc];
-        let mut status = vec![FrictionStatus::Open; nfr];
-        let mut prev: Option<(Vec<bool>, Vec<FrictionStatus>)> = None;
-        let mut gaps = vec![0.0; nc];
-        let mut slip = vec![0.0; nfr];
-        let mut mult = lam0.clone();
+        let mut lam0 = state.multipliers.clone();
         let mut iterations = 0;
-        for it in 0..=p.max_iterations {
-            for k in 0..nc {
-                gaps[k] = m.contact_g0[k] + cd.live_of[nt + k].map_or(0.0, |a| w0[a] + dw[a]);
-            }
-            for j in 0..nfr {
-                slip[j] = slip0[j] + cd.live_of[nt + nc + j].map_or(0.0, |a| dw[a]);
-            }
-            for (a, &i) in cd.live.iter().enumerate() {
-                mult[i] = lam0[i] + dlam[a];
-            }
-            contact_sets(m, &mult, &gaps, &slip, it == 0, &mut active, &mut status);
-            if let Some((pa, ps)) = &prev {
-                if pa == &active && ps == &status {
-                    break;
-                }
-            }
-            if it == p.max_iterations {
-                if let Some(slipping) = gross_sliding(&status) {
-                    return Err(AnalysisError::GrossSliding { step, time: t, slipping });
-                }
-                return Ok(Err((it, f64::INFINITY)));
-            }
-            prev = Some((active.clone(), status.clone()));
-            iterations = it + 1;
-            // Per live row: gap row (dw known, dlambda unknown) or multiplier row (dlambda
-            // known or tied to its normal's, dw unknown).
-            enum Law {
-                Gap(f64),
-                Fixed(f64),
-                Slip { normal: usize, s: f64, rest: f64 },
-            }
-            let laws: Vec<Law> = cd
-                .live
-                .iter()
-                .enumerate()
-                .map(|(a, &i)| {
-                    if i < nt {
-                        Law::Gap(-w0[a])
-                    } else if i < nt + nc {
-                        let k = i - nt;
-                        if active[k] {
-                            Law::Gap(-(m.contact_g0[k] + w0[a]))
-                        } else {
-                            Law::Fixed(-lam0[i])
+        let history = state.history.clone();
+        // Iterative refinement: the interface problem is linear for fixed sets, so a pass that
+        // misses the tolerance only by round-off (K_rho's regularisation of floating bodies
+        // costs digits) is repeated from its own result, the sets then unchanged.
+        for pass in 0..MAX_REFINEMENTS {
+            // r_u = f - f_int(u0) - C^T lambda0 on the free equations, z = K_rho^{-1} r_u.
+            self.internal_force(&u, &history);
+            let mut ct = vec![0.0; m.dofs.num_dofs];
+            constraint_forces(m, &lam0, &mut ct);
+            // Force scale of the step: what the start of the step has seen too (a contact that opens
+            // leaves the bodies unloaded, where the final forces are all round-off).
+            let scale0 = norm(&f_ext).max(norm(&self.trial_f_int)).max(norm(&ct));
+            let mut z: Vec<f64> = m.dofs.free.iter().map(|&g| f_ext[g] - self.trial_f_int[g] - ct[g]).collect();
+            let solve_err = |iteration: usize| move |source| NewtonError::Linear { step, iteration, source };
+            self.solver.solve(&mut z).map_err(solve_err(0))?;
+            let slip0: Vec<f64> =
+                (0..nfr).map(|j| m.friction_rows[j].iter().map(|&(d, c)| c * (u[d] - state.u[d])).sum()).collect();
+            let u_start = u.clone();
+            let (mut active, mut status) = (vec![false; nc], vec![FrictionStatus::Open; nfr]);
+            let mut slip = vec![0.0; nfr];
+            // Weighted gaps minus g0 of every contact row at the start of the step.
+            let w_start: Vec<f64> = m.contact_rows.iter().map(|r| r.iter().map(|&(d, c)| c * u[d]).sum()).collect();
+            let mut mu = loop {
+                let nl = cd.live.len();
+                let cz: Vec<f64> = cd.rows_free.iter().map(|r| r.iter().map(|&(e, c)| c * z[e]).sum()).collect();
+                // Row values at u0: w0 = C u0; the law's targets per live row.
+                let w0: Vec<f64> = cd.live.iter().map(|&i| all[i].iter().map(|&(d, c)| c * u_start[d]).sum()).collect();
+                let mut dlam = vec![0.0; nl];
+                let mut dw = vec![0.0; nl];
+                let mut prev: Option<(Vec<bool>, Vec<FrictionStatus>)> = None;
+                let mut gaps = vec![0.0; nc];
+                let mut mult = lam0.clone();
+                for it in 0..=p.max_iterations {
+                    for k in 0..nc {
+                        gaps[k] = m.contact_g0[k] + cd.live_of[nt + k].map_or(w_start[k], |a| w0[a] + dw[a]);
+                    }
+                    for j in 0..nfr {
+                        slip[j] = slip0[j] + cd.live_of[nt + nc + j].map_or(0.0, |a| dw[a]);
+                    }
+                    for (a, &i) in cd.live.iter().enumerate() {
+                        mult[i] = lam0[i] + dlam[a];
+                    }
+                    contact_sets(m, &mult, &gaps, &slip, it == 0, &mut active, &mut status);
+                    // Rows outside the set stay open (checked after the solve).
+                    for k in (0..nc).filter(|&k| cd.live_of[nt + k].is_none()) {
+                        active[k] = false;
+                    }
+                    for j in (0..nfr).filter(|&j| cd.live_of[nt + nc + j].is_none()) {
+                        status[j] = FrictionStatus::Open;
+                    }
+                    if let Some((pa, ps)) = &prev {
+                        if pa == &active && ps == &status {
+                            break;
                         }
-                    } else {
-                        let j = i - nt - nc;
-                        let k = m.friction_normal[j];
-                        match status[j] {
-                            FrictionStatus::Stick => Law::Gap(-slip0[j]),
-                            FrictionStatus::Open => Law::Fixed(-lam0[i]),
-                            FrictionStatus::Slip(pos) => {
-                                let s = if pos { 1.0 } else { -1.0 };
-                                let mk = m.contact_mu[k];
-                                let normal = cd.live_of[nt + k].unwrap_or(a);
-                                Law::Slip { normal, s: -mk * s, rest: -(lam0[i] + mk * s * lam0[nt + k]) }
+                    }
+                    if it == p.max_iterations {
+                        if let Some(slipping) = gross_sliding(&status) {
+                            return Err(AnalysisError::GrossSliding { step, time: t, slipping });
+                        }
+                        return Ok(Err((it, f64::INFINITY)));
+                    }
+                    prev = Some((active.clone(), status.clone()));
+                    iterations += 1;
+                    // Per live row: gap row (dw known, dlambda unknown) or multiplier row (dlambda
+                    // known or tied to its normal's, dw unknown).
+                    enum Law {
+                        Gap(f64),
+                        Fixed(f64),
+                        Slip { normal: usize, s: f64, rest: f64 },
+                    }
+                    let laws: Vec<Law> = cd
+                        .live
+                        .iter()
+                        .enumerate()
+                        .map(|(a, &i)| {
+                            if i < nt {
+                                Law::Gap(-w0[a])
+                            } else if i < nt + nc {
+                                let k = i - nt;
+                                if active[k] {
+                                    Law::Gap(-(m.contact_g0[k] + w0[a]))
+                                } else {
+                                    Law::Fixed(-lam0[i])
+                                }
+                            } else {
+                                let j = i - nt - nc;
+                                let k = m.friction_normal[j];
+                                match status[j] {
+                                    FrictionStatus::Stick => Law::Gap(-slip0[j]),
+                                    FrictionStatus::Open => Law::Fixed(-lam0[i]),
+                                    FrictionStatus::Slip(pos) => {
+                                        let s = if pos { 1.0 } else { -1.0 };
+                                        let mk = m.contact_mu[k];
+                                        let normal = cd.live_of[nt + k].unwrap_or(a);
+                                        Law::Slip { normal, s: -mk * s, rest: -(lam0[i] + mk * s * lam0[nt + k]) }
+                                    }
+                                }
+                            }
+                        })
+                        .collect();
+                    // (I - rho D) dw + D dlambda = C z, unknowns x_a = dlambda_a (gap rows) or dw_a.
+                    let mut a_mat = DMatrix::<f64>::zeros(nl, nl);
+                    let mut rhs = DVector::<f64>::from_vec(cz.clone());
+                    for (a, law) in laws.iter().enumerate() {
+                        let dcol = cd.d.column(a);
+                        match *law {
+                            Law::Gap(b) => {
+                                // dw_a = b known; dlambda_a unknown (column a).
+                                for e in 0..nl {
+                                    let ima = if e == a { 1.0 } else { 0.0 } - cd.rho[a] * dcol[e];
+                                    rhs[e] -= ima * b;
+                                    a_mat[(e, a)] += dcol[e];
+                                }
+                            }
+                            Law::Fixed(l) => {
+                                for e in 0..nl {
+                                    a_mat[(e, a)] += if e == a { 1.0 } else { 0.0 } - cd.rho[a] * dcol[e];
+                                    rhs[e] -= dcol[e] * l;
+                                }
+                            }
+                            Law::Slip { normal, s, rest } => {
+                                for e in 0..nl {
+                                    a_mat[(e, a)] += if e == a { 1.0 } else { 0.0 } - cd.rho[a] * dcol[e];
+                                    a_mat[(e, normal)] += dcol[e] * s;
+                                    rhs[e] -= dcol[e] * rest;
+                                }
                             }
                         }
                     }
-                })
-                .collect();
-            // (I - rho D) dw + D dlambda = C z, unknowns x_a = dlambda_a (gap rows) or dw_a.
-            let mut a_mat = DMatrix::<f64>::zeros(nl, nl);
-            let mut rhs = DVector::<f64>::from_vec(cz.clone());
-            for (a, law) in laws.iter().enumerate() {
-                let dcol = cd.d.column(a);
-                match *law {
-                    Law::Gap(b) => {
-                        // dw_a = b known; dlambda_a unknown (column a).
-                        for e in 0..nl {
-                            let ima = if e == a { 1.0 } else { 0.0 } - cd.rho * dcol[e];
-                            rhs[e] -= ima * b;
-                            a_mat[(e, a)] += dcol[e];
+                    let Some(x) = a_mat.lu().solve(&rhs) else {
+                        tracing::warn!(step, t, it, "condensed interface system is singular");
+                        if let Some(slipping) = gross_sliding(&status) {
+                            return Err(AnalysisError::GrossSliding { step, time: t, slipping });
                         }
-                    }
-                    Law::Fixed(l) => {
-                        for e in 0..nl {
-                            a_mat[(e, a)] += if e == a { 1.0 } else { 0.0 } - cd.rho * dcol[e];
-                            rhs[e] -= dcol[e] * l;
-                        }
-                    }
-                    Law::Slip { normal, s, rest } => {
-                        for e in 0..nl {
-                            a_mat[(e, a)] += if e == a { 1.0 } else { 0.0 } - cd.rho * dcol[e];
-                            a_mat[(e, normal)] += dcol[e] * s;
-                            rhs[e] -= dcol[e] * rest;
+                        return Ok(Err((it, f64::INFINITY)));
+                    };
+                    for (a, law) in laws.iter().enumerate() {
+                        match *law {
+                            Law::Gap(b) => {
+                                dw[a] = b;
+                                dlam[a] = x[a];
+                            }
+                            Law::Fixed(l) => {
+                                dw[a] = x[a];
+                                dlam[a] = l;
+                            }
+                            Law::Slip { normal, s, rest } => {
+                                dw[a] = x[a];
+                                dlam[a] = s * x[normal] + rest;
+                            }
                         }
                     }
                 }
-            }
-            let Some(x) = a_mat.lu().solve(&rhs) else {
-                tracing::warn!(step, t, it, "condensed interface system is singular");
-                if let Some(slipping) = gross_sliding(&status) {
-                    return Err(AnalysisError::GrossSliding { step, time: t, slipping });
+                // du = z + K_rho^{-1} C^T (rho dw - dlambda).
+                let mut y = vec![0.0; nf];
+                for (a, row) in cd.rows_free.iter().enumerate() {
+                    let v = cd.rho[a] * dw[a] - dlam[a];
+                    for &(e, c) in row {
+                        y[e] += c * v;
+                    }
                 }
-                return Ok(Err((it, f64::INFINITY)));
+                self.solver.solve(&mut y).map_err(solve_err(iterations))?;
+                u.clone_from(&u_start);
+                for (i, &g) in m.dofs.free.iter().enumerate() {
+                    u[g] += z[i] + y[i];
+                }
+                let mut mu = lam0.clone();
+                for (a, &i) in cd.live.iter().enumerate() {
+                    mu[i] += dlam[a];
+                }
+                // A row outside the set that would penetrate joins it (with its neighbours within
+                // the candidate margin), and the step's interface problem is solved again.
+                let gaps_u: Vec<f64> = (0..nc)
+                    .map(|k| m.contact_g0[k] + m.contact_rows[k].iter().map(|&(d, c)| c * u[d]).sum::<f64>())
+                    .collect();
+                let penetrates =
+                    (0..nc).any(|k| cd.live_of[nt + k].is_none() && m.contact_phi[k] > 0.0 && gaps_u[k] < 0.0);
+                if !penetrates {
+                    break mu;
+                }
+                let add: Vec<usize> = condensed::near_rows(m, &gaps_u, condensed::CANDIDATE_MARGIN, 0.0)
+                    .into_iter()
+                    .filter(|&k| cd.live_of[nt + k].is_none())
+                    .collect();
+                tracing::debug!(step, t, added = add.len(), "condensed set grows");
+                cd.grow(m, &self.solver, &condensed::with_friction(m, &add), 0.0).map_err(solve_err(iterations))?;
             };
-            for (a, law) in laws.iter().enumerate() {
-                match *law {
-                    Law::Gap(b) => {
-                        dw[a] = b;
-                        dlam[a] = x[a];
-                    }
-                    Law::Fixed(l) => {
-                        dw[a] = x[a];
-                        dlam[a] = l;
-                    }
-                    Law::Slip { normal, s, rest } => {
-                        dw[a] = x[a];
-                        dlam[a] = s * x[normal] + rest;
-                    }
-                }
+            // Exact zeros where the law says so (open nodes).
+            zero_open_multipliers(m, &mut mu, &active, &status);
+            // Check: the equilibrium residual of the recovered state.
+            self.internal_force(&u, &history);
+            constraint_forces(m, &mu, &mut ct);
+            let r: Vec<f64> = m.dofs.free.iter().map(|&g| f_ext[g] - self.trial_f_int[g] - ct[g]).collect();
+            let scale = scale0.max(norm(&self.trial_f_int)).max(norm(&ct));
+            let res = if scale > 0.0 { norm(&r) / scale } else { norm(&r) };
+            tracing::debug!(step, t, iterations, residual = res, "condensed step");
+            if res.is_finite() && res <= p.rtol {
+                self.commit(state, u, mu, t, &status, &slip);
+                return Ok(Ok((iterations, res)));
             }
-        }
-        // du = z + K_rho^{-1} C^T (rho dw - dlambda).
-        let mut y = vec![0.0; nf];
-        for (a, row) in cd.rows_free.iter().enumerate() {
-            let v = cd.rho * dw[a] - dlam[a];
-            for &(e, c) in row {
-                y[e] += c * v;
-            }
-        }
-        self.solver.solve(&mut y).map_err(solve_err(iterations))?;
-        for (i, &g) in m.dofs.free.iter().enumerate() {
-            u[g] += z[i] + y[i];
-        }
-        let mut mu = lam0;
-        for (a, &i) in cd.live.iter().enumerate() {
-            mu[i] += dlam[a];
-        }
-        // Exact zeros where the law says so (open nodes).
-        zero_open_multipliers(m, &mut mu, &active, &status);
-        // Check: the equilibrium residual of the recovered state.
-        self.internal_force(&u, &history);
-        constraint_forces(m, &mu, &mut ct);
-        let r: Vec<f64> = m.dofs.free.iter().map(|&g| f_ext[g] - self.trial_f_int[g] - ct[g]).collect();
-        let scale = scale0.max(norm(&self.trial_f_int)).max(norm(&ct));
-        let res = if scale > 0.0 { norm(&r) / scale } else { norm(&r) };
-        tracing::debug!(step, t, iterations, residual = res, "condensed step");
-        if !res.is_finite() || res > p.rtol {
             if let Some(slipping) = gross_sliding(&status) {
                 return Err(AnalysisError::GrossSliding { step, time: t, slipping });
             }
-            return Ok(Err((iterations, res)));
+            if !res.is_finite() || pass + 1 == MAX_REFINEMENTS {
+                return Ok(Err((iterations, res)));
+            }
+            tracing::debug!(step, t, pass, residual = res, "condensed step: refining");
+            lam0 = mu;
         }
-        self.commit(state, u, mu, t, &status, &slip);
-        Ok(Ok((iterations, res)))
+        Ok(Err((iterations, f64::INFINITY)))
     }
 
     /// Reactions at constrained DOFs of the current state, zero elsewhere.

@@ -185,3 +185,92 @@ pub fn time_embedding(n: usize, segments: usize) -> Result<EmbedTimes, crate::su
     t.subtri_per_cell = t0.elapsed().as_secs_f64() / cut_cells.len().max(1) as f64;
     Ok(t)
 }
+
+/// Issue 4's Hertz benchmark: cylinder R = 10 mm (half disc) on a block 40 x 20 mm, both steel,
+/// plane strain, frictionless, P = 100 N/mm on the cylinder's flat top (its centre held in x),
+/// block bottom fixed. The block's core (|x| <= 0.5 mm, 0.5 mm deep) has square elements of
+/// size `h_core`, the cylinder's core (same extent along the rim) is 1.5x finer; 20 divisions
+/// grow geometrically to the far boundaries. `virtual_top`: the block's contact surface is a
+/// virtual line cutting its host 0.013 mm below the host's top (MorteX).
+pub fn hertz_model(h_core: f64, virtual_top: bool) -> Result<Model, crate::model::ModelError> {
+    use crate::model::ContactOther;
+    use nalgebra::{Point2, Vector2};
+    const R: f64 = 10.0;
+    const CORE: f64 = 0.5;
+    let hyp = PlaneHypothesis::PlaneStrain;
+    let mut b = ModelBuilder::new(hyp);
+    let mi = b.add_material("steel", Material::Elastic(Elastic { young: 210_000.0, poisson: 0.3, hypothesis: hyp }));
+    let n_core = (2.0 * CORE / h_core).round().max(2.0) as usize;
+    let n_depth = (CORE / h_core).round().max(1.0) as usize;
+    let top = if virtual_top { 0.013 } else { 0.0 };
+    let gx = generate::plateau_graded(n_core, 2.0 * CORE / 40.0, 20);
+    let gy = generate::end_plateau(n_depth, CORE / (20.0 + top), 20);
+    let mesh_err =
+        |e: crate::mesh::MeshError| crate::model::ModelError::Tie { tie: "hertz mesh".into(), msg: e.to_string() };
+    let block = generate::rectangle_from_divisions(-20.0, -20.0, 40.0, 20.0 + top, &gx, &gy, CellKind::Quad4)
+        .map_err(mesh_err)?;
+    let rs = generate::end_plateau(3 * n_depth / 2, CORE / R, 20);
+    let ts = generate::plateau_graded(3 * n_core / 2, (2.0 * CORE / R) / std::f64::consts::PI, 20);
+    let cyl = generate::half_disc_from_divisions(Point2::new(0.0, R), R, &rs, &ts).map_err(mesh_err)?;
+    let bl = b.add_body("block", block, mi, Formulation::Standard, 1.0);
+    let cy = b.add_body("cylinder", cyl, mi, Formulation::Standard, 1.0);
+    b.fix(bl, "bottom", 0, 0.0)?;
+    b.fix(bl, "bottom", 1, 0.0)?;
+    b.fix(cy, "centre", 0, 0.0)?;
+    b.traction(cy, "top", Vector2::new(0.0, -100.0 / (2.0 * R)))?;
+    let other = if virtual_top {
+        b.add_cut("surface", bl, vec![Point2::new(-21.0, 0.0), Point2::new(21.0, 0.0)], false, false)?;
+        ContactOther::Cut("surface".into())
+    } else {
+        ContactOther::Edges(b.global_edges(bl, &["top".to_string()])?)
+    };
+    b.add_contact("hertz", cy, &["arc".to_string()], bl, other, 0.0)?;
+    let newton = NewtonParams { max_iterations: 60, ..Default::default() };
+    b.build(LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)])?, vec![1.0], newton, LinearSolverKind::Cholesky)
+}
+
+/// Figures of one Hertz run: size, whole-process wall time (mesh, model, factorisation, solve),
+/// active-set iterations and the errors against Hertz (P = 100 N/mm, E* = E / (2 (1 - nu^2))).
+#[derive(Debug, Clone, Copy)]
+pub struct HertzRun {
+    pub dofs: usize,
+    pub seconds: f64,
+    pub iterations: usize,
+    /// Relative errors of the peak pressure and of the fitted half-width (P = pi a p0 / 2 with
+    /// the computed load), and the relative L2 error of the pressure over [-2a, 2a].
+    pub p0_error: f64,
+    pub a_error: f64,
+    pub l2_error: f64,
+}
+
+pub fn run_hertz(h_core: f64, virtual_top: bool) -> Result<HertzRun, String> {
+    let start = Instant::now();
+    let model = hertz_model(h_core, virtual_top).map_err(|e| e.to_string())?;
+    let mut analysis = crate::analysis::StaticAnalysis::new(&model).map_err(|e| e.to_string())?;
+    let mut state = analysis.initial_state();
+    let mut iterations = 0;
+    analysis
+        .run(&mut state, |r, _| {
+            iterations += r.iterations;
+            Ok(())
+        })
+        .map_err(|e| e.to_string())?;
+    let seconds = start.elapsed().as_secs_f64();
+    let e_star = 210_000.0 / (2.0 * (1.0 - 0.09));
+    let a = (4.0 * 100.0 * 10.0 / (std::f64::consts::PI * e_star)).sqrt();
+    let p0 = 2.0 * 100.0 / (std::f64::consts::PI * a);
+    let prof: Vec<(f64, f64)> =
+        crate::post::contact_profile(&model, &state, 0).iter().map(|n| (n.x.x, n.pressure)).collect();
+    let peak = prof.iter().map(|p| p.1).fold(0.0, f64::max);
+    let load: f64 = prof.windows(2).map(|w| 0.5 * (w[0].1 + w[1].1) * (w[1].0 - w[0].0)).sum();
+    let a_fit = 2.0 * load / (std::f64::consts::PI * peak);
+    let exact = |x: f64| if x.abs() < a { p0 * (1.0 - x * x / (a * a)).sqrt() } else { 0.0 };
+    Ok(HertzRun {
+        dofs: model.dofs.num_dofs,
+        seconds,
+        iterations,
+        p0_error: peak / p0 - 1.0,
+        a_error: a_fit / a - 1.0,
+        l2_error: crate::post::relative_l2_error(&prof, exact, -2.0 * a, 2.0 * a),
+    })
+}

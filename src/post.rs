@@ -75,3 +75,63 @@ pub fn nodal_fields(model: &Model, state: &SimState) -> NodalFields {
     let vm = s.iter().map(|x| von_mises(&Stress4::new(x[0], x[1], x[2], x[3]))).collect();
     NodalFields { stress: s, von_mises: vm, eqps: a, cell_stress, cell_eqps }
 }
+
+/// One multiplier node of a contact pair, in a state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactNode {
+    /// Reference position of the node on the mortar surface.
+    pub x: Point2<f64>,
+    /// Contact pressure `-lambda_n` (>= 0).
+    pub pressure: f64,
+    /// Shear `lambda_t` along the interface tangent (0 when frictionless).
+    pub shear: f64,
+    /// 0 open, 1 stick, 2 slip (frictionless nodes: 0).
+    pub status: u8,
+}
+
+/// The multiplier nodes of contact pair `pair`, sorted by their x coordinate.
+pub fn contact_profile(model: &Model, state: &SimState, pair: usize) -> Vec<ContactNode> {
+    let c = &model.contacts[pair];
+    let (nt, nn) = (model.constraints.len(), model.contact_rows.len());
+    let mut v: Vec<ContactNode> = (0..c.multipliers.num_nodes)
+        .map(|l| {
+            let (shear, status) =
+                c.friction_row[l].map_or((0.0, 0), |j| (state.multipliers[nt + nn + j], state.friction_status[j]));
+            ContactNode {
+                x: c.multipliers.points[l],
+                pressure: -state.multipliers[nt + c.first_row + l],
+                shear,
+                status,
+            }
+        })
+        .collect();
+    v.sort_by(|a, b| a.x.x.total_cmp(&b.x.x));
+    v
+}
+
+/// Relative L2 error over `[lo, hi]` of the piecewise-linear interpolant of nodal samples
+/// `(x, value)` (sorted by x) against `exact`, integrated with 40 midpoint samples per interval
+/// (exact contact fields have square-root edges that a node-only rule would misjudge).
+pub fn relative_l2_error(samples: &[(f64, f64)], exact: impl Fn(f64) -> f64, lo: f64, hi: f64) -> f64 {
+    const SUB: usize = 40;
+    let (mut num, mut den) = (0.0, 0.0);
+    for w in samples.windows(2) {
+        let (x0, x1) = (w[0].0, w[1].0);
+        let dx = (x1 - x0) / SUB as f64;
+        for i in 0..SUB {
+            let x = x0 + (i as f64 + 0.5) * dx;
+            if x < lo || x > hi {
+                continue;
+            }
+            let v = w[0].1 + (w[1].1 - w[0].1) * (x - x0) / (x1 - x0);
+            let e = exact(x);
+            num += (v - e) * (v - e) * dx;
+            den += e * e * dx;
+        }
+    }
+    if den > 0.0 {
+        (num / den).sqrt()
+    } else {
+        num.sqrt()
+    }
+}

@@ -27,15 +27,18 @@ use nalgebra::DMatrix;
 const RHS_BLOCK: usize = 32;
 
 pub(super) struct Condensed {
-    /// Live multipliers (indices in the model's multiplier order).
+    /// Multipliers in the condensed set (indices in the model's multiplier order): ties, and the
+    /// contact rows that may touch. Grows when a row outside it would penetrate (never shrinks).
     pub live: Vec<usize>,
-    /// Position of each multiplier among the live ones.
+    /// Position of each multiplier in the set.
     pub live_of: Vec<Option<usize>>,
-    /// Live rows over free equations `(eq, coef)`.
+    /// Set rows over free equations `(eq, coef)`.
     pub rows_free: Vec<Vec<(usize, f64)>>,
-    /// Delassus operator of `K_rho`.
+    /// Regularisation weight of each set row (`rho` on the rows of the initial set, whose
+    /// `rho C^T C` is in the factored matrix; 0 on rows added later).
+    pub rho: Vec<f64>,
+    /// Delassus operator of `K_rho` on the set.
     pub d: DMatrix<f64>,
-    pub rho: f64,
 }
 
 /// Whether a model is solved by condensation: contact present and every body linear elastic.
@@ -43,38 +46,55 @@ pub(super) fn applies(m: &Model) -> bool {
     !m.contact_rows.is_empty() && m.materials.iter().all(|mat| !mat.has_state())
 }
 
-/// Pattern, assembler and Cholesky factor of `K_rho`, and the condensed operator.
+/// Paired contact rows (normal `k`) whose weighted gap `g / int Phi` is within `margin` times
+/// their own `int Phi` (about the local segment length) of the smallest: contact candidates.
+pub(super) fn near_rows(m: &Model, gaps: &[f64], margin: f64, g_min: f64) -> Vec<usize> {
+    (0..m.contact_rows.len())
+        .filter(|&k| m.contact_phi[k] > 0.0 && gaps[k] / m.contact_phi[k] <= g_min + margin * m.contact_phi[k])
+        .collect()
+}
+
+/// Multipliers of normal rows `ks` and of their friction rows (model order).
+pub(super) fn with_friction(m: &Model, ks: &[usize]) -> Vec<usize> {
+    let (nt, nc) = (m.constraints.len(), m.contact_rows.len());
+    let mut v: Vec<usize> = ks.iter().map(|&k| nt + k).collect();
+    v.extend(m.friction_normal.iter().enumerate().filter(|(_, k)| ks.contains(k)).map(|(j, _)| nt + nc + j));
+    v
+}
+
+/// Margin of the candidate sets in units of the local segment length.
+pub(super) const CANDIDATE_MARGIN: f64 = 0.5;
+
+/// Pattern, assembler and Cholesky factor of `K_rho`, and the condensed operator on the initial
+/// set: ties and the contact rows near the smallest initial gap (see [`near_rows`]).
 pub(super) fn setup(
     m: &Model,
     parallel: bool,
 ) -> Result<(Assembler, SparseSolver, Vec<f64>, Condensed), LinearSolverError> {
-    let (nt, nc) = (m.constraints.len(), m.contact_rows.len());
+    let nt = m.constraints.len();
     let all: Vec<&Vec<(usize, f64)>> = m.multiplier_rows().collect();
-    let live: Vec<usize> = (0..all.len()).filter(|&i| i < nt || i >= nt + nc || m.contact_phi[i - nt] > 0.0).collect();
-    let mut live_of = vec![None; all.len()];
-    for (a, &i) in live.iter().enumerate() {
-        live_of[i] = Some(a);
-    }
-    let rows_free: Vec<Vec<(usize, f64)>> = live
-        .iter()
-        .map(|&i| {
-            all[i].iter().filter(|&&(d, _)| m.dofs.eq[d] != CONSTRAINED).map(|&(d, c)| (m.dofs.eq[d], c)).collect()
-        })
-        .collect();
+    let g0: Vec<f64> = m.contact_g0.clone();
+    let g_min = (0..g0.len())
+        .filter(|&k| m.contact_phi[k] > 0.0)
+        .map(|k| g0[k] / m.contact_phi[k])
+        .fold(f64::INFINITY, f64::min);
+    let mut initial: Vec<usize> = (0..nt).collect();
+    initial.extend(with_friction(m, &near_rows(m, &g0, CANDIDATE_MARGIN, g_min)));
     // rho |C|^2 about a tenth of the bulk stiffness E: K_rho stays well conditioned and the
     // floating modes of contact-held bodies are fixed.
-    let n_coef = live.iter().map(|&i| all[i].len()).sum::<usize>().max(1);
-    let mean_coef = live.iter().flat_map(|&i| all[i].iter()).map(|(_, c)| c.abs()).sum::<f64>() / n_coef as f64;
+    let n_coef = initial.iter().map(|&i| all[i].len()).sum::<usize>().max(1);
+    let mean_coef = initial.iter().flat_map(|&i| all[i].iter()).map(|(_, c)| c.abs()).sum::<f64>() / n_coef as f64;
     let e_max = m.materials.iter().map(|mat| mat.elastic().young).fold(0.0, f64::max);
     let rho = if mean_coef > 0.0 { 0.1 * e_max / (mean_coef * mean_coef) } else { 0.0 };
     let mut penalty = m.penalty.clone();
-    for &i in &live {
+    for &i in &initial {
         for &(d1, c1) in all[i] {
             for &(d2, c2) in all[i] {
                 penalty.push((d1, d2, rho * c1 * c2));
             }
         }
     }
+    let t0 = std::time::Instant::now();
     let pattern = SparsityPattern::with_constraints(m.num_nodes(), &m.elements, &m.dofs, &[], &penalty, 0, &[]);
     let mut solver = SparseSolver::new(&pattern.symbolic, LinearSolverKind::Cholesky)?;
     let mut values = vec![0.0; pattern.nnz()];
@@ -101,28 +121,71 @@ pub(super) fn setup(
         },
         parallel,
     );
+    let t1 = t0.elapsed().as_secs_f64();
     solver.factor(&values)?;
-    // D = C K_rho^{-1} C^T, RHS_BLOCK columns at a time.
-    let (nf, nl) = (m.dofs.num_free, live.len());
-    let mut d = DMatrix::zeros(nl, nl);
-    let mut block = vec![0.0; nf * RHS_BLOCK];
-    for start in (0..nl).step_by(RHS_BLOCK) {
-        let nb = RHS_BLOCK.min(nl - start);
-        let rhs = &mut block[..nf * nb];
-        rhs.iter_mut().for_each(|v| *v = 0.0);
-        for b in 0..nb {
-            for &(e, c) in &rows_free[start + b] {
-                rhs[b * nf + e] += c;
+    let t2 = t0.elapsed().as_secs_f64();
+    let mut cd = Condensed {
+        live: vec![],
+        live_of: vec![None; all.len()],
+        rows_free: vec![],
+        rho: vec![],
+        d: DMatrix::zeros(0, 0),
+    };
+    cd.grow(m, &solver, &initial, rho)?;
+    tracing::info!(
+        set = cd.live.len(),
+        rho,
+        assembly_s = t1,
+        factor_s = t2 - t1,
+        delassus_s = t0.elapsed().as_secs_f64() - t2,
+        "interface condensation: K_rho factored, Delassus operator formed"
+    );
+    Ok((assembler, solver, values, cd))
+}
+
+impl Condensed {
+    /// Adds multipliers `new` (model order, not yet in the set) with regularisation weight
+    /// `rho` (non-zero only for rows whose `rho C^T C` is in the factored matrix): one solve
+    /// with the factor per new row, `RHS_BLOCK` at a time.
+    pub fn grow(&mut self, m: &Model, solver: &SparseSolver, new: &[usize], rho: f64) -> Result<(), LinearSolverError> {
+        let all: Vec<&Vec<(usize, f64)>> = m.multiplier_rows().collect();
+        let old = self.live.len();
+        for &i in new {
+            debug_assert!(self.live_of[i].is_none());
+            self.live_of[i] = Some(self.live.len());
+            self.live.push(i);
+            self.rows_free.push(
+                all[i].iter().filter(|&&(d, _)| m.dofs.eq[d] != CONSTRAINED).map(|&(d, c)| (m.dofs.eq[d], c)).collect(),
+            );
+            self.rho.push(rho);
+        }
+        let nl = self.live.len();
+        let mut d = DMatrix::zeros(nl, nl);
+        d.view_mut((0, 0), (old, old)).copy_from(&self.d);
+        let nf = m.dofs.num_free;
+        let mut block = vec![0.0; nf * RHS_BLOCK];
+        for start in (old..nl).step_by(RHS_BLOCK) {
+            let nb = RHS_BLOCK.min(nl - start);
+            let rhs = &mut block[..nf * nb];
+            rhs.iter_mut().for_each(|v| *v = 0.0);
+            for b in 0..nb {
+                for &(e, c) in &self.rows_free[start + b] {
+                    rhs[b * nf + e] += c;
+                }
+            }
+            solver.solve_many(rhs, nb)?;
+            for b in 0..nb {
+                let col = &rhs[b * nf..(b + 1) * nf];
+                for (a, row) in self.rows_free.iter().enumerate() {
+                    let v: f64 = row.iter().map(|&(e, c)| c * col[e]).sum();
+                    d[(a, start + b)] = v;
+                    if a < old {
+                        d[(start + b, a)] = v;
+                    }
+                }
             }
         }
-        solver.solve_many(rhs, nb)?;
-        for b in 0..nb {
-            let col = &rhs[b * nf..(b + 1) * nf];
-            for (a, row) in rows_free.iter().enumerate() {
-                d[(a, start + b)] = row.iter().map(|&(e, c)| c * col[e]).sum();
-            }
-        }
+        self.d = d;
+        Ok(())
     }
-    tracing::info!(live = nl, rho, "interface condensation: K_rho factored, Delassus operator formed");
-    Ok((assembler, solver, values, Condensed { live, live_of, rows_free, d, rho }))
 }

@@ -42,6 +42,26 @@ pub fn graded_to_centre(n: usize, ratio: f64) -> Vec<f64> {
     x
 }
 
+/// Coordinates in `[0, 1]`: a uniform plateau over the last `plateau` of the length
+/// (`n_plateau` divisions) and `n_grow` divisions growing geometrically toward 0 from the
+/// plateau spacing (a contact surface at 1, coarse far from it).
+pub fn end_plateau(n_plateau: usize, plateau: f64, n_grow: usize) -> Vec<f64> {
+    let n_plateau = n_plateau.max(1);
+    let plateau = plateau.clamp(1e-12, 1.0);
+    let h = plateau / n_plateau as f64;
+    let rest = 1.0 - plateau;
+    let mut x: Vec<f64> = if n_grow > 0 && rest > 0.0 {
+        let g = geometric_from_start(n_grow, (h / rest).min(1.0));
+        g.iter().rev().map(|t| rest * (1.0 - t)).collect()
+    } else {
+        vec![0.0]
+    };
+    let start = x[x.len() - 1];
+    x.extend((1..n_plateau).map(|i| start + (1.0 - start) * i as f64 / n_plateau as f64));
+    x.push(1.0);
+    x
+}
+
 /// `n` intervals on [0, 1] growing geometrically from a first interval `first` (a fraction of
 /// the length) at 0: fine where a contact surface is, coarse far from it.
 pub fn geometric_from_start(n: usize, first: f64) -> Vec<f64> {

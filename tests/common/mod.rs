@@ -173,38 +173,11 @@ pub fn hertz_a_p0(p: f64) -> (f64, f64) {
     (a, 2.0 * p / (std::f64::consts::PI * a))
 }
 
-/// `(x, p, q, status)` at each multiplier node of contact 0, sorted by x: pressure `-lambda_n`,
-/// shear `lambda_t` and Coulomb status (0 open, 1 stick, 2 slip; 0 for frictionless nodes).
+/// `(x, p, q, status)` at each multiplier node of contact 0, sorted by x (see
+/// `mortex::post::contact_profile`).
 pub fn contact_profile(model: &Model, s: &SimState) -> Vec<(f64, f64, f64, u8)> {
-    let c = &model.contacts[0];
-    let (nt, nn) = (model.constraints.len(), model.contact_rows.len());
-    let mut v: Vec<(f64, f64, f64, u8)> = (0..c.multipliers.num_nodes)
-        .map(|l| {
-            let (q, st) = c.friction_row[l].map_or((0.0, 0), |j| (s.multipliers[nt + nn + j], s.friction_status[j]));
-            (c.multipliers.points[l].x, -s.multipliers[nt + c.first_row + l], q, st)
-        })
-        .collect();
-    v.sort_by(|a, b| a.0.total_cmp(&b.0));
-    v
+    mortex::post::contact_profile(model, s, 0).iter().map(|n| (n.x.x, n.pressure, n.shear, n.status)).collect()
 }
 
-/// Relative L2 error over [lo, hi] of the piecewise-linear nodal field `(x, value)` against
-/// `exact`, 40 sub-samples per interval (exact fields with square-root edges are not node-exact).
-pub fn l2_error(v: &[(f64, f64)], exact: impl Fn(f64) -> f64, lo: f64, hi: f64) -> f64 {
-    let (mut num, mut den) = (0.0, 0.0);
-    for w in v.windows(2) {
-        let (x0, x1) = (w[0].0, w[1].0);
-        let k = 40;
-        for i in 0..k {
-            let x = x0 + (x1 - x0) * (i as f64 + 0.5) / k as f64;
-            if x < lo || x > hi {
-                continue;
-            }
-            let ph = w[0].1 + (w[1].1 - w[0].1) * (x - x0) / (x1 - x0);
-            let dx = (x1 - x0) / k as f64;
-            num += (ph - exact(x)).powi(2) * dx;
-            den += exact(x).powi(2) * dx;
-        }
-    }
-    (num / den).sqrt()
-}
+#[allow(unused_imports)]
+pub use mortex::post::relative_l2_error as l2_error;
