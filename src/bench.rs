@@ -224,7 +224,7 @@ pub fn hertz_model(h_core: f64, virtual_top: bool) -> Result<Model, crate::model
     } else {
         ContactOther::Edges(b.global_edges(bl, &["top".to_string()])?)
     };
-    b.add_contact("hertz", cy, &["arc".to_string()], bl, other, 0.0)?;
+    b.add_contact("hertz", cy, &["arc".to_string()], bl, other, Default::default())?;
     let newton = NewtonParams { max_iterations: 60, ..Default::default() };
     b.build(LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)])?, vec![1.0], newton, LinearSolverKind::Cholesky)
 }

@@ -17,7 +17,8 @@ use crate::fem::quadrature::QuadratureRule;
 use crate::mesh::{CellKind, Mesh2};
 use crate::mortar::weighted_gaps;
 use crate::mortar::{
-    build_multipliers, tying_rows, ConstraintRow, MortarSide, MultiplierSpace, Multipliers, OtherSide,
+    build_multipliers, build_multipliers_local, other_side_spacing, tying_rows, ConstraintRow, MortarSide,
+    MultiplierSpace, Multipliers, OtherSide,
 };
 use crate::solver::linear::LinearSolverKind;
 use crate::solver::newton::NewtonParams;
@@ -149,6 +150,7 @@ pub struct ContactInfo {
     pub mortar: usize,
     /// Coulomb coefficient (0: frictionless, no tangential unknowns).
     pub mu: f64,
+    pub space: MultiplierSpace,
     /// Index of the pair's first row in `Model::contact_rows`.
     pub first_row: usize,
     /// Per multiplier node, its row in `Model::friction_rows` (none when frictionless or unpaired).
@@ -171,7 +173,30 @@ struct ContactSpec {
     side: MortarSide,
     other: ContactOther,
     young: f64,
-    mu: f64,
+    params: ContactParams,
+}
+
+/// Parameters of a contact pair.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactParams {
+    /// Coulomb coefficient (0: frictionless, no tangential unknowns).
+    pub friction: f64,
+    /// Multiplier space on the mortar surface. Classical: one multiplier per vertex.
+    /// Coarse-grained: spaced like the other side's elements near each vertex (removes the
+    /// traction oscillation of a mortar side finer than the other side's elements).
+    pub multipliers: MultiplierSpace,
+}
+
+impl Default for ContactParams {
+    fn default() -> Self {
+        ContactParams { friction: 0.0, multipliers: MultiplierSpace::Classical }
+    }
+}
+
+impl ContactParams {
+    pub fn friction(mu: f64) -> Self {
+        ContactParams { friction: mu, ..Default::default() }
+    }
 }
 
 /// A mortar tie between a patch (mortar side, multipliers) and a host (virtual surface).
@@ -386,8 +411,9 @@ impl ModelBuilder {
         mortar_sets: &[String],
         other_body: usize,
         other: ContactOther,
-        mu: f64,
+        params: ContactParams,
     ) -> Result<(), ModelError> {
+        let mu = params.friction;
         if !(mu.is_finite() && mu >= 0.0) {
             return Err(ModelError::Tie {
                 tie: name.to_string(),
@@ -400,7 +426,7 @@ impl ModelBuilder {
             .elastic()
             .young
             .max(self.materials[self.bodies[other_body].material].elastic().young);
-        self.contacts.push(ContactSpec { name: name.to_string(), mortar, side, other, young, mu });
+        self.contacts.push(ContactSpec { name: name.to_string(), mortar, side, other, young, params });
         Ok(())
     }
 
@@ -900,18 +926,18 @@ impl ModelBuilder {
             (vec![], vec![], vec![], vec![], vec![], vec![]);
         let (mut friction_rows, mut friction_normal) = (vec![], vec![]);
         for c in &self.contacts {
-            let lm = build_multipliers(&c.side, MultiplierSpace::Classical, 1.0);
             let nseg = c.side.num_segments();
             let h = (0..nseg)
                 .map(|i| (c.side.points[(i + 1) % c.side.points.len()] - c.side.points[i]).norm())
                 .sum::<f64>()
                 / nseg as f64;
             let max_gap = 2.0 * h;
-            let rows = match &c.other {
+            let pts: Vec<[Point2<f64>; 2]>;
+            let other = match &c.other {
                 ContactOther::Edges(edges) => {
-                    let pts: Vec<[Point2<f64>; 2]> =
+                    pts =
                         edges.iter().map(|e| [coords_of(&self.bodies, e[0]), coords_of(&self.bodies, e[1])]).collect();
-                    weighted_gaps(&c.side, &lm, &OtherSide::Edges { nodes: edges, points: &pts }, max_gap)
+                    OtherSide::Edges { nodes: edges, points: &pts }
                 }
                 ContactOther::Cut(cut) => {
                     let Some(i) = self.free_cuts.iter().position(|f| &f.0 == cut) else {
@@ -919,18 +945,20 @@ impl ModelBuilder {
                     };
                     let (b, emb) = &cut_embeddings[i];
                     let host = &self.bodies[*b];
-                    weighted_gaps(
-                        &c.side,
-                        &lm,
-                        &OtherSide::Embedded { host: &host.mesh, host_offset: host.node_offset, embedding: emb },
-                        max_gap,
-                    )
+                    OtherSide::Embedded { host: &host.mesh, host_offset: host.node_offset, embedding: emb }
                 }
             };
+            let lm = match c.params.multipliers {
+                MultiplierSpace::Classical => build_multipliers(&c.side, MultiplierSpace::Classical, 1.0),
+                MultiplierSpace::CoarseGrained => {
+                    build_multipliers_local(&c.side, &other_side_spacing(&c.side, &other, max_gap))
+                }
+            };
+            let rows = weighted_gaps(&c.side, &lm, &other, max_gap);
             let first_row = contact_rows.len();
             let mut friction_row = Vec::with_capacity(rows.len());
             for r in rows {
-                friction_row.push(if c.mu > 0.0 && r.phi > 0.0 {
+                friction_row.push(if c.params.friction > 0.0 && r.phi > 0.0 {
                     friction_rows.push(r.tangent);
                     friction_normal.push(contact_rows.len());
                     Some(friction_rows.len() - 1)
@@ -942,12 +970,13 @@ impl ModelBuilder {
                 contact_phi.push(r.phi);
                 // Augmentation from the local bulk stiffness: E / h.
                 contact_eps.push(c.young / h);
-                contact_mu.push(c.mu);
+                contact_mu.push(c.params.friction);
             }
             contacts.push(ContactInfo {
                 name: c.name.clone(),
                 mortar: c.mortar,
-                mu: c.mu,
+                mu: c.params.friction,
+                space: c.params.multipliers,
                 first_row,
                 friction_row,
                 multipliers: lm,

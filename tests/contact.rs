@@ -56,7 +56,7 @@ fn run(virtual_lower: Option<f64>, upper_kind: CellKind, gap: f64) {
             ContactOther::Cut("worn_top".into())
         }
     };
-    b.add_contact("c", up, &["bottom".to_string()], lo, other, 0.0).unwrap();
+    b.add_contact("c", up, &["bottom".to_string()], lo, other, Default::default()).unwrap();
     let model = common::build_one_step(b);
     let s = solve(&model);
     for (q, st) in s.stress.iter().enumerate() {
@@ -110,7 +110,7 @@ fn contact_opens_and_closes_under_displacement_control() {
         b.fix(up, "top_left", 0, 0.0).unwrap();
         b.fix(up, "top", 1, delta).unwrap();
         let other = ContactOther::Edges(b.global_edges(lo, &["top".to_string()]).unwrap());
-        b.add_contact("c", up, &["bottom".to_string()], lo, other, 0.0).unwrap();
+        b.add_contact("c", up, &["bottom".to_string()], lo, other, Default::default()).unwrap();
         let model = common::build_one_step(b);
         let s = solve(&model);
         let e_plane = E / (1.0 - NU * NU);

@@ -69,7 +69,7 @@ fn hertz_on(gx: &[f64], gy: &[f64], rs: &[f64], ts: &[f64], virtual_top: bool) -
     } else {
         ContactOther::Edges(b.global_edges(bl, &["top".to_string()]).unwrap())
     };
-    b.add_contact("hertz", cy, &["arc".to_string()], bl, other, 0.0).unwrap();
+    b.add_contact("hertz", cy, &["arc".to_string()], bl, other, Default::default()).unwrap();
     let newton = mortex::solver::newton::NewtonParams { max_iterations: 60, ..Default::default() };
     let model = b
         .build(

@@ -43,11 +43,13 @@ struct CmResult {
     q: Vec<(f64, f64)>,
 }
 
-fn cattaneo_mindlin(n_fine: usize, virtual_lower: bool, ratio: f64) -> CmResult {
+fn cattaneo_mindlin(n_fine: usize, core: f64, virtual_lower: bool, ratio: f64) -> CmResult {
     let q_load = ratio * MU * P;
     let scene = CylinderPair {
         n_fine,
+        core,
         virtual_lower,
+        coarse_grained: std::env::var("CM_CG").is_ok(),
         mu: MU,
         normal_load: P,
         normal_path: vec![(0.0, 0.0), (1.0, 1.0)],
@@ -64,6 +66,20 @@ fn cattaneo_mindlin(n_fine: usize, virtual_lower: bool, ratio: f64) -> CmResult 
     let q: Vec<(f64, f64)> = v.iter().map(|p| (p.0, sign * p.2)).collect();
     let c_num = stick_half_width(&v);
     let q_l2 = l2_error(&q, |x| cm_exact(x, a, c, p0), -a, a);
+    if std::env::var("CM_PHI").is_ok() {
+        let ci = &model.contacts[0];
+        for l in 0..ci.multipliers.num_nodes {
+            let x = ci.multipliers.points[l].x;
+            if x > 0.055 && x < 0.08 {
+                let k = ci.first_row + l;
+                eprintln!(
+                    "x {x:.5} phi {:.3e} g0/phi {:.3e}",
+                    model.contact_phi[k],
+                    model.contact_g0[k] / model.contact_phi[k].max(1e-30)
+                );
+            }
+        }
+    }
     if std::env::var("CM_DUMP").is_ok() {
         for p in &v {
             if p.0.abs() < 1.2 * a {
@@ -120,22 +136,29 @@ fn cattaneo_mindlin(n_fine: usize, virtual_lower: bool, ratio: f64) -> CmResult 
     CmResult { c_err: c_num / c - 1.0, resultant, law_error, stick_intervals, q_l2, q }
 }
 
-/// Cattaneo-Mindlin at Q/(mu P) = 0.25, 0.5, 0.75 with the lower surface real (classical mortar)
-/// and virtual (MorteX). Asserted (exact references): the shear resultant equals Q
-/// (equilibrium of the platen, to the solver tolerance), every slipping node carries
-/// |lambda_t| = mu |lambda_n| and every sticking node |lambda_t| <= mu |lambda_n| (the Coulomb law
-/// at the multiplier nodes, round-off), and the stick zone is one interval around the centre.
-/// Reported, not asserted, against the issue's targets (see the README and the note: missed):
-/// stick-zone half-width (3%), shear-traction L2 error (3%), MorteX vs classical (1%).
+/// Cattaneo-Mindlin at Q/(mu P) = 0.25, 0.5, 0.75 (issue 4). Meshes uniformly fine over
+/// |x| <= 0.1 mm (a = 0.0743 mm): lower-surface spacing 0.001 mm (upper 0.00067 mm), lower
+/// surface real (classical mortar) and virtual (MorteX), 224k DOFs.
+/// Asserted: exact checks on every run (shear resultant = Q, the Coulomb law at the nodes, one
+/// stick interval); stick-zone half-width within 3% of a sqrt(1 - Q/(mu P)) on every run (issue
+/// tolerance); shear-traction L2 error over [-a, a] within 3% and MorteX vs classical mortar
+/// within 1% (issue tolerances) at Q/(mu P) = 0.5 and 0.75. Reported, not asserted (missed, see
+/// the README): both at 0.25 (the slip annulus is 0.01 mm wide, 15 upper nodes).
 #[test]
 fn cattaneo_mindlin_partial_slip() {
     for ratio in [0.25, 0.5, 0.75] {
-        let real = cattaneo_mindlin(100, false, ratio);
-        let virt = cattaneo_mindlin(100, true, ratio);
+        let real = cattaneo_mindlin(200, 0.1, false, ratio);
+        let virt = cattaneo_mindlin(200, 0.1, true, ratio);
         for (r, name) in [(&real, "real"), (&virt, "virtual")] {
             assert!((r.resultant / (ratio * MU * P) - 1.0).abs() < 1e-7, "{name}: shear resultant {}", r.resultant);
             assert!(r.law_error < 1e-9, "{name}: Coulomb law violated by {:.2e} (relative)", r.law_error);
             assert!(r.stick_intervals == 1, "{name}: {} stick intervals", r.stick_intervals);
+            assert!(r.c_err.abs() < 0.03, "{name}, Q/(mu P) = {ratio}: stick zone {:+.2}%", 100.0 * r.c_err);
+        }
+        if ratio >= 0.5 {
+            for (r, name) in [(&real, "real"), (&virt, "virtual")] {
+                assert!(r.q_l2 < 0.03, "{name}, Q/(mu P) = {ratio}: shear L2 {:.2}%", 100.0 * r.q_l2);
+            }
         }
         let (mut num, mut den) = (0.0, 0.0);
         for (p, q) in real.q.iter().zip(&virt.q) {
@@ -143,13 +166,17 @@ fn cattaneo_mindlin_partial_slip() {
             num += (p.1 - q.1).powi(2);
             den += p.1 * p.1;
         }
+        let diff = (num / den).sqrt();
+        if ratio >= 0.5 {
+            assert!(diff < 0.01, "Q/(mu P) = {ratio}: MorteX vs classical {:.2}%", 100.0 * diff);
+        }
         eprintln!(
             "Q/(mu P) = {ratio}: stick zone {:+.2}% / {:+.2}%, shear L2 {:.2}% / {:.2}% (real / virtual); MorteX vs classical {:.2}%",
             100.0 * real.c_err,
             100.0 * virt.c_err,
             100.0 * real.q_l2,
             100.0 * virt.q_l2,
-            100.0 * (num / den).sqrt()
+            100.0 * diff
         );
     }
 }
@@ -159,7 +186,8 @@ fn cattaneo_mindlin_partial_slip() {
 fn cattaneo_mindlin_explore() {
     let n: usize = std::env::var("CM_N").ok().and_then(|s| s.parse().ok()).unwrap_or(50);
     let r: f64 = std::env::var("CM_RATIO").ok().and_then(|s| s.parse().ok()).unwrap_or(0.5);
-    cattaneo_mindlin(n, std::env::var("CM_VIRTUAL").is_ok(), r);
+    let core: f64 = std::env::var("CM_CORE").ok().and_then(|s| s.parse().ok()).unwrap_or(0.25);
+    cattaneo_mindlin(n, core, std::env::var("CM_VIRTUAL").is_ok(), r);
 }
 
 /// Issue 4: the condensed solve (Cholesky of the bulk once, active-set iterations on the
@@ -171,14 +199,18 @@ fn condensed_and_monolithic_solves_agree() {
     for virtual_lower in [false, true] {
         let scene = CylinderPair {
             n_fine: 30,
+            core: 0.25,
             virtual_lower,
+            coarse_grained: false,
             mu: MU,
             normal_load: P,
             normal_path: vec![(0.0, 0.0), (1.0, 1.0)],
             tangential_path: vec![(0.0, 0.0), (1.0, 0.0), (2.0, 0.5 * MU * P), (3.0, -0.3 * MU * P)],
             times: vec![1.0, 2.0, 3.0],
         };
-        let model = scene.build();
+        // Both solves converged to 1e-11 (the default 1e-9 would bound the comparison instead).
+        let mut model = scene.build();
+        model.newton.rtol = 1e-11;
         let run = |condense: bool| {
             let mut a = StaticAnalysis::with_condensation(&model, condense).expect("setup");
             let mut s = a.initial_state();
@@ -213,7 +245,7 @@ fn condensed_and_monolithic_solves_agree() {
 /// (Johnson 1985, sec. 4.3 and 7.1). The code's two measures: the dissipation sum_j lambda_t,j
 /// ds_j (backward Euler over the increments) and the area of the platen's Q-delta loop
 /// (trapezoid), over the second cycle.
-fn fretting_cycle(n_fine: usize, virtual_lower: bool, per_quarter: usize) -> (f64, f64, f64) {
+fn fretting_cycle(n_fine: usize, core: f64, virtual_lower: bool, per_quarter: usize) -> (f64, f64, f64) {
     let q_star = 0.5 * MU * P;
     // t in [1, 2]: 0 -> Q*; then cycles of 4 quarters: Q* -> 0 -> -Q* -> 0 -> Q*.
     let mut tp = vec![(0.0, 0.0), (1.0, 0.0), (2.0, q_star)];
@@ -226,7 +258,9 @@ fn fretting_cycle(n_fine: usize, virtual_lower: bool, per_quarter: usize) -> (f6
     times.extend((1..=n_out - 1).map(|i| 2.0 + 8.0 * i as f64 / (n_out - 1) as f64));
     let scene = CylinderPair {
         n_fine,
+        core,
         virtual_lower,
+        coarse_grained: std::env::var("CM_CG").is_ok(),
         mu: MU,
         normal_load: P,
         normal_path: vec![(0.0, 0.0), (1.0, 1.0)],
@@ -279,7 +313,7 @@ fn fretting_cycle(n_fine: usize, virtual_lower: bool, per_quarter: usize) -> (f6
 fn fretting_explore() {
     let n: usize = std::env::var("CM_N").ok().and_then(|s| s.parse().ok()).unwrap_or(50);
     let k: usize = std::env::var("CM_K").ok().and_then(|s| s.parse().ok()).unwrap_or(8);
-    fretting_cycle(n, std::env::var("CM_VIRTUAL").is_ok(), k);
+    fretting_cycle(n, 0.25, std::env::var("CM_VIRTUAL").is_ok(), k);
 }
 
 /// Issue 4: dissipated energy per fretting cycle (Q* = 0.5 mu P, second cycle, 8 increments per
@@ -290,7 +324,7 @@ fn fretting_explore() {
 #[test]
 fn fretting_loop_dissipation() {
     for virtual_lower in [false, true] {
-        let (w_diss, w_loop, w_exact) = fretting_cycle(100, virtual_lower, 8);
+        let (w_diss, w_loop, w_exact) = fretting_cycle(100, 0.25, virtual_lower, 8);
         assert!(
             (w_diss / w_exact - 1.0).abs() < 0.05,
             "virtual {virtual_lower}: dissipation {w_diss:.4e} vs {w_exact:.4e}"
@@ -311,7 +345,9 @@ fn fretting_loop_dissipation() {
 fn tangential_load_beyond_mu_p_is_a_clear_error() {
     let scene = CylinderPair {
         n_fine: 20,
+        core: 0.25,
         virtual_lower: false,
+        coarse_grained: false,
         mu: MU,
         normal_load: P,
         normal_path: vec![(0.0, 0.0), (1.0, 1.0)],

@@ -98,6 +98,8 @@ pub struct ContactSpec {
     /// Coulomb coefficient (default 0: frictionless, no tangential unknowns).
     #[serde(default)]
     pub friction: f64,
+    /// Multiplier space on the mortar surface (default classical for contact).
+    pub multipliers: Option<MultiplierSpace>,
 }
 
 /// A free virtual surface cutting a body's mesh (X-FEM): the body keeps its material on one
@@ -599,7 +601,11 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                 cx.err(k("friction"), format!("the friction coefficient must be finite and >= 0, got {}", c.friction))
             );
         }
-        b.add_contact(&name, mortar, &c.mortar_surface, other_body, other, c.friction)
+        let params = crate::model::ContactParams {
+            friction: c.friction,
+            multipliers: c.multipliers.unwrap_or(MultiplierSpace::Classical),
+        };
+        b.add_contact(&name, mortar, &c.mortar_surface, other_body, other, params)
             .map_err(|e| model_err(&cx, k("mortar_surface"), e))?;
     }
 

@@ -207,13 +207,16 @@ impl<E: ReferenceElement> MappedElement<E> {
             xi = [1.0 / 3.0, 1.0 / 3.0];
         }
         let scale = (self.coords[1] - self.coords[0]).norm().max(f64::MIN_POSITIVE);
+        // Converged at round-off: relative to the cell size, but never below the spacing of
+        // floating-point numbers at `x` (small cells far from the origin).
+        let tol = 1e-14 * scale + 8.0 * f64::EPSILON * x.coords.amax();
         for _ in 0..30 {
             let r = x - self.map(xi);
             let j = self.jacobian(xi);
             let d = j.try_inverse()? * r;
             xi[0] += d.x;
             xi[1] += d.y;
-            if r.norm() <= 1e-14 * scale {
+            if r.norm() <= tol {
                 return Some(xi);
             }
         }

@@ -94,6 +94,54 @@ fn right_normal(a: Point2<f64>, b: Point2<f64>) -> Vector2<f64> {
 /// Splits the mortar side into chains at corners and places multiplier nodes.
 /// `h_host` is the characteristic size of the host cells along the interface.
 pub fn build_multipliers(side: &MortarSide, space: MultiplierSpace, h_host: f64) -> Multipliers {
+    build_multipliers_with(side, |vs, arc| match space {
+        MultiplierSpace::Classical => (0..vs.len()).collect(),
+        MultiplierSpace::CoarseGrained => {
+            let nseg = vs.len() - 1;
+            let total = arc[nseg];
+            let m = ((total / h_host).round() as usize).clamp(1, nseg);
+            // Vertex closest in arc length to each equally spaced target.
+            let mut v: Vec<usize> = (0..=m)
+                .map(|i| {
+                    let target = total * i as f64 / m as f64;
+                    (0..=nseg).min_by(|&a, &b| (arc[a] - target).abs().total_cmp(&(arc[b] - target).abs())).unwrap_or(0)
+                })
+                .collect();
+            v.dedup();
+            v
+        }
+    })
+}
+
+/// Coarse-grained multipliers with a local spacing (contact along graded surfaces): walking
+/// along each chain, the next multiplier node is the vertex whose arc distance from the last
+/// one comes closest to `spacing[v]` (the size of the other side's elements near vertex `v`;
+/// where the mortar side is coarser every vertex is kept). Chain ends are always kept.
+pub fn build_multipliers_local(side: &MortarSide, spacing: &[f64]) -> Multipliers {
+    build_multipliers_with(side, |vs, arc| {
+        let nseg = vs.len() - 1;
+        let mut keep = vec![0];
+        let mut last = arc[0];
+        for k in 1..nseg {
+            let target = last + spacing[vs[k]];
+            // Keep k when the next vertex would overshoot the target more than k falls short.
+            if arc[k + 1] - target >= target - arc[k] {
+                keep.push(k);
+                last = arc[k];
+            }
+        }
+        // The end node; drop the previous one if it sits closer than half a spacing.
+        if keep.len() > 1 && arc[nseg] - last < 0.5 * spacing[vs[nseg]] {
+            keep.pop();
+        }
+        keep.push(nseg);
+        keep
+    })
+}
+
+/// Places multiplier nodes on the chains of `side`: `select(chain vertices, arc lengths)`
+/// returns the chain-local indices of the multiplier vertices (increasing, ends included).
+fn build_multipliers_with(side: &MortarSide, select: impl Fn(&[usize], &[f64]) -> Vec<usize>) -> Multipliers {
     let n = side.points.len();
     let seg = |i: usize| (side.points[i % n], side.points[(i + 1) % n]);
     let is_corner = |v: usize| -> bool {
@@ -133,24 +181,7 @@ pub fn build_multipliers(side: &MortarSide, space: MultiplierSpace, h_host: f64)
             arc.push(arc[k - 1] + d);
         }
         let nseg = vs.len() - 1;
-        let total = arc[nseg];
-        let lm_at: Vec<usize> = match space {
-            MultiplierSpace::Classical => (0..=nseg).collect(),
-            MultiplierSpace::CoarseGrained => {
-                let m = ((total / h_host).round() as usize).clamp(1, nseg);
-                // Vertex closest in arc length to each equally spaced target.
-                let mut v: Vec<usize> = (0..=m)
-                    .map(|i| {
-                        let target = total * i as f64 / m as f64;
-                        (0..=nseg)
-                            .min_by(|&a, &b| (arc[a] - target).abs().total_cmp(&(arc[b] - target).abs()))
-                            .unwrap_or(0)
-                    })
-                    .collect();
-                v.dedup();
-                v
-            }
-        };
+        let lm_at = select(&vs, &arc);
         // Crosspoint modification (Wohlmuth 2000; Puso & Laursen): the nodes at the ends of a
         // chain carry no multiplier of their own; their hat is merged into the neighbour's,
         // so the traction is constant between a corner and the first interior multiplier node.
@@ -201,6 +232,51 @@ impl Chain {
 /// One scalar constraint row: `sum coef * u[dof] = 0`.
 pub type ConstraintRow = Vec<(usize, f64)>;
 
+/// Size of the other side's elements near each mortar vertex (the nearest segment within
+/// `reach`: a real edge's length, or the size of the host cell holding a virtual piece), or the
+/// mortar side's own adjacent segment length where nothing is near.
+pub fn other_side_spacing(side: &MortarSide, other: &OtherSide, reach: f64) -> Vec<f64> {
+    let segs = other.segments();
+    let boxes: Vec<_> = segs
+        .iter()
+        .map(|(a, b)| (Point2::new(a.x.min(b.x), a.y.min(b.y)), Point2::new(a.x.max(b.x), a.y.max(b.y))))
+        .collect();
+    let index = BoxIndex::new(&boxes);
+    let n = side.points.len();
+    let mut cand = Vec::new();
+    (0..n)
+        .map(|v| {
+            let p = side.points[v];
+            let own = if v + 1 < n || side.closed {
+                (side.points[(v + 1) % n] - p).norm()
+            } else {
+                (p - side.points[v - 1]).norm()
+            };
+            index.query(Point2::new(p.x - reach, p.y - reach), Point2::new(p.x + reach, p.y + reach), &mut cand);
+            let nearest = cand.iter().copied().min_by(|&i, &j| {
+                let d = |k: usize| nrm_dist_segment(segs[k].0, segs[k].1, p);
+                d(i).total_cmp(&d(j))
+            });
+            match nearest {
+                None => own,
+                Some(i) => match other {
+                    OtherSide::Edges { points, .. } => (points[i][1] - points[i][0]).norm(),
+                    OtherSide::Embedded { host, embedding, .. } => {
+                        crate::surface::cell_size(&crate::surface::cell_polygon(host, embedding.pieces[i].cell))
+                    }
+                },
+            }
+        })
+        .collect()
+}
+
+/// Distance from `p` to the segment `a b`.
+fn nrm_dist_segment(a: Point2<f64>, b: Point2<f64>, p: Point2<f64>) -> f64 {
+    let d = b - a;
+    let t = ((p - a).dot(&d) / d.norm_squared().max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
+    (a + d * t - p).norm()
+}
+
 /// The non-mortar side of an interface: straight segments whose points interpolate
 /// displacements from either a host cell (virtual surface) or a real edge.
 pub enum OtherSide<'a> {
@@ -248,9 +324,9 @@ struct MortarPoint {
     tau: f64,
     /// Quadrature weight (mortar-side measure).
     wt: f64,
-    /// Outward normal of the mortar body on this segment, and of the other body on its segment.
+    /// Pairing direction: the averaged normal of the two segments, pointing out of the mortar
+    /// body (the mortar segment's outward normal when the segments are parallel).
     n: Vector2<f64>,
-    n_other: Vector2<f64>,
     /// The point on the mortar side and its partner on the other side.
     xm: Point2<f64>,
     xo: Point2<f64>,
@@ -263,7 +339,12 @@ struct MortarPoint {
 
 /// Segment-to-segment pairing shared by tying and contact: every other-side segment found by
 /// the BVH within `reach` of a mortar segment and accepted by `accept(pa, pb, a, b)` is projected
-/// orthogonally onto it; the overlap is integrated with 4 Gauss points and `f` is called at each.
+/// onto it along the pair's averaged normal `(n - n_other) / |n - n_other|` (orthogonally when the
+/// segments are parallel, as in tying); the overlap is integrated with 4 Gauss points and `f` is
+/// called at each. Between curved surfaces the averaged normal is the direction in which the
+/// initial gap closes (exactly for a symmetric pair, and for elastically similar bodies the
+/// interface normal): pairing along the mortar normal alone would pair points that never meet
+/// and read the closing of the gap as tangential slip.
 fn for_each_mortar_point(
     side: &MortarSide,
     lm: &Multipliers,
@@ -298,8 +379,15 @@ fn for_each_mortar_point(
                 if !accept(pa, pb, a, b) {
                     continue;
                 }
-                let ta = (pa - a).dot(&d) / (len * len);
-                let tb = (pb - a).dot(&d) / (len * len);
+                let n_other = right_normal(pa, pb);
+                let q = (n - n_other).try_normalize(1e-12).unwrap_or(n);
+                let cross = |u: Vector2<f64>, v: Vector2<f64>| u.x * v.y - u.y * v.x;
+                // Parameter on the mortar segment of a point projected along q.
+                let dq = cross(d, q);
+                let q = if dq.abs() < 0.5 * len { n } else { q };
+                let dq = cross(d, q);
+                let ta = cross(pa - a, q) / dq;
+                let tb = cross(pb - a, q) / dq;
                 if (tb - ta).abs() < 1e-14 {
                     continue;
                 }
@@ -317,8 +405,7 @@ fn for_each_mortar_point(
                         vb,
                         tau,
                         wt: 0.5 * w * (hi - lo) * len,
-                        n,
-                        n_other: right_normal(pa, pb),
+                        n: q,
                         xm: a + d * tau,
                         xo: pa + (pb - pa) * sigma,
                         other: pi,
@@ -398,13 +485,8 @@ pub fn weighted_gaps(side: &MortarSide, lm: &Multipliers, other: &OtherSide, max
         if gap.abs() > max_gap {
             return;
         }
-        // Tangent of the interface: the averaged normal (n - n_other) / |.| turned +90 deg. Between
-        // curved surfaces the reference tangent of one side is tilted against the contact
-        // interface by x / R, and the closing of the initial gap, projected on it, would read
-        // as slip (of the order of the partial-slip displacements themselves); the averaged
-        // normal is the interface normal of elastically similar bodies.
-        let n_avg = (p.n - p.n_other).try_normalize(1e-12).unwrap_or(p.n);
-        let t = Vector2::new(-n_avg.y, n_avg.x);
+        // Tangent of the interface: the pairing direction (averaged normal) turned +90 deg.
+        let t = Vector2::new(-p.n.y, p.n.x);
         other.shape_at(p.other, p.xo, p.sigma, &mut shape);
         let nm = [1.0 - p.tau, p.tau];
         for (l, phi) in p.hats {
@@ -465,11 +547,15 @@ mod tests {
     #[test]
     fn weighted_gaps_integrate_linear_gaps_exactly() {
         for space in [MultiplierSpace::Classical, MultiplierSpace::CoarseGrained] {
-            // Hats sum to one over the chain: sum_l g0_l = int_0^4 (d + s x) dx = 4 d + 8 s.
+            // Hats sum to one over the chain. The gap is measured along the averaged normal
+            // q = (n - n_o)/|.|, n = (0, 1), n_o = (s, -1)/sqrt(1 + s^2): from (x, 0) the line
+            // y = d + s x is reached after (d + s x) / (q_y - s q_x), so
+            // sum_l g0_l = (4 d + 8 s) / (q_y - s q_x).
             for (d, s) in [(0.01, 0.0), (0.02, 0.003), (-0.005, 0.002)] {
                 let (rows, _) = scene(d, s, space);
                 let total: f64 = rows.iter().map(|r| r.g0).sum();
-                let exact = 4.0 * d + 8.0 * s;
+                let q = (Vector2::new(0.0, 1.0) - Vector2::new(s, -1.0) / (1.0 + s * s).sqrt()).normalize();
+                let exact = (4.0 * d + 8.0 * s) / (q.y - s * q.x);
                 // Gauss rules exact for linear gaps: round-off only.
                 assert!((total - exact).abs() < 1e-14, "{space:?}: sum of weighted gaps {total} vs {exact}");
             }

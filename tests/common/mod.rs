@@ -78,15 +78,21 @@ pub fn build_one_step(b: mortex::model::ModelBuilder) -> Model {
 /// strain, touching at the origin: the Hertz / Cattaneo-Mindlin scene of issue 4 (the seed's
 /// example; the point symmetry of the pair keeps the normal and tangential problems uncoupled,
 /// which a cylinder on a shear-loaded block does not quite do). Each mesh is uniformly fine over
-/// |x| <= 0.25 mm (upper: 0.5 mm / (1.5 n_fine) along the arc, lower: 0.5 mm / n_fine) and
-/// coarse away from the contact. The upper cylinder's flat top is a rigid platen (no rotation)
+/// |x| <= `core` and as deep (upper: 2 core / (1.5 n_fine), lower: 2 core / n_fine) and coarse
+/// away from the contact. The upper cylinder's flat top is a rigid platen (no rotation)
 /// loaded at its master node: normal force `-P` on curve 0 (the load path), tangential force
 /// `Q` on curve 1; the lower cylinder's flat bottom is fixed. `virtual_lower`: the lower cylinder
 /// is a circle cut out of a rectangular host mesh (21 x 10 mm, fine under the contact) by a
 /// virtual surface (MorteX); otherwise its own half-disc mesh (classical mortar).
 pub struct CylinderPair {
+    /// Divisions of the lower body over the uniformly fine zone |x| <= `core` (the upper one
+    /// has 1.5x as many).
     pub n_fine: usize,
+    /// Half-width (and depth) of the uniformly fine zone, mm.
+    pub core: f64,
     pub virtual_lower: bool,
+    /// Coarse-grained contact multipliers (else classical).
+    pub coarse_grained: bool,
     pub mu: f64,
     pub normal_load: f64,
     /// `(time, factor)` of the normal force (factor 1 = `normal_load`).
@@ -111,23 +117,28 @@ impl CylinderPair {
         let hyp = PlaneHypothesis::PlaneStrain;
         let mut b = ModelBuilder::new(hyp);
         let mi = b.add_material("steel", Material::Elastic(Elastic { young: CYL_E, poisson: CYL_NU, hypothesis: hyp }));
-        let h = 0.5 / self.n_fine as f64;
-        let rs = generate::graded(80, 1.0 / 200.0);
-        let arc_grid = |n: usize| generate::plateau_graded(n, (0.5 / CYL_R) / PI, 40);
-        let upper =
-            generate::half_disc_from_divisions(Point2::new(0.0, CYL_R), CYL_R, &rs, &arc_grid(3 * self.n_fine / 2))
-                .expect("cylinder mesh");
+        let w = self.core;
+        // Rings: uniform over the outer `w` of the radius (square cells under the contact).
+        let rings = |n_arc: usize| generate::end_plateau((n_arc / 2).max(1), w / CYL_R, 40);
+        let arc_grid = |n: usize| generate::plateau_graded(n, (2.0 * w / CYL_R) / PI, 40);
+        let n_up = 3 * self.n_fine / 2;
+        let upper = generate::half_disc_from_divisions(Point2::new(0.0, CYL_R), CYL_R, &rings(n_up), &arc_grid(n_up))
+            .expect("cylinder mesh");
         let lower = if self.virtual_lower {
-            let gx = generate::plateau_graded(self.n_fine, 0.5 / 21.0, 40);
+            let gx = generate::plateau_graded(self.n_fine, 2.0 * w / 21.0, 40);
             let height = CYL_R + 0.013;
-            let mut gy: Vec<f64> = generate::geometric_from_start(70, h / height).iter().map(|y| 1.0 - y).collect();
-            gy.reverse();
+            let gy = generate::end_plateau((self.n_fine / 2).max(1), (w + 0.013) / height, 40);
             generate::rectangle_from_divisions(-10.5, -CYL_R, 21.0, height, &gx, &gy, CellKind::Quad4)
                 .expect("host mesh")
         } else {
             // The upper half disc turned by 180 degrees (a rotation keeps the cells' orientation).
-            let mut m = generate::half_disc_from_divisions(Point2::new(0.0, CYL_R), CYL_R, &rs, &arc_grid(self.n_fine))
-                .expect("cylinder mesh");
+            let mut m = generate::half_disc_from_divisions(
+                Point2::new(0.0, CYL_R),
+                CYL_R,
+                &rings(self.n_fine),
+                &arc_grid(self.n_fine),
+            )
+            .expect("cylinder mesh");
             m.nodes.iter_mut().for_each(|p| *p = Point2::new(-p.x, -p.y));
             m
         };
@@ -159,7 +170,13 @@ impl CylinderPair {
         } else {
             ContactOther::Edges(b.global_edges(lo, &["arc".to_string()]).expect("set"))
         };
-        b.add_contact("c", up, &["arc".to_string()], lo, other, self.mu).expect("contact");
+        let multipliers = if self.coarse_grained {
+            mortex::mortar::MultiplierSpace::CoarseGrained
+        } else {
+            mortex::mortar::MultiplierSpace::Classical
+        };
+        let params = mortex::model::ContactParams { friction: self.mu, multipliers };
+        b.add_contact("c", up, &["arc".to_string()], lo, other, params).expect("contact");
         let newton = mortex::solver::newton::NewtonParams { max_iterations: 60, ..Default::default() };
         b.build(LoadPath::new(self.normal_path.clone()).expect("path"), self.times.clone(), newton, Default::default())
             .expect("model")
