@@ -208,3 +208,44 @@ fn hertz_explore() {
         hertz(nx, ny, nr, nt, gt, gx, true);
     }
 }
+
+/// Max deviation of the nodal pressure from Hertz over the nodes with |x| <= `frac` a, over p0,
+/// for a cylinder `refine` times finer than the block (block core elements `h`).
+fn density_deviation(
+    h: f64,
+    refine: f64,
+    virtual_top: bool,
+    space: mortex::mortar::MultiplierSpace,
+    frac: f64,
+) -> (f64, usize) {
+    let model = mortex::bench::hertz_model_with(h, refine, virtual_top, space).expect("model");
+    let s = solve(&model);
+    let e_star = E / (2.0 * (1.0 - NU * NU));
+    let a = (4.0 * LOAD * R / (std::f64::consts::PI * e_star)).sqrt();
+    let p0 = 2.0 * LOAD / (std::f64::consts::PI * a);
+    let prof = mortex::post::contact_profile(&model, &s, 0);
+    let dev = prof
+        .iter()
+        .filter(|n| n.x.x.abs() <= frac * a)
+        .map(|n| (n.pressure - p0 * (1.0 - n.x.x * n.x.x / (a * a)).max(0.0).sqrt()).abs())
+        .fold(0.0, f64::max)
+        / p0;
+    (dev, model.contacts[0].multipliers.num_nodes)
+}
+
+#[test]
+#[ignore]
+fn density_explore() {
+    use mortex::mortar::MultiplierSpace::*;
+    for refine in [1.5, 4.0, 8.0] {
+        for space in [Classical, CoarseGrained] {
+            for frac in [1.0, 0.9] {
+                let (d, n) = density_deviation(0.02, refine, false, space, frac);
+                eprintln!(
+                    "refine {refine}, {space:?}, |x| <= {frac} a: max deviation {:.2}% of p0 ({n} multipliers)",
+                    100.0 * d
+                );
+            }
+        }
+    }
+}
