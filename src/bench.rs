@@ -193,14 +193,16 @@ pub fn time_embedding(n: usize, segments: usize) -> Result<EmbedTimes, crate::su
 /// grow geometrically to the far boundaries. `virtual_top`: the block's contact surface is a
 /// virtual line cutting its host 0.013 mm below the host's top (MorteX).
 pub fn hertz_model(h_core: f64, virtual_top: bool) -> Result<Model, crate::model::ModelError> {
-    hertz_model_with(h_core, 1.5, virtual_top, crate::mortar::MultiplierSpace::Classical)
+    hertz_model_with(h_core, 1.5, 0.5, virtual_top, crate::mortar::MultiplierSpace::Classical)
 }
 
-/// [`hertz_model`] with the cylinder `cylinder_refinement` times finer than the block and the
-/// given contact multiplier space (the curved-surface density-contrast test).
+/// [`hertz_model`] with the cylinder `cylinder_refinement` times finer than the block over
+/// |x| <= `cylinder_core` (and as deep), and the given contact multiplier space (the
+/// curved-surface density-contrast test).
 pub fn hertz_model_with(
     h_core: f64,
     cylinder_refinement: f64,
+    cylinder_core: f64,
     virtual_top: bool,
     multipliers: crate::mortar::MultiplierSpace,
 ) -> Result<Model, crate::model::ModelError> {
@@ -220,9 +222,9 @@ pub fn hertz_model_with(
         |e: crate::mesh::MeshError| crate::model::ModelError::Tie { tie: "hertz mesh".into(), msg: e.to_string() };
     let block = generate::rectangle_from_divisions(-20.0, -20.0, 40.0, 20.0 + top, &gx, &gy, CellKind::Quad4)
         .map_err(mesh_err)?;
-    let n_cyl = |n: usize| ((n as f64 * cylinder_refinement).round() as usize).max(1);
-    let rs = generate::end_plateau(n_cyl(n_depth), CORE / R, 20);
-    let ts = generate::plateau_graded(n_cyl(n_core), (2.0 * CORE / R) / std::f64::consts::PI, 20);
+    let n_cyl = |core: f64| ((core / h_core * cylinder_refinement).round() as usize).max(1);
+    let rs = generate::end_plateau(n_cyl(cylinder_core), cylinder_core / R, 20);
+    let ts = generate::plateau_graded(n_cyl(2.0 * cylinder_core), (2.0 * cylinder_core / R) / std::f64::consts::PI, 20);
     let cyl = generate::half_disc_from_divisions(Point2::new(0.0, R), R, &rs, &ts).map_err(mesh_err)?;
     let bl = b.add_body("block", block, mi, Formulation::Standard, 1.0);
     let cy = b.add_body("cylinder", cyl, mi, Formulation::Standard, 1.0);

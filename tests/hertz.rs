@@ -218,7 +218,7 @@ fn density_deviation(
     space: mortex::mortar::MultiplierSpace,
     frac: f64,
 ) -> (f64, usize) {
-    let model = mortex::bench::hertz_model_with(h, refine, virtual_top, space).expect("model");
+    let model = mortex::bench::hertz_model_with(h, refine, 0.15, virtual_top, space).expect("model");
     let s = solve(&model);
     let e_star = E / (2.0 * (1.0 - NU * NU));
     let a = (4.0 * LOAD * R / (std::f64::consts::PI * e_star)).sqrt();
@@ -233,14 +233,38 @@ fn density_deviation(
     (dev, model.contacts[0].multipliers.num_nodes)
 }
 
+/// Issue 4, curved-surface density contrast: a finely meshed cylinder (8x finer than the
+/// block's 0.005 mm flat segments under the contact) carries the multipliers. Classical
+/// multipliers (one per cylinder node, 8 per block segment) over-constrain the coarse side and
+/// the pressure oscillates; coarse-grained ones (spaced like the block's segments) remove it.
+/// Deviation = max over the multiplier nodes with |x| <= 0.9 a of |p - p_Hertz| / p0 (the band
+/// 0.9 a < |x| < a, where Hertz' profile has an infinite slope, is left out: there every space
+/// shows the edge's interpolation error, 5-6% at this block size). Issue target: coarse-grained
+/// <= 2% of p0; classical reported (measured 5.06%) and asserted to exceed 2% (the failure the
+/// stabilised space exists for is real here).
+#[test]
+fn coarse_grained_contact_multipliers_remove_density_oscillation() {
+    use mortex::mortar::MultiplierSpace::*;
+    let (classical, _) = density_deviation(0.005, 8.0, false, Classical, 0.9);
+    let (coarse, n) = density_deviation(0.005, 8.0, false, CoarseGrained, 0.9);
+    eprintln!(
+        "cylinder 8x finer than the block: max pressure deviation classical {:.2}%, coarse-grained {:.2}% of p0 ({n} multipliers)",
+        100.0 * classical,
+        100.0 * coarse
+    );
+    assert!(coarse <= 0.02, "coarse-grained deviation {:.2}% of p0", 100.0 * coarse);
+    assert!(classical > 0.02, "classical deviation {:.2}% of p0: no oscillation to remove?", 100.0 * classical);
+}
+
 #[test]
 #[ignore]
 fn density_explore() {
     use mortex::mortar::MultiplierSpace::*;
-    for refine in [1.5, 4.0, 8.0] {
+    let h: f64 = std::env::var("DH").ok().and_then(|s| s.parse().ok()).unwrap_or(0.005);
+    for refine in [1.5, 8.0] {
         for space in [Classical, CoarseGrained] {
             for frac in [1.0, 0.9] {
-                let (d, n) = density_deviation(0.02, refine, false, space, frac);
+                let (d, n) = density_deviation(h, refine, false, space, frac);
                 eprintln!(
                     "refine {refine}, {space:?}, |x| <= {frac} a: max deviation {:.2}% of p0 ({n} multipliers)",
                     100.0 * d
