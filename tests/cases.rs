@@ -163,4 +163,14 @@ fn block_contact_case() {
     for (l, v) in p.iter().enumerate() {
         assert!((v - 50.0).abs() < 1e-8 * 50.0, "node {l}: pressure {v}");
     }
+    // The same profile in the CSV beside the HDF5 file (one row per multiplier node and step).
+    let csv = std::fs::read_to_string(format!("{}_contact.csv", out.with_extension("").display())).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("step,time,pair,x,y,pressure,shear,slip,accumulated_slip,status"));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), p.len());
+    for r in &rows {
+        let pressure: f64 = r[5].parse().unwrap();
+        assert!((pressure - 50.0).abs() < 1e-8 * 50.0 && r[2] == "interface" && r[9] == "0", "CSV row {r:?}");
+    }
 }

@@ -49,6 +49,8 @@ pub struct ResultWriter {
     steps: Vec<(usize, f64, f64)>,
     body_meta: Vec<(String, usize, usize, usize)>, // name, nodes, cells, topology length
     cut_bodies: Vec<String>,
+    /// Contact profiles of every step (CSV rows), written beside the HDF5 file on `finish`.
+    contact_csv: String,
 }
 
 fn h5err<E: std::fmt::Display>(path: &Path, what: &str) -> impl FnOnce(E) -> OutputError {
@@ -91,6 +93,7 @@ impl ResultWriter {
             steps: vec![],
             body_meta: vec![],
             cut_bodies: vec![],
+            contact_csv: String::new(),
         };
         let res: hdf5::Result<()> = (|| {
             write_str_attr(&file, "format", "mortex-results")?;
@@ -255,12 +258,57 @@ impl ResultWriter {
             Ok(())
         })();
         res.map_err(h5err(&self.partial_path, &format!("writing step {}", report.step)))?;
+        self.append_contact_rows(model, state, report);
         self.steps.push((report.step, report.time, report.load_factor));
         self.write_xdmf()
     }
 
+    /// Contact profile rows of one step: every multiplier node of every pair.
+    fn append_contact_rows(&mut self, model: &Model, state: &SimState, report: &StepReport) {
+        if model.contacts.is_empty() {
+            return;
+        }
+        if self.contact_csv.is_empty() {
+            self.contact_csv.push_str("step,time,pair,x,y,pressure,shear,slip,accumulated_slip,status\n");
+        }
+        let (nt, nn) = (model.constraints.len(), model.contact_rows.len());
+        for c in &model.contacts {
+            for l in 0..c.multipliers.num_nodes {
+                let x = c.multipliers.points[l];
+                let p = -state.multipliers[nt + c.first_row + l];
+                let (q, ds, acc, st) = c.friction_row[l].map_or((0.0, 0.0, 0.0, 0), |j| {
+                    let phi = model.contact_phi[model.friction_normal[j]];
+                    (
+                        state.multipliers[nt + nn + j],
+                        state.slip_increment[j] / phi,
+                        state.accumulated_slip[j] / phi,
+                        state.friction_status[j],
+                    )
+                });
+                let _ = writeln!(
+                    self.contact_csv,
+                    "{},{:e},{},{:e},{:e},{:e},{:e},{:e},{:e},{}",
+                    report.step, report.time, c.name, x.x, x.y, p, q, ds, acc, st
+                );
+            }
+        }
+    }
+
     /// Closes the file and renames it into place; `completed` records whether the run finished.
+    /// Contact profiles go to `<name>_contact.csv` beside it (step, time, pair, node position,
+    /// pressure, shear, slip of the step, accumulated slip, status 0 open / 1 stick / 2 slip).
     pub fn finish(mut self, completed: bool) -> Result<PathBuf, OutputError> {
+        if !self.contact_csv.is_empty() {
+            let stem = self.final_path.with_extension("");
+            let csv = PathBuf::from(format!("{}_contact.csv", stem.display()));
+            let partial = PathBuf::from(format!("{}.partial", csv.display()));
+            let io = |p: &Path| {
+                let p = p.display().to_string();
+                move |e| OutputError::Io { path: p, source: e }
+            };
+            std::fs::write(&partial, &self.contact_csv).map_err(io(&partial))?;
+            std::fs::rename(&partial, &csv).map_err(io(&csv))?;
+        }
         if let Some(file) = self.file.take() {
             let res: hdf5::Result<()> = (|| {
                 let t: Vec<f64> = self.steps.iter().map(|s| s.1).collect();
