@@ -22,6 +22,7 @@ use crate::fem::material::{PlasticState, Stress4};
 use crate::model::Model;
 use crate::solver::linear::{LinearSolverError, LinearSolverKind, SparseSolver};
 use nalgebra::DMatrix;
+use rayon::prelude::*;
 
 /// Columns solved at a time when forming `D` (bounds the dense right-hand-side block).
 const RHS_BLOCK: usize = 32;
@@ -163,21 +164,32 @@ impl Condensed {
         let mut d = DMatrix::zeros(nl, nl);
         d.view_mut((0, 0), (old, old)).copy_from(&self.d);
         let nf = m.dofs.num_free;
-        let mut block = vec![0.0; nf * RHS_BLOCK];
-        for start in (old..nl).step_by(RHS_BLOCK) {
-            let nb = RHS_BLOCK.min(nl - start);
-            let rhs = &mut block[..nf * nb];
-            rhs.iter_mut().for_each(|v| *v = 0.0);
-            for b in 0..nb {
-                for &(e, c) in &self.rows_free[start + b] {
-                    rhs[b * nf + e] += c;
+        // Blocks of RHS_BLOCK new rows, solved on the rayon threads (the triangular solves of
+        // one block run on one core); each returns its columns of D over all set rows.
+        let starts: Vec<usize> = (old..nl).step_by(RHS_BLOCK).collect();
+        let rows_free = &self.rows_free;
+        let cols: Vec<Result<Vec<Vec<f64>>, LinearSolverError>> = starts
+            .par_iter()
+            .map(|&start| {
+                let nb = RHS_BLOCK.min(nl - start);
+                let mut rhs = vec![0.0; nf * nb];
+                for b in 0..nb {
+                    for &(e, c) in &rows_free[start + b] {
+                        rhs[b * nf + e] += c;
+                    }
                 }
-            }
-            solver.solve_many(rhs, nb)?;
-            for b in 0..nb {
-                let col = &rhs[b * nf..(b + 1) * nf];
-                for (a, row) in self.rows_free.iter().enumerate() {
-                    let v: f64 = row.iter().map(|&(e, c)| c * col[e]).sum();
+                solver.solve_many(&mut rhs, nb)?;
+                Ok((0..nb)
+                    .map(|b| {
+                        let col = &rhs[b * nf..(b + 1) * nf];
+                        rows_free.iter().map(|row| row.iter().map(|&(e, c)| c * col[e]).sum()).collect()
+                    })
+                    .collect())
+            })
+            .collect();
+        for (&start, block) in starts.iter().zip(cols) {
+            for (b, col) in block?.into_iter().enumerate() {
+                for (a, v) in col.into_iter().enumerate() {
                     d[(a, start + b)] = v;
                     if a < old {
                         d[(start + b, a)] = v;
