@@ -440,6 +440,15 @@ impl ModelBuilder {
         Ok(v)
     }
 
+    /// Resultant force at the first node of a node or edge set (the master of a rigid set).
+    pub fn total_load(&mut self, body: usize, set: &str, f: Vector2<f64>) -> Result<(), ModelError> {
+        let nodes = self.node_set_or_edges(body, set)?;
+        let Some(&n) = nodes.first() else { return Err(self.unknown_set(body, set)) };
+        self.f_curves[self.curve][2 * n] += f.x;
+        self.f_curves[self.curve][2 * n + 1] += f.y;
+        Ok(())
+    }
+
     /// Makes the nodes of a set move as one rigid translation (a rigid platen): constraint rows
     /// `u(n) - u(master) = 0` for both components, the master being the set's first node.
     /// Returns the master's body-local node index (load it with [`Self::point_load_node`]).

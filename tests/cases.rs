@@ -174,3 +174,39 @@ fn block_contact_case() {
         assert!((pressure - 50.0).abs() < 1e-8 * 50.0 && r[2] == "interface" && r[9] == "0", "CSV row {r:?}");
     }
 }
+
+/// Cattaneo-Mindlin case (two cylinders, rigid platen, normal then tangential force; see its
+/// header): from the contact CSV of the last step, the stick zone (halfway between the outermost
+/// stick node and the next slip node) within 3% of a sqrt(1 - Q/(mu P)) (issue 4 tolerance;
+/// measured -1.8% on this graded mesh), and the Coulomb law at every node in contact: slip
+/// |q| = mu p, stick |q| <= mu p (round-off, 1e-9 mu p0).
+#[test]
+fn cattaneo_mindlin_case() {
+    let out = run_case("cattaneo_mindlin");
+    let csv = std::fs::read_to_string(format!("{}_contact.csv", out.with_extension("").display())).unwrap();
+    let mut nodes: Vec<(f64, f64, f64, u8)> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .filter(|r| r[0] == "2")
+        .map(|r| (r[3].parse().unwrap(), r[5].parse().unwrap(), r[6].parse().unwrap(), r[9].parse().unwrap()))
+        .collect();
+    nodes.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (e_star, p, mu, q, r_eff) = (210_000.0 / (2.0 * (1.0 - 0.09)), 100.0, 0.3, 15.0, 5.0);
+    let a: f64 = (4.0 * p * r_eff / (std::f64::consts::PI * e_star)).sqrt();
+    let p0 = 2.0 * p / (std::f64::consts::PI * a);
+    let c = a * (1.0f64 - q / (mu * p)).sqrt();
+    let stick: Vec<usize> = (0..nodes.len()).filter(|&i| nodes[i].3 == 1).collect();
+    let (lo, hi) = (stick[0], stick[stick.len() - 1]);
+    assert!(stick.len() == hi - lo + 1, "one stick interval");
+    let c_num = 0.25 * (nodes[hi].0 + nodes[hi + 1].0 - nodes[lo].0 - nodes[lo - 1].0);
+    assert!((c_num / c - 1.0).abs() < 0.03, "stick zone {c_num} vs {c}");
+    for n in &nodes {
+        let bound = mu * n.1;
+        match n.3 {
+            2 => assert!((n.2.abs() - bound).abs() < 1e-9 * mu * p0, "slip node {n:?}"),
+            1 => assert!(n.2.abs() <= bound + 1e-9 * mu * p0, "stick node {n:?}"),
+            _ => assert!(n.1 == 0.0 && n.2 == 0.0, "open node {n:?}"),
+        }
+    }
+}

@@ -81,11 +81,23 @@ pub struct CaseFile {
     pub cuts: Vec<CutSpec>,
     #[serde(default)]
     pub contacts: Vec<ContactSpec>,
+    /// Rigid sets (platens): the nodes of the set move as one translation.
+    #[serde(default)]
+    pub rigid: Vec<RigidSpec>,
 }
 
-/// Frictionless mortar contact (small sliding; groundwork for roadmap step 3): the `mortar`
-/// body's surface carries the contact pressure; the other surface is the `other` body's edge
-/// sets or the virtual surface of a named `[[cuts]]` entry in it.
+/// A rigid set: the nodes of a node or edge set move together (no rotation); load it with a
+/// `total_force` on the same set.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RigidSpec {
+    pub body: String,
+    pub set: String,
+}
+
+/// Mortar contact (small sliding): the `mortar` body's surface carries the contact pressure
+/// and shear; the other surface is the `other` body's edge sets or the virtual surface of a
+/// named `[[cuts]]` entry in it.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ContactSpec {
@@ -241,6 +253,9 @@ pub enum MeshSpec {
         radial_grading: f64,
         #[serde(default = "one")]
         angular_grading: f64,
+        /// Turned by 180 degrees about the centre (arc on top: the lower body of a pair).
+        #[serde(default)]
+        upside_down: bool,
     },
     Gmsh {
         /// Path of a MSH 4.1 ASCII file, relative to the case file.
@@ -278,6 +293,9 @@ pub struct LoadSpec {
     pub traction: Option<[f64; 2]>,
     /// Force applied at every node of a node set.
     pub force: Option<[f64; 2]>,
+    /// Resultant force applied at the set's first node (for rigid sets, whose nodes move
+    /// together: the force on the platen).
+    pub total_force: Option<[f64; 2]>,
     /// Load curve scaling the load (default: `steps.path`).
     pub curve: Option<String>,
 }
@@ -496,6 +514,15 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         }
     };
 
+    // Rigid sets.
+    for (i, r) in raw.rigid.iter().enumerate() {
+        let k = |f: &str| format!("rigid[{i}].{f}");
+        let bi = b.body_index(&r.body).map_err(|_| {
+            cx.err(k("body"), format!("no body named '{}' (defined: {})", r.body, body_names.join(", ")))
+        })?;
+        b.rigid_set(bi, &r.set).map_err(|e| model_err(&cx, k("set"), e))?;
+    }
+
     // Boundary conditions.
     for (i, bc) in raw.bcs.iter().enumerate() {
         let k = |f: &str| format!("bcs[{i}].{f}");
@@ -520,9 +547,12 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         let bi = b.body_index(&l.body).map_err(|_| {
             cx.err(k("body"), format!("no body named '{}' (defined: {})", l.body, body_names.join(", ")))
         })?;
-        let given = [l.pressure.is_some(), l.traction.is_some(), l.force.is_some()].iter().filter(|&&x| x).count();
+        let given = [l.pressure.is_some(), l.traction.is_some(), l.force.is_some(), l.total_force.is_some()]
+            .iter()
+            .filter(|&&x| x)
+            .count();
         if given != 1 {
-            return Err(cx.err(format!("loads[{i}]"), "give exactly one of pressure, traction, force"));
+            return Err(cx.err(format!("loads[{i}]"), "give exactly one of pressure, traction, force, total_force"));
         }
         b.use_curve(curve_id(&l.curve, k("curve"))?);
         if let Some(p) = l.pressure {
@@ -535,6 +565,10 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         if let Some(f) = l.force {
             let f = Vector2::new(cx.finite(&k("force"), f[0])?, cx.finite(&k("force"), f[1])?);
             b.point_load(bi, &l.set, f).map_err(|e| model_err(&cx, k("set"), e))?;
+        }
+        if let Some(f) = l.total_force {
+            let f = Vector2::new(cx.finite(&k("total_force"), f[0])?, cx.finite(&k("total_force"), f[1])?);
+            b.total_load(bi, &l.set, f).map_err(|e| model_err(&cx, k("set"), e))?;
         }
     }
 
@@ -719,14 +753,24 @@ fn build_mesh(spec: &MeshSpec, base: &Path) -> Result<Mesh2, String> {
                 *radial_grading,
             )
         }
-        MeshSpec::HalfDisc { centre, radius, divisions, radial_grading, angular_grading } => generate::half_disc(
-            Point2::new(centre[0], centre[1]),
-            *radius,
-            divisions[0],
-            divisions[1],
-            *radial_grading,
-            *angular_grading,
-        ),
+        MeshSpec::HalfDisc { centre, radius, divisions, radial_grading, angular_grading, upside_down } => {
+            generate::half_disc(
+                Point2::new(centre[0], centre[1]),
+                *radius,
+                divisions[0],
+                divisions[1],
+                *radial_grading,
+                *angular_grading,
+            )
+            .map(|mut m| {
+                if *upside_down {
+                    // A rotation keeps the cells' orientation and the sets' meaning.
+                    let c = Point2::new(centre[0], centre[1]);
+                    m.nodes.iter_mut().for_each(|p| *p = c - (*p - c));
+                }
+                m
+            })
+        }
         MeshSpec::Gmsh { file } => {
             let p = if file.is_absolute() { file.clone() } else { base.join(file) };
             return gmsh::read_msh(&p).map_err(|e| e.to_string());
