@@ -62,22 +62,27 @@ pub fn end_plateau(n_plateau: usize, plateau: f64, n_grow: usize) -> Vec<f64> {
     x
 }
 
+/// Growth factor `q` in [1e-3, 10] with `total(q) = target` (bisection; `total` increasing).
+fn growth_factor(total: impl Fn(f64) -> f64, target: f64) -> f64 {
+    let (mut lo, mut hi) = (1e-3f64, 10.0f64);
+    for _ in 0..200 {
+        let q = 0.5 * (lo + hi);
+        if total(q) < target {
+            lo = q
+        } else {
+            hi = q
+        }
+    }
+    0.5 * (lo + hi)
+}
+
 /// `n` intervals on [0, 1] growing geometrically from a first interval `first` (a fraction of
 /// the length) at 0: fine where a contact surface is, coarse far from it.
 pub fn geometric_from_start(n: usize, first: f64) -> Vec<f64> {
     let n = n.max(1);
     let first = first.clamp(1e-12, 1.0);
     let total = |q: f64| (0..n).map(|i| first * q.powi(i as i32)).sum::<f64>();
-    let (mut lo, mut hi) = (1e-3f64, 10.0f64);
-    for _ in 0..200 {
-        let q = 0.5 * (lo + hi);
-        if total(q) < 1.0 {
-            lo = q
-        } else {
-            hi = q
-        }
-    }
-    let q = 0.5 * (lo + hi);
+    let q = growth_factor(total, 1.0);
     let scale = total(q);
     let mut acc = 0.0;
     let mut x = vec![0.0];
@@ -102,16 +107,7 @@ pub fn plateau_graded(n_fine: usize, plateau: f64, n_side: usize) -> Vec<f64> {
     if n_side > 0 && side > 0.0 {
         // Growth q with sum_{i=1..n} h q^i = side (q >= 1 when the side needs it).
         let total = |q: f64| (1..=n_side).map(|i| h * q.powi(i as i32)).sum::<f64>();
-        let (mut lo, mut hi) = (1e-3, 10.0);
-        for _ in 0..200 {
-            let mid = 0.5 * (lo + hi);
-            if total(mid) < side {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        let q = 0.5 * (lo + hi);
+        let q = growth_factor(total, side);
         let mut acc = 0.0;
         for i in 1..=n_side {
             acc += h * q.powi(i as i32);
