@@ -137,28 +137,30 @@ fn cattaneo_mindlin(n_fine: usize, core: f64, virtual_lower: bool, ratio: f64) -
 }
 
 /// Cattaneo-Mindlin at Q/(mu P) = 0.25, 0.5, 0.75 (issue 4). Meshes uniformly fine over
-/// |x| <= 0.1 mm (a = 0.0743 mm): lower-surface spacing 0.001 mm (upper 0.00067 mm), lower
-/// surface real (classical mortar) and virtual (MorteX), 224k DOFs.
-/// Asserted: exact checks on every run (shear resultant = Q, the Coulomb law at the nodes, one
-/// stick interval); stick-zone half-width within 3% of a sqrt(1 - Q/(mu P)) on every run (issue
-/// tolerance); shear-traction L2 error over [-a, a] within 3% and MorteX vs classical mortar
-/// within 1% (issue tolerances) at Q/(mu P) = 0.5 and 0.75. Reported, not asserted (missed, see
-/// the README): both at 0.25 (the slip annulus is 0.01 mm wide, 15 upper nodes).
+/// |x| <= 0.1 mm (a = 0.0743 mm), lower surface real (classical mortar) and virtual (MorteX):
+/// lower-surface spacing 0.001 mm (upper 0.00067 mm, 224k DOFs) at 0.5 and 0.75; 0.00067 mm
+/// (upper 0.00044 mm, 427k DOFs) at 0.25, whose slip annulus is only 0.01 mm wide and whose
+/// shear is a quarter of mu p (the shear L2 error there is 4 x the pressure error of the slip
+/// zone; 0.001 mm gave 3.97% / 4.33%).
+/// Asserted: exact checks (shear resultant = Q, the Coulomb law at the nodes, one stick
+/// interval), and the issue's tolerances: stick-zone half-width within 3% of
+/// a sqrt(1 - Q/(mu P)), shear-traction L2 error over [-a, a] within 3%, and MorteX vs
+/// classical mortar within 1% at 0.5 and 0.75. At 0.25 the MorteX-classical difference is
+/// reported, not asserted: 1.17% (missed; relative to the small shear of that case).
 #[test]
 fn cattaneo_mindlin_partial_slip() {
     for ratio in [0.25, 0.5, 0.75] {
-        let real = cattaneo_mindlin(200, 0.1, false, ratio);
-        let virt = cattaneo_mindlin(200, 0.1, true, ratio);
+        let n = if ratio < 0.5 { 300 } else { 200 };
+        let real = cattaneo_mindlin(n, 0.1, false, ratio);
+        let virt = cattaneo_mindlin(n, 0.1, true, ratio);
         for (r, name) in [(&real, "real"), (&virt, "virtual")] {
             assert!((r.resultant / (ratio * MU * P) - 1.0).abs() < 1e-7, "{name}: shear resultant {}", r.resultant);
             assert!(r.law_error < 1e-9, "{name}: Coulomb law violated by {:.2e} (relative)", r.law_error);
             assert!(r.stick_intervals == 1, "{name}: {} stick intervals", r.stick_intervals);
             assert!(r.c_err.abs() < 0.03, "{name}, Q/(mu P) = {ratio}: stick zone {:+.2}%", 100.0 * r.c_err);
         }
-        if ratio >= 0.5 {
-            for (r, name) in [(&real, "real"), (&virt, "virtual")] {
-                assert!(r.q_l2 < 0.03, "{name}, Q/(mu P) = {ratio}: shear L2 {:.2}%", 100.0 * r.q_l2);
-            }
+        for (r, name) in [(&real, "real"), (&virt, "virtual")] {
+            assert!(r.q_l2 < 0.03, "{name}, Q/(mu P) = {ratio}: shear L2 {:.2}%", 100.0 * r.q_l2);
         }
         let (mut num, mut den) = (0.0, 0.0);
         for (p, q) in real.q.iter().zip(&virt.q) {
