@@ -44,6 +44,11 @@ pub enum AnalysisError {
          nothing else restrains the body (the tangential load exceeds mu times the normal load?)"
     )]
     GrossSliding { step: usize, time: f64, slipping: usize },
+    #[error(
+        "step {step} (time {time}): contact nodes slid {slide:.3e} from their reference pairing, more than the \
+         contact width {width:.3e}: beyond small sliding (a tangential load above mu times the normal load?)"
+    )]
+    SlidingBeyondPairing { step: usize, time: f64, slide: f64, width: f64 },
 }
 
 pub struct StaticAnalysis<'m> {
@@ -77,6 +82,37 @@ fn gross_sliding(status: &[FrictionStatus]) -> Option<usize> {
         status.iter().filter_map(|s| if let FrictionStatus::Slip(d) = s { Some(*d) } else { None }).collect();
     let stick = status.iter().any(|s| *s == FrictionStatus::Stick);
     (!stick && !slipping.is_empty() && slipping.iter().all(|&d| d == slipping[0])).then_some(slipping.len())
+}
+
+/// Pairing and normals come from the reference geometry (small sliding): a converged state in
+/// which nodes in contact have slid further from their reference partners than the whole
+/// contact is wide has left the model's range (load-controlled gross sliding finds such a
+/// far-slid "equilibrium" on the tilted normals). Relative tangential displacement per node:
+/// `s_j / int Phi_j` (the reference part of `s` cancels in the increments, not here: the rows
+/// carry only the displacement part).
+fn check_small_sliding(
+    m: &Model,
+    u: &[f64],
+    status: &[FrictionStatus],
+    step: usize,
+    t: f64,
+) -> Result<(), AnalysisError> {
+    let in_contact: Vec<usize> = (0..status.len()).filter(|&j| status[j] != FrictionStatus::Open).collect();
+    if in_contact.is_empty() {
+        return Ok(());
+    }
+    let width: f64 = in_contact.iter().map(|&j| m.contact_phi[m.friction_normal[j]]).sum();
+    let slide = in_contact
+        .iter()
+        .map(|&j| {
+            let s: f64 = m.friction_rows[j].iter().map(|&(d, c)| c * u[d]).sum();
+            (s / m.contact_phi[m.friction_normal[j]]).abs()
+        })
+        .fold(0.0, f64::max);
+    if slide > width {
+        return Err(AnalysisError::SlidingBeyondPairing { step, time: t, slide, width });
+    }
+    Ok(())
 }
 
 /// Coulomb status of a tangential multiplier in one Newton iteration.
@@ -517,6 +553,7 @@ impl<'m> StaticAnalysis<'m> {
                 return Ok(Err((it, res)));
             }
             if !set_changed && (res <= p.rtol || (rn == 0.0 && gn == 0.0 && free_mu == 0.0)) {
+                check_small_sliding(m, &u, &status, step, t)?;
                 self.commit(state, u, mu, t, &status, &slip);
                 return Ok(Ok((it, res)));
             }
@@ -548,6 +585,9 @@ impl<'m> StaticAnalysis<'m> {
             }
             // The open-node equation lambda = 0 is linear: its Newton step is exact.
             zero_open_multipliers(m, &mut mu, &active, &status);
+        }
+        if let Some(slipping) = gross_sliding(&status) {
+            return Err(AnalysisError::GrossSliding { step, time: t, slipping });
         }
         Ok(Err((p.max_iterations, res)))
     }
@@ -843,6 +883,7 @@ impl<'m> StaticAnalysis<'m> {
             let res = if scale > 0.0 { norm(&r) / scale } else { norm(&r) };
             tracing::debug!(step, t, iterations, residual = res, "condensed step");
             if res.is_finite() && res <= p.rtol {
+                check_small_sliding(m, &u, &status, step, t)?;
                 self.commit(state, u, mu, t, &status, &slip);
                 return Ok(Ok((iterations, res)));
             }
