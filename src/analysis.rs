@@ -80,7 +80,7 @@ fn friction_couplings(m: &Model) -> Vec<(usize, usize)> {
 fn gross_sliding(status: &[FrictionStatus]) -> Option<usize> {
     let slipping: Vec<bool> =
         status.iter().filter_map(|s| if let FrictionStatus::Slip(d) = s { Some(*d) } else { None }).collect();
-    let stick = status.iter().any(|s| *s == FrictionStatus::Stick);
+    let stick = status.contains(&FrictionStatus::Stick);
     (!stick && !slipping.is_empty() && slipping.iter().all(|&d| d == slipping[0])).then_some(slipping.len())
 }
 
