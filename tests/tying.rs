@@ -440,3 +440,146 @@ fn open_tie_patch_test() {
         }
     }
 }
+
+/// Straight-interface patch tests of the stabilised MorteX paper (arXiv 1902.04003, sec. 4:
+/// uniform load and bending across a tied interface, with density and material contrast).
+///
+///   y=4 +------------+-----+- - - - -+
+///       |  host      |patch|         :  host: 10 x 4 mm, Quad4 of size h_H; the material right
+///       |  (coarse)  |     |  (cut)  :  of x = 5.13 is cut away by the patch's left edge (a
+///       |            |     |         :  vertical virtual surface inside host cells).
+///   y=0 +------------+-----+- - - - -+  patch: [5.13, 6.13] x [0, 4], Quad4 of size h_H / ratio.
+///      x=0        x=5.13  6.13      x=10
+///
+/// Loads on the patch's right edge (consistent nodal forces): uniform sigma_xx = 100 MPa, or
+/// pure bending sigma_xx = 50 (y - 2) MPa; host left edge u_x = 0 (a symmetry plane of both
+/// fields), node (0, 2) u_y = 0. With the same material, or nu = 0 in both bodies, the exact
+/// solution is that stress in both bodies (pure bending is exact in plane elasticity), so the
+/// exact interface traction on the patch is t = (-sigma_xx(y), 0).
+/// Returns max |t - t_exact| / mean |t_exact| over the multiplier nodes.
+fn straight_interface_oscillation(
+    h_host: f64,
+    ratio: usize,
+    space: MultiplierSpace,
+    material: (f64, f64),
+    load: &str,
+) -> f64 {
+    let (e_patch, nu) = material;
+    let hyp = PlaneHypothesis::PlaneStrain;
+    let mut b = ModelBuilder::new(hyp);
+    let mh = b.add_material("host", Material::Elastic(Elastic { young: E, poisson: nu, hypothesis: hyp }));
+    let mp = b.add_material("patch", Material::Elastic(Elastic { young: e_patch, poisson: nu, hypothesis: hyp }));
+    let (nx, ny) = ((10.0 / h_host).round() as usize, (4.0 / h_host).round() as usize);
+    let (x_int, width) = (5.13, 1.0);
+    let host = generate::rectangle(0.0, 0.0, 10.0, 4.0, nx, ny, 1.0, 1.0, CellKind::Quad4).unwrap();
+    let h = b.add_body("host", host, mh, Formulation::Standard, 1.0);
+    let pnx = (width * ratio as f64 / h_host).round() as usize;
+    let patch = generate::rectangle(x_int, 0.0, width, 4.0, pnx, ny * ratio, 1.0, 1.0, CellKind::Quad4).unwrap();
+    let pnodes = patch.nodes.clone();
+    let right = patch.edge_sets["right"].clone();
+    let p = b.add_body("patch", patch, mp, Formulation::Standard, 1.0);
+    let sxx = |y: f64| if load == "tension" { 100.0 } else { 50.0 * (y - 2.0) };
+    for e in right.iter() {
+        let (ya, yb) = (pnodes[e[0]].y, pnodes[e[1]].y);
+        let len = (yb - ya).abs();
+        let (sa, sb) = (sxx(ya), sxx(yb));
+        b.point_load_node(p, e[0], Vector2::new(len * (2.0 * sa + sb) / 6.0, 0.0));
+        b.point_load_node(p, e[1], Vector2::new(len * (sa + 2.0 * sb) / 6.0, 0.0));
+    }
+    b.fix(h, "left", 0, 0.0).unwrap();
+    b.fix_node(h, (ny / 2) * (nx + 1), 1, 0.0);
+    b.add_tie("line", h, p, &["left".to_string()], space).unwrap();
+    let model = common::build_one_step(b);
+    let s = solve(&model);
+    let tie = &model.ties[0];
+    let nl = tie.multipliers.num_nodes;
+    let (mut worst, mut mean) = (0.0f64, 0.0);
+    for l in 0..nl {
+        let exact = [-sxx(tie.multipliers.points[l].y), 0.0];
+        let t = [-s.multipliers[tie.first_row + 2 * l], -s.multipliers[tie.first_row + 2 * l + 1]];
+        worst = worst.max(((t[0] - exact[0]).powi(2) + (t[1] - exact[1]).powi(2)).sqrt());
+        mean += exact[0].abs() / nl as f64;
+    }
+    worst / mean
+}
+
+/// (E_patch, nu) rows: same material; stiff and soft patches (nu = 0 keeps the fields exact).
+const STRAIGHT_MATERIALS: [(f64, f64); 3] = [(E, NU), (10.0 * E, 0.0), (0.1 * E, 0.0)];
+const RATIOS: [usize; 4] = [1, 5, 10, 20];
+
+/// Uniform tension: the exact solution lies in both discrete spaces (piecewise linear
+/// displacement, constant traction), so both pass at every ratio and contrast: 1e-8 relative
+/// (round-off grows to ~3e-11 at 1:20 with the stiff patch).
+#[test]
+fn straight_interface_tension_is_exact_for_both_spaces() {
+    for material in STRAIGHT_MATERIALS {
+        for ratio in RATIOS {
+            for space in [MultiplierSpace::Classical, MultiplierSpace::CoarseGrained] {
+                let err = straight_interface_oscillation(0.5, ratio, space, material, "tension");
+                assert!(err < 1e-8, "{material:?} 1:{ratio} {space:?}: traction error {err:e}");
+            }
+        }
+    }
+}
+
+/// Pure bending across the interface: linear exact traction. Host h_H = 0.125 mm (32 Quad4 over
+/// the height): the deviation then left in the coarse-grained traction is the host's own bending
+/// error (1:20, E_p = 10 E_h: 2.39 / 1.06 / 0.76 / 0.47% at h_H = 0.5 / 0.25 / 0.167 / 0.125).
+/// Issue 3 target: coarse-grained <= 1% at every ratio. The classical space over-constrains the
+/// blending elements: its deviation must grow with the ratio from 1:5 on and exceed the
+/// coarse-grained one at every ratio >= 1:5.
+#[test]
+fn straight_interface_bending_coarse_grained_within_one_percent() {
+    for material in STRAIGHT_MATERIALS {
+        let mut classical = vec![];
+        let mut coarse = vec![];
+        for ratio in RATIOS {
+            classical.push(straight_interface_oscillation(
+                0.125,
+                ratio,
+                MultiplierSpace::Classical,
+                material,
+                "bending",
+            ));
+            coarse.push(straight_interface_oscillation(
+                0.125,
+                ratio,
+                MultiplierSpace::CoarseGrained,
+                material,
+                "bending",
+            ));
+        }
+        eprintln!("bending {material:?}: classical {classical:.5?}, coarse-grained {coarse:.5?}");
+        for k in 0..RATIOS.len() {
+            assert!(coarse[k] <= 0.01, "{material:?} 1:{}: coarse-grained deviation {}", RATIOS[k], coarse[k]);
+        }
+        for k in 1..RATIOS.len() {
+            assert!(coarse[k] < classical[k], "{material:?}: coarse {coarse:?} vs classical {classical:?}");
+        }
+        for k in 2..RATIOS.len() {
+            assert!(classical[k] > classical[k - 1], "{material:?}: classical should grow: {classical:?}");
+        }
+    }
+}
+
+/// Full table (README): tension and bending, host h_H = 0.5 and 0.125 mm.
+#[test]
+#[ignore]
+fn straight_interface_table() {
+    for h_host in [0.5, 0.125] {
+        for load in ["tension", "bending"] {
+            for material in STRAIGHT_MATERIALS {
+                for ratio in RATIOS {
+                    let c = straight_interface_oscillation(h_host, ratio, MultiplierSpace::Classical, material, load);
+                    let g =
+                        straight_interface_oscillation(h_host, ratio, MultiplierSpace::CoarseGrained, material, load);
+                    eprintln!(
+                        "h_H {h_host} {load} E_p/E_h {:4} nu {} ratio 1:{ratio:2}: classical {c:.3e}, coarse-grained {g:.3e}",
+                        material.0 / E,
+                        material.1
+                    );
+                }
+            }
+        }
+    }
+}

@@ -74,6 +74,9 @@ pub struct Chain {
     pub lm_at: Vec<usize>,
     /// Global index of the chain's first multiplier node.
     pub first_lm: usize,
+    /// A closed chain without corners: the last multiplier node interpolates back to the
+    /// first one across vertex 0.
+    pub periodic: bool,
 }
 
 /// The multiplier space of one interface.
@@ -182,18 +185,30 @@ fn build_multipliers_with(side: &MortarSide, select: impl Fn(&[usize], &[f64]) -
         }
         let nseg = vs.len() - 1;
         let lm_at = select(&vs, &arc);
-        // Crosspoint modification (Wohlmuth 2000; Puso & Laursen): the nodes at the ends of a
-        // chain carry no multiplier of their own; their hat is merged into the neighbour's,
-        // so the traction is constant between a corner and the first interior multiplier node.
+        // A closed chain without corners is periodic: vertex 0 (= vertex nseg) is an ordinary
+        // multiplier node.
+        let periodic = corners.is_empty();
+        // Crosspoint modification (Wohlmuth 2000; Puso & Laursen): the nodes at the ends of an
+        // open chain carry no multiplier of their own; the traction on the stretch between an
+        // end and the first interior multiplier node is the linear extrapolation of the first
+        // interval (see `Chain::hats`), so linear tractions stay exactly representable.
         // Without it the multipliers at a corner outnumber the trace space of the mortar side
         // and the saddle point is singular when the host trace nests in the mortar trace.
-        let lm_at: Vec<usize> = if lm_at.len() > 2 { lm_at[1..lm_at.len() - 1].to_vec() } else { vec![lm_at[0]] };
+        let lm_at: Vec<usize> = if periodic {
+            lm_at[..lm_at.len() - 1].to_vec()
+        } else if lm_at.len() > 2 {
+            lm_at[1..lm_at.len() - 1].to_vec()
+        } else {
+            vec![lm_at[0]]
+        };
         for &k in &lm_at {
             let v = vs[k];
             points.push(side.points[v]);
             let mut nrm = Vector2::zeros();
             if k > 0 {
                 nrm += right_normal(side.points[vs[k - 1]], side.points[v]);
+            } else if periodic {
+                nrm += right_normal(side.points[vs[nseg - 1]], side.points[v]);
             }
             if k < nseg {
                 nrm += right_normal(side.points[v], side.points[vs[k + 1]]);
@@ -201,31 +216,40 @@ fn build_multipliers_with(side: &MortarSide, select: impl Fn(&[usize], &[f64]) -
             normals.push(nrm.normalize());
         }
         let count = lm_at.len();
-        chains.push(Chain { vertices: vs, arc, lm_at, first_lm: next_lm });
+        chains.push(Chain { vertices: vs, arc, lm_at, first_lm: next_lm, periodic });
         next_lm += count;
     }
     Multipliers { chains, num_nodes: next_lm, points, normals }
 }
 
 impl Chain {
-    /// Multiplier hats at arc length `s`: `(local lm index, value)` pairs (two at most);
-    /// constant 1 between a chain end and the nearest multiplier node.
+    /// Multiplier hats at arc length `s`: `(local lm index, value)` pairs (two at most). Open
+    /// chains: linear extrapolation of the first (last) interval between a chain end and the
+    /// nearest multiplier node (values outside [0, 1] there, still a partition of unity);
+    /// periodic chains wrap from the last node to the first; a single node is constant.
     pub fn hats(&self, s: f64) -> [(usize, f64); 2] {
         let m = self.lm_at.len();
-        if m == 1 || s <= self.arc[self.lm_at[0]] {
+        let at = |j: usize| self.arc[self.lm_at[j]];
+        if m == 1 {
             return [(0, 1.0), (0, 0.0)];
         }
-        if s >= self.arc[self.lm_at[m - 1]] {
-            return [(m - 1, 1.0), (0, 0.0)];
+        if self.periodic && s >= at(m - 1) {
+            let (s0, s1) = (at(m - 1), self.arc[self.arc.len() - 1]);
+            let phi = ((s1 - s) / (s1 - s0)).clamp(0.0, 1.0);
+            return [(m - 1, phi), (0, 1.0 - phi)];
         }
-        for j in 0..m - 1 {
-            let (s0, s1) = (self.arc[self.lm_at[j]], self.arc[self.lm_at[j + 1]]);
-            if s <= s1 {
-                let phi = ((s1 - s) / (s1 - s0)).clamp(0.0, 1.0);
-                return [(j, phi), (j + 1, 1.0 - phi)];
-            }
+        // Interval j (nodes j, j + 1) holding s; the end intervals extend to the chain ends.
+        let j = (0..m - 1).find(|&j| s <= at(j + 1)).unwrap_or(m - 2);
+        let (s0, s1) = (at(j), at(j + 1));
+        let mut phi = (s1 - s) / (s1 - s0);
+        if j > 0 && j < m - 2 {
+            phi = phi.clamp(0.0, 1.0);
+        } else if j == 0 && m > 2 {
+            phi = phi.max(0.0);
+        } else if j == m - 2 && m > 2 {
+            phi = phi.min(1.0);
         }
-        [(m - 1, 1.0), (0, 0.0)]
+        [(j, phi), (j + 1, 1.0 - phi)]
     }
 }
 
