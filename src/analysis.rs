@@ -39,6 +39,8 @@ pub enum AnalysisError {
     Setup(#[from] LinearSolverError),
     #[error("step {step}: {msg}")]
     Observer { step: usize, msg: String },
+    #[error("resuming from a checkpoint: interface-log batch {batch} names multiplier rows that are already live or do not exist in this model")]
+    ResumeLog { batch: usize },
     #[error(
         "step {step} (time {time}): gross sliding: all {slipping} contact nodes in contact slip in one direction and \
          nothing else restrains the body (the tangential load exceeds mu times the normal load?)"
@@ -273,6 +275,30 @@ impl<'m> StaticAnalysis<'m> {
         self.parallel = parallel;
     }
 
+    /// Prepares a fresh analysis to continue from a checkpointed state: replays the state's
+    /// interface log so the condensed operator is the one the interrupted run had (same rows,
+    /// same order, same arithmetic: the continuation is bit for bit the uninterrupted run).
+    pub fn resume(&mut self, state: &SimState) -> Result<(), AnalysisError> {
+        let m = self.model;
+        let Some(mut cd) = self.condensed.take() else {
+            return Ok(());
+        };
+        let mut result = Ok(());
+        for (k, batch) in state.interface_log.iter().skip(cd.log.len()).enumerate() {
+            if batch.iter().any(|&i| i >= cd.live_of.len() || cd.live_of[i].is_some()) {
+                result = Err(AnalysisError::ResumeLog { batch: k });
+                break;
+            }
+            if let Err(e) = cd.grow(m, &self.solver, batch, 0.0) {
+                result = Err(e.into());
+                break;
+            }
+            cd.log.push(batch.clone());
+        }
+        self.condensed = Some(cd);
+        result
+    }
+
     /// The unloaded, virgin state.
     pub fn initial_state(&self) -> SimState {
         let m = self.model;
@@ -289,6 +315,7 @@ impl<'m> StaticAnalysis<'m> {
             slip_increment: vec![0.0; m.friction_rows.len()],
             accumulated_slip: vec![0.0; m.friction_rows.len()],
             dissipation: 0.0,
+            interface_log: vec![],
         }
     }
 
@@ -661,6 +688,9 @@ impl<'m> StaticAnalysis<'m> {
     ) -> Result<Result<(usize, f64), (usize, f64)>, AnalysisError> {
         let Some(mut cd) = self.condensed.take() else { return Ok(Err((0, f64::INFINITY))) };
         let result = self.condensed_step(&mut cd, state, step, t);
+        if matches!(result, Ok(Ok(_))) && state.interface_log.len() != cd.log.len() {
+            state.interface_log.clone_from(&cd.log);
+        }
         self.condensed = Some(cd);
         result
     }
@@ -871,7 +901,9 @@ impl<'m> StaticAnalysis<'m> {
                     .filter(|&k| cd.live_of[nt + k].is_none())
                     .collect();
                 tracing::debug!(step, t, added = add.len(), "condensed set grows");
-                cd.grow(m, &self.solver, &condensed::with_friction(m, &add), 0.0).map_err(solve_err(iterations))?;
+                let batch = condensed::with_friction(m, &add);
+                cd.grow(m, &self.solver, &batch, 0.0).map_err(solve_err(iterations))?;
+                cd.log.push(batch);
             };
             // Exact zeros where the law says so (open nodes).
             zero_open_multipliers(m, &mut mu, &active, &status);

@@ -29,6 +29,14 @@ enum Command {
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
+        /// Resume from a checkpoint in this result file (a finished `.h5`, or the `.h5.partial`
+        /// of a run that stopped); the continuation goes to a new file (default
+        /// `<file>_from<step>.h5`) holding the steps after the checkpoint.
+        #[arg(long)]
+        restart: Option<PathBuf>,
+        /// Output step of the checkpoint to resume from (default: the last one in the file).
+        #[arg(long, requires = "restart")]
+        from_step: Option<usize>,
     },
     /// Validate a case without running it and summarise what it defines.
     Check { case: PathBuf },
@@ -65,7 +73,7 @@ fn main() -> ExitCode {
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
     tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).init();
     let result = match cli.command {
-        Command::Run { case, output, quiet } => run(case, output, quiet),
+        Command::Run { case, output, quiet, restart, from_step } => run(case, output, quiet, restart, from_step),
         Command::Check { case } => check(case),
         Command::Bench { hertz: true, repeat, .. } => bench_hertz(repeat),
         Command::Bench { n, repeat, serial, embed, .. } => match embed {
@@ -145,15 +153,52 @@ fn check(path: PathBuf) -> Result<(), String> {
     Ok(())
 }
 
-fn run(path: PathBuf, output: Option<PathBuf>, quiet: bool) -> Result<(), String> {
+fn run(
+    path: PathBuf,
+    output: Option<PathBuf>,
+    quiet: bool,
+    restart: Option<PathBuf>,
+    from_step: Option<usize>,
+) -> Result<(), String> {
     let c = case::load(&path).map_err(|e| e.to_string())?;
-    let out = output.unwrap_or_else(|| c.output.clone());
     let model = &c.model;
     let mut analysis = StaticAnalysis::new(model).map_err(|e| e.to_string())?;
     analysis.set_parallel(!c.serial);
-    let mut state = analysis.initial_state();
+    let (mut state, out) = match &restart {
+        None => (analysis.initial_state(), output.unwrap_or_else(|| c.output.clone())),
+        Some(file) => {
+            let cp = mortex::io::checkpoint::read(file, from_step, model).map_err(|e| e.to_string())?;
+            analysis.resume(&cp).map_err(|e| format!("{}: {e}", file.display()))?;
+            let out = output.unwrap_or_else(|| {
+                let name = file.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+                let stem = name.trim_end_matches(".partial").trim_end_matches(".h5");
+                file.with_file_name(format!("{stem}_from{}.h5", cp.step))
+            });
+            let same = |a: &std::path::Path, b: &std::path::Path| {
+                a == b || matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y)
+            };
+            let partial_of_out = PathBuf::from(format!("{}.partial", out.display()));
+            if same(&out, file) || same(&partial_of_out, file) {
+                return Err(format!(
+                    "--restart {}: the continuation would overwrite the file it resumes from; choose another --output",
+                    file.display()
+                ));
+            }
+            tracing::info!(file = %file.display(), step = cp.step, time = cp.time, "resuming from checkpoint");
+            (cp, out)
+        }
+    };
+    if state.step >= model.times.len() {
+        return Err(format!("nothing to run: the checkpoint is at the case's last output step {}", state.step));
+    }
     let mut writer = ResultWriter::create(&out, model, &c.name).map_err(|e| e.to_string())?;
+    writer.set_checkpoint_every(c.checkpoint_every);
+    if let Some(file) = &restart {
+        writer.set_restart_origin(file, state.step).map_err(|e| e.to_string())?;
+    }
+    let first_step = state.step;
     let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(model.times.len() as u64) };
+    bar.set_position(first_step as u64);
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} step {pos}/{len} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
@@ -182,7 +227,7 @@ fn run(path: PathBuf, output: Option<PathBuf>, quiet: bool) -> Result<(), String
             println!(
                 "{}: {} steps, {} Newton iterations, {:.2} s -> {} (+ {})",
                 c.name,
-                model.times.len(),
+                model.times.len() - first_step,
                 total_its,
                 started.elapsed().as_secs_f64(),
                 file.display(),

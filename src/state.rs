@@ -30,4 +30,7 @@ pub struct SimState {
     pub accumulated_slip: Vec<f64>,
     /// Frictional energy dissipated so far, `sum lambda_t . int Phi ds_t` (per unit thickness).
     pub dissipation: f64,
+    /// Solver memory a bit-for-bit restart needs: the multiplier rows the interface-condensation
+    /// operator grew by, batch by batch, up to this state (empty without condensation).
+    pub interface_log: Vec<Vec<usize>>,
 }

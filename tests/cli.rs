@@ -237,3 +237,41 @@ max_cutbacks = 4
     let steps: u64 = f.attr("num_steps").unwrap().read_scalar().unwrap();
     assert_eq!((completed, steps), (0, 3), "steps 1-3 (p <= 195 MPa < 200.1) converge, step 4 (260) cannot");
 }
+
+/// `run --restart`: the continuation goes to a new file (`<name>_from<k>.h5`) holding the steps
+/// after the checkpoint, bit for bit those of the uninterrupted run (compared as raw bytes of
+/// the displacement datasets); it refuses to overwrite the file it resumes from, a missing
+/// checkpoint step and a checkpoint at the case's last step are clear errors, and the earlier
+/// result is never touched.
+#[test]
+fn restart_from_a_checkpoint() {
+    let d = tmpdir("restart");
+    let case = GOOD.to_string() + "\n[steps]\npath = [[0.0, 0.0], [1.0, 1.0]]\nincrements = 4\n";
+    std::fs::write(d.join("good.toml"), case).unwrap();
+    let (ok, text) = run(&["run", "good.toml", "--quiet", "-o", "full.h5"], &d);
+    assert!(ok, "{text}");
+    let before = std::fs::read(d.join("full.h5")).unwrap();
+    let (ok, text) = run(&["run", "good.toml", "--quiet", "--restart", "full.h5", "--from-step", "2"], &d);
+    assert!(ok, "{text}");
+    let a = hdf5::File::open(d.join("full.h5")).unwrap();
+    let b = hdf5::File::open(d.join("full_from2.h5")).unwrap();
+    assert_eq!(b.group("steps").unwrap().member_names().unwrap(), vec!["000003", "000004"]);
+    for k in ["000003", "000004"] {
+        let x: Vec<f64> = a.dataset(&format!("steps/{k}/block/displacement")).unwrap().read_raw().unwrap();
+        let y: Vec<f64> = b.dataset(&format!("steps/{k}/block/displacement")).unwrap().read_raw().unwrap();
+        assert!(x.iter().zip(&y).all(|(p, q)| p.to_bits() == q.to_bits()) && x.len() == y.len(), "step {k}");
+    }
+    drop((a, b));
+    for (args, needle) in [
+        (vec!["--restart", "full.h5", "-o", "full.h5"], "overwrite the file it resumes from"),
+        (vec!["--restart", "full.h5", "--from-step", "7"], "no checkpoint at step 7"),
+        (vec!["--restart", "full.h5"], "nothing to run"),
+        (vec!["--restart", "missing.h5"], "missing.h5"),
+    ] {
+        let mut all = vec!["run", "good.toml", "--quiet"];
+        all.extend(args);
+        let (ok, text) = run(&all, &d);
+        assert!(!ok && text.contains(needle) && !text.contains("panicked"), "{all:?}:\n{text}");
+    }
+    assert_eq!(before, std::fs::read(d.join("full.h5")).unwrap(), "the earlier result must be untouched");
+}

@@ -40,6 +40,9 @@ pub(super) struct Condensed {
     pub rho: Vec<f64>,
     /// Delassus operator of `K_rho` on the set.
     pub d: DMatrix<f64>,
+    /// Rows added after setup, batch by batch (a checkpoint stores it; replaying it on a restart
+    /// rebuilds the identical `d`).
+    pub log: Vec<Vec<usize>>,
 }
 
 /// Whether a model is solved by condensation: contact present and every body linear elastic.
@@ -131,6 +134,7 @@ pub(super) fn setup(
         rows_free: vec![],
         rho: vec![],
         d: DMatrix::zeros(0, 0),
+        log: vec![],
     };
     cd.grow(m, &solver, &initial, rho)?;
     tracing::info!(

@@ -343,6 +343,9 @@ pub struct SolverSpec {
 pub struct OutputSpec {
     /// Output HDF5 file (relative to the working directory); default `results/<case>.h5`.
     pub file: Option<PathBuf>,
+    /// A checkpoint (the whole state, for `mortex run --restart`) every this many output steps;
+    /// default 1, 0 for none.
+    pub checkpoint_every: Option<usize>,
 }
 
 /// A validated case: the model plus run options.
@@ -352,6 +355,8 @@ pub struct Case {
     pub model: Model,
     pub output: PathBuf,
     pub serial: bool,
+    /// Checkpoint interval in output steps (0: none).
+    pub checkpoint_every: usize,
 }
 
 struct Ctx<'a> {
@@ -700,7 +705,14 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         model_err(&cx, key, e)
     })?;
     let output = raw.output.file.clone().unwrap_or_else(|| PathBuf::from("results").join(format!("{name}.h5")));
-    Ok(Case { name: name.to_string(), source: PathBuf::from(path), model, output, serial: raw.solver.serial })
+    Ok(Case {
+        name: name.to_string(),
+        source: PathBuf::from(path),
+        model,
+        output,
+        serial: raw.solver.serial,
+        checkpoint_every: raw.output.checkpoint_every.unwrap_or(1),
+    })
 }
 
 fn model_err(cx: &Ctx, key: String, e: ModelError) -> CaseError {

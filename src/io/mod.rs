@@ -21,8 +21,14 @@
 //!   `accumulated_slip` and `status` (0 open, 1 stick, 2 slip); `/steps/NNNNNN/contacts/
 //!   dissipation` (frictional energy dissipated so far, per unit thickness).
 //!
+//! * Checkpoints (every output step by default): `/steps/NNNNNN/checkpoint/`, the whole
+//!   simulation state (see [`checkpoint`]); `restarted_from`, `restart_step` root attributes on
+//!   a run that resumed from one.
+//!
 //! The file is written as `<name>.h5.partial` and renamed when closed, so an earlier result is
 //! never replaced by a half-written file; the XDMF is rewritten after every step.
+
+pub mod checkpoint;
 
 use crate::analysis::StepReport;
 use crate::model::Model;
@@ -51,6 +57,8 @@ pub struct ResultWriter {
     cut_bodies: Vec<String>,
     /// Contact profiles of every step (CSV rows), written beside the HDF5 file on `finish`.
     contact_csv: String,
+    /// A checkpoint every this many output steps (0: none).
+    checkpoint_every: usize,
 }
 
 fn h5err<E: std::fmt::Display>(path: &Path, what: &str) -> impl FnOnce(E) -> OutputError {
@@ -94,6 +102,7 @@ impl ResultWriter {
             body_meta: vec![],
             cut_bodies: vec![],
             contact_csv: String::new(),
+            checkpoint_every: 1,
         };
         let res: hdf5::Result<()> = (|| {
             write_str_attr(&file, "format", "mortex-results")?;
@@ -164,7 +173,23 @@ impl ResultWriter {
         Ok(w)
     }
 
-    /// Appends one converged step.
+    /// Writes a checkpoint (see [`checkpoint`]) every `every` output steps (0: never; default 1).
+    pub fn set_checkpoint_every(&mut self, every: usize) {
+        self.checkpoint_every = every;
+    }
+
+    /// Records in the file that this run resumed from step `step` of `origin`.
+    pub fn set_restart_origin(&self, origin: &Path, step: usize) -> Result<(), OutputError> {
+        let Some(file) = self.file.as_ref() else { return Ok(()) };
+        let res: hdf5::Result<()> = (|| {
+            write_str_attr(file, "restarted_from", &origin.display().to_string())?;
+            write_attr(file, "restart_step", &(step as u64))
+        })();
+        res.map_err(h5err(&self.partial_path, "writing the restart origin"))
+    }
+
+    /// Appends one converged step (and its checkpoint when the step is a multiple of the
+    /// checkpoint interval).
     pub fn write_step(
         &mut self,
         model: &Model,
@@ -254,6 +279,9 @@ impl ResultWriter {
                 }
             }
             pg.new_dataset_builder().with_data(&Array1::from(eqps)).create("eqps")?;
+            if self.checkpoint_every > 0 && report.step % self.checkpoint_every == 0 {
+                checkpoint::write(&g, state)?;
+            }
             file.flush()?;
             Ok(())
         })();

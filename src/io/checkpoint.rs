@@ -1,0 +1,179 @@
+//! Checkpoints: the whole [`SimState`] of a converged output step, stored in the result file so
+//! a run resumes from any of its steps bit for bit (`mortex run --restart`).
+//!
+//! Layout, under `/steps/NNNNNN/checkpoint/` of a result file (also of a `.h5.partial` left by
+//! a run that stopped): attributes `step`, `time`, `load_factor`, `dissipation`; datasets `u`,
+//! `f_int`, `multipliers`, `slip_increment`, `accumulated_slip` `(n)`, `friction_status` `(n)` u8,
+//! `history` `(s, 9)` (`eps_p[4]`, `back[4]`, `alpha` per stateful point), `stress` `(p, 4)`, and
+//! the interface-condensation log `interface_rows` / `interface_batches` (u64): the multiplier
+//! rows the condensed operator grew by, batch by batch. Replaying that log makes the restarted
+//! solver do the same arithmetic as the uninterrupted run, which is what "bit for bit" needs.
+//!
+//! Every value is stored as the f64 it is in memory (HDF5 native doubles), so reading a
+//! checkpoint gives back the identical state.
+
+use crate::fem::material::{PlasticState, Stress4};
+use crate::model::Model;
+use crate::state::SimState;
+use ndarray::Array1;
+use std::path::Path;
+
+/// Errors of reading a checkpoint: the file, the step and what is wrong.
+#[derive(Debug, thiserror::Error)]
+pub enum CheckpointError {
+    #[error("{path}: cannot read checkpoint: {msg}")]
+    Read { path: String, msg: String },
+    #[error("{path}: no checkpoint at step {step} (steps with one: {available:?})")]
+    NoSuchStep { path: String, step: usize, available: Vec<usize> },
+    #[error("{path}: the checkpoint of step {step} does not fit this case: {what} has {found} entries, the model {expected}")]
+    SizeMismatch { path: String, step: usize, what: String, found: usize, expected: usize },
+    #[error(
+        "{path}: the checkpoint of step {step} was written at time {found}, but the case's output step {step} is at \
+         time {expected} (the case's output times changed before that step)"
+    )]
+    TimeMismatch { path: String, step: usize, found: f64, expected: f64 },
+    #[error("{path}: the checkpoint is at step {step}, but the case has only {steps} output steps")]
+    BeyondCase { path: String, step: usize, steps: usize },
+}
+
+const HISTORY_COLS: usize = 9;
+
+/// Writes the checkpoint of `state` into the step group `g`.
+pub(super) fn write(g: &hdf5::Group, state: &SimState) -> hdf5::Result<()> {
+    let c = g.create_group("checkpoint")?;
+    super::write_attr(&c, "step", &(state.step as u64))?;
+    super::write_attr(&c, "time", &state.time)?;
+    super::write_attr(&c, "load_factor", &state.load_factor)?;
+    super::write_attr(&c, "dissipation", &state.dissipation)?;
+    let vec1 = |name: &str, v: &[f64]| c.new_dataset_builder().with_data(&Array1::from(v.to_vec())).create(name);
+    vec1("u", &state.u)?;
+    vec1("f_int", &state.f_int)?;
+    vec1("multipliers", &state.multipliers)?;
+    vec1("slip_increment", &state.slip_increment)?;
+    vec1("accumulated_slip", &state.accumulated_slip)?;
+    c.new_dataset_builder().with_data(&Array1::from(state.friction_status.clone())).create("friction_status")?;
+    let h: Vec<f64> = state
+        .history
+        .iter()
+        .flat_map(|p| p.eps_p.iter().chain(p.back.iter()).copied().chain(std::iter::once(p.alpha)))
+        .collect();
+    c.new_dataset_builder().with_data(&super::array2(state.history.len(), HISTORY_COLS, h)).create("history")?;
+    let s: Vec<f64> = state.stress.iter().flat_map(|s| [s[0], s[1], s[2], s[3]]).collect();
+    c.new_dataset_builder().with_data(&super::array2(state.stress.len(), 4, s)).create("stress")?;
+    let rows: Vec<u64> = state.interface_log.iter().flatten().map(|&r| r as u64).collect();
+    let batches: Vec<u64> = state.interface_log.iter().map(|b| b.len() as u64).collect();
+    c.new_dataset_builder().with_data(&Array1::from(rows)).create("interface_rows")?;
+    c.new_dataset_builder().with_data(&Array1::from(batches)).create("interface_batches")?;
+    Ok(())
+}
+
+/// Steps of `path` that hold a checkpoint, in increasing order.
+pub fn available_steps(path: &Path) -> Result<Vec<usize>, CheckpointError> {
+    let read = |msg: String| CheckpointError::Read { path: path.display().to_string(), msg };
+    let file = hdf5::File::open(path).map_err(|e| read(e.to_string()))?;
+    let steps = file.group("steps").map_err(|e| read(format!("no /steps group ({e}); not a mortex result file?")))?;
+    let mut out = vec![];
+    for name in steps.member_names().map_err(|e| read(e.to_string()))? {
+        let Ok(k) = name.parse::<usize>() else { continue };
+        if steps.group(&name).map(|g| g.link_exists("checkpoint")).unwrap_or(false) {
+            out.push(k);
+        }
+    }
+    out.sort_unstable();
+    Ok(out)
+}
+
+/// Reads the checkpoint of output step `step` (the last one with a checkpoint if `None`) from
+/// `path` and checks that it fits `model`: array sizes, and the step's time against the case's
+/// output times (bit for bit, as the run will continue from them).
+pub fn read(path: &Path, step: Option<usize>, model: &Model) -> Result<SimState, CheckpointError> {
+    let p = path.display().to_string();
+    let available = available_steps(path)?;
+    let step = match step.or(available.last().copied()) {
+        Some(s) if available.contains(&s) => s,
+        Some(s) => return Err(CheckpointError::NoSuchStep { path: p, step: s, available }),
+        None => return Err(CheckpointError::NoSuchStep { path: p, step: 0, available }),
+    };
+    let read_err = |msg: String| CheckpointError::Read { path: p.clone(), msg: format!("step {step}: {msg}") };
+    let file = hdf5::File::open(path).map_err(|e| read_err(e.to_string()))?;
+    let c = file.group(&format!("steps/{step:06}/checkpoint")).map_err(|e| read_err(e.to_string()))?;
+    let attr_f64 = |name: &str| -> Result<f64, CheckpointError> {
+        c.attr(name).and_then(|a| a.read_scalar::<f64>()).map_err(|e| read_err(format!("attribute {name}: {e}")))
+    };
+    let vec_f64 = |name: &str| -> Result<Vec<f64>, CheckpointError> {
+        c.dataset(name).and_then(|d| d.read_raw::<f64>()).map_err(|e| read_err(format!("dataset {name}: {e}")))
+    };
+    let vec_u64 = |name: &str| -> Result<Vec<u64>, CheckpointError> {
+        c.dataset(name).and_then(|d| d.read_raw::<u64>()).map_err(|e| read_err(format!("dataset {name}: {e}")))
+    };
+    let size = |what: &str, found: usize, expected: usize| -> Result<(), CheckpointError> {
+        if found == expected {
+            Ok(())
+        } else {
+            Err(CheckpointError::SizeMismatch { path: p.clone(), step, what: what.into(), found, expected })
+        }
+    };
+    if step > model.times.len() {
+        return Err(CheckpointError::BeyondCase { path: p.clone(), step, steps: model.times.len() });
+    }
+    let time = attr_f64("time")?;
+    let expected = model.times[step - 1];
+    if time.to_bits() != expected.to_bits() {
+        return Err(CheckpointError::TimeMismatch { path: p.clone(), step, found: time, expected });
+    }
+    let u = vec_f64("u")?;
+    size("u", u.len(), model.dofs.num_dofs)?;
+    let f_int = vec_f64("f_int")?;
+    size("f_int", f_int.len(), model.dofs.num_dofs)?;
+    let multipliers = vec_f64("multipliers")?;
+    size("multipliers", multipliers.len(), model.num_multipliers())?;
+    let nfr = model.friction_rows.len();
+    let slip_increment = vec_f64("slip_increment")?;
+    size("slip_increment", slip_increment.len(), nfr)?;
+    let accumulated_slip = vec_f64("accumulated_slip")?;
+    size("accumulated_slip", accumulated_slip.len(), nfr)?;
+    let friction_status = c
+        .dataset("friction_status")
+        .and_then(|d| d.read_raw::<u8>())
+        .map_err(|e| read_err(format!("dataset friction_status: {e}")))?;
+    size("friction_status", friction_status.len(), nfr)?;
+    let h = vec_f64("history")?;
+    size("history", h.len() / HISTORY_COLS, model.elements.num_states())?;
+    let history = h
+        .chunks_exact(HISTORY_COLS)
+        .map(|r| PlasticState { eps_p: [r[0], r[1], r[2], r[3]], back: [r[4], r[5], r[6], r[7]], alpha: r[8] })
+        .collect();
+    let s = vec_f64("stress")?;
+    size("stress", s.len() / 4, model.elements.num_points())?;
+    let stress = s.chunks_exact(4).map(|r| Stress4::new(r[0], r[1], r[2], r[3])).collect();
+    let rows = vec_u64("interface_rows")?;
+    let batches = vec_u64("interface_batches")?;
+    if batches.iter().sum::<u64>() != rows.len() as u64 || rows.iter().any(|&r| r as usize >= multipliers.len()) {
+        return Err(read_err("interface log inconsistent with the multipliers".into()));
+    }
+    let mut interface_log = vec![];
+    let mut at = 0;
+    for &b in &batches {
+        interface_log.push(rows[at..at + b as usize].iter().map(|&r| r as usize).collect());
+        at += b as usize;
+    }
+    let state = SimState {
+        step,
+        time,
+        load_factor: attr_f64("load_factor")?,
+        u,
+        history,
+        stress,
+        f_int,
+        multipliers,
+        friction_status,
+        slip_increment,
+        accumulated_slip,
+        dissipation: attr_f64("dissipation")?,
+        interface_log,
+    };
+    if !state.u.iter().chain(&state.multipliers).all(|v| v.is_finite()) {
+        return Err(read_err("non-finite displacement or multiplier".into()));
+    }
+    Ok(state)
+}
