@@ -637,9 +637,12 @@ impl<'m> StaticAnalysis<'m> {
                 FrictionStatus::Stick => 1,
                 FrictionStatus::Slip(_) => 2,
             };
-            state.slip_increment[j] = slip[j];
-            state.accumulated_slip[j] += slip[j].abs();
-            state.dissipation += mu[first_t + j] * slip[j];
+            // Slip exists only in contact: an open node's relative tangential motion is not slip
+            // (and must not count in the accumulated slip that Archard wear reads).
+            let ds = if matches!(st, FrictionStatus::Open) { 0.0 } else { slip[j] };
+            state.slip_increment[j] = ds;
+            state.accumulated_slip[j] += ds.abs();
+            state.dissipation += mu[first_t + j] * ds;
         }
         state.u = u;
         state.multipliers = mu;

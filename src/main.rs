@@ -38,6 +38,23 @@ enum Command {
         #[arg(long, requires = "restart")]
         from_step: Option<usize>,
     },
+    /// Draw a contact profile (pressure, shear, mu p, stick/slip, slips) of one output step of a
+    /// result file as a PNG.
+    Plot {
+        result: PathBuf,
+        /// Output step (default: the last).
+        #[arg(long)]
+        step: Option<usize>,
+        /// Contact pair (default: the only one).
+        #[arg(long)]
+        pair: Option<String>,
+        /// PNG file (default: <result>_<pair>_step<k>.png beside the result).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// x range to draw (default: the contact zone widened by half its width each side).
+        #[arg(long, num_args = 2, value_names = ["X_MIN", "X_MAX"], allow_negative_numbers = true)]
+        xlim: Option<Vec<f64>>,
+    },
     /// Validate a case without running it and summarise what it defines.
     Check { case: PathBuf },
     /// Time assembly, factorisation and solve of an n x n Quad4 plane-strain block.
@@ -75,6 +92,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run { case, output, quiet, restart, from_step } => run(case, output, quiet, restart, from_step),
         Command::Check { case } => check(case),
+        Command::Plot { result, step, pair, output, xlim } => plot(result, step, pair, output, xlim),
         Command::Bench { hertz: true, repeat, .. } => bench_hertz(repeat),
         Command::Bench { n, repeat, serial, embed, .. } => match embed {
             Some(segments) => bench_embed(n, segments, repeat),
@@ -237,6 +255,30 @@ fn run(
         }
         Err(e) => Err(format!("{e} (converged steps up to {} kept in {})", state.step, file.display())),
     }
+}
+
+fn plot(
+    result: PathBuf,
+    step: Option<usize>,
+    pair: Option<String>,
+    output: Option<PathBuf>,
+    xlim: Option<Vec<f64>>,
+) -> Result<(), String> {
+    use mortex::io::plot;
+    let profile = plot::read_profile(&result, step, pair.as_deref()).map_err(|e| e.to_string())?;
+    let xlim = match xlim.as_deref() {
+        Some(&[a, b]) if a.is_finite() && b.is_finite() && b > a => (a, b),
+        Some(v) => return Err(format!("--xlim {v:?}: give two finite values, X_MIN < X_MAX")),
+        None => plot::default_xlim(&profile),
+    };
+    let out = output.unwrap_or_else(|| {
+        let name = result.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+        let stem = name.trim_end_matches(".partial").trim_end_matches(".h5");
+        result.with_file_name(format!("{stem}_{}_step{}.png", profile.pair, profile.step))
+    });
+    plot::write_png(&profile, xlim, &out).map_err(|e| e.to_string())?;
+    println!("contact '{}', step {}: {}", profile.pair, profile.step, out.display());
+    Ok(())
 }
 
 fn bench(n: usize, repeat: usize, serial: bool) -> Result<(), String> {

@@ -24,9 +24,11 @@ pub struct SimState {
     pub multipliers: Vec<f64>,
     /// Per friction row: Coulomb status of the last converged increment (0 open, 1 stick, 2 slip).
     pub friction_status: Vec<u8>,
-    /// Per friction row: weighted slip `int Phi ds_t` of the last converged increment.
+    /// Per friction row: weighted slip `int Phi ds_t` of the last converged increment (0 for
+    /// nodes open at its end).
     pub slip_increment: Vec<f64>,
-    /// Per friction row: accumulated `|int Phi ds_t|` over the run (Archard wear reads it).
+    /// Per friction row: accumulated `|int Phi ds_t|` over the increments that ended in contact
+    /// (Archard wear reads it).
     pub accumulated_slip: Vec<f64>,
     /// Frictional energy dissipated so far, `sum lambda_t . int Phi ds_t` (per unit thickness).
     pub dissipation: f64,

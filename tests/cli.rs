@@ -275,3 +275,36 @@ fn restart_from_a_checkpoint() {
     }
     assert_eq!(before, std::fs::read(d.join("full.h5")).unwrap(), "the earlier result must be untouched");
 }
+
+/// `plot`: a PNG of the contact profile (1000 x 700 pixels, read from the PNG header) for the
+/// last or a chosen step of the shipped Cattaneo-Mindlin case; bad requests (no contact in the
+/// result, unknown pair, missing step, bad x range) are clear errors.
+#[test]
+fn plot_contact_profile_png() {
+    let d = tmpdir("plot");
+    let case = Path::new(env!("CARGO_MANIFEST_DIR")).join("wear_cases/cattaneo_mindlin.toml");
+    let (ok, text) = run(&["run", case.to_str().unwrap(), "--quiet", "-o", "cm.h5"], &d);
+    assert!(ok, "{text}");
+    for (args, png) in
+        [(vec!["plot", "cm.h5"], "cm_pair_step2.png"), (vec!["plot", "cm.h5", "--step", "1", "-o", "n.png"], "n.png")]
+    {
+        let (ok, text) = run(&args, &d);
+        assert!(ok, "{args:?}: {text}");
+        let bytes = std::fs::read(d.join(png)).unwrap();
+        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{png}: PNG signature");
+        let dim = |k: usize| u32::from_be_bytes([bytes[k], bytes[k + 1], bytes[k + 2], bytes[k + 3]]);
+        assert_eq!((dim(16), dim(20)), (1000, 700), "{png}: IHDR size");
+    }
+    std::fs::write(d.join("good.toml"), GOOD).unwrap();
+    assert!(run(&["run", "good.toml", "--quiet", "-o", "plain.h5"], &d).0);
+    for (args, needle) in [
+        (vec!["plot", "plain.h5"], "no contact pair"),
+        (vec!["plot", "cm.h5", "--pair", "nope"], "no contact pair 'nope'"),
+        (vec!["plot", "cm.h5", "--step", "9"], "no output step 9"),
+        (vec!["plot", "cm.h5", "--xlim", "1", "-1"], "X_MIN < X_MAX"),
+        (vec!["plot", "missing.h5"], "missing.h5"),
+    ] {
+        let (ok, text) = run(&args, &d);
+        assert!(!ok && text.contains(needle) && !text.contains("panicked"), "{args:?}:\n{text}");
+    }
+}

@@ -15,7 +15,7 @@
 //! * Cut host bodies: `/mesh/<body>/material_fraction` `(c)`. Ties: `/mesh/ties/<tie>/points`,
 //!   `normals` `(l, 2)` of the multiplier nodes (outward normal of the patch) and per step
 //!   `/steps/NNNNNN/ties/<tie>/traction` `(l, 2)`: the traction on the patch, `t = sigma n = -lambda`.
-//! * Contacts: `/mesh/contacts/<pair>/points` `(l, 2)` and per step
+//! * Contacts: `/mesh/contacts/<pair>/points` `(l, 2)` (attribute `mu`) and per step
 //!   `/steps/NNNNNN/contacts/<pair>/pressure` `(l)` (`p = -lambda_n >= 0`); with friction also
 //!   `shear` (`lambda_t` along `t = n` turned +90 degrees), `slip` (slip of the step),
 //!   `accumulated_slip` and `status` (0 open, 1 stick, 2 slip); `/steps/NNNNNN/contacts/
@@ -29,6 +29,7 @@
 //! never replaced by a half-written file; the XDMF is rewritten after every step.
 
 pub mod checkpoint;
+pub mod plot;
 
 use crate::analysis::StepReport;
 use crate::model::Model;
@@ -144,10 +145,9 @@ impl ResultWriter {
                 for c in &model.contacts {
                     let m = &c.multipliers;
                     let xy: Vec<f64> = m.points.iter().flat_map(|p| [p.x, p.y]).collect();
-                    cg.create_group(&c.name)?
-                        .new_dataset_builder()
-                        .with_data(&array2(m.num_nodes, 2, xy))
-                        .create("points")?;
+                    let pg = cg.create_group(&c.name)?;
+                    pg.new_dataset_builder().with_data(&array2(m.num_nodes, 2, xy)).create("points")?;
+                    write_attr(&pg, "mu", &c.mu)?;
                 }
             }
             if !model.ties.is_empty() {

@@ -1,0 +1,268 @@
+//! Contact profiles as PNG images (`mortex plot`): pressure, shear traction and the Coulomb
+//! bound `mu p`, stick/slip status, the slip of the step and the accumulated slip along the
+//! interface, read back from a result file for any output step.
+//!
+//! Drawn with plotters' bitmap backend; text needs a TrueType font, looked up in `MORTEX_FONT`
+//! and then in the usual system places (DejaVu Sans, Liberation Sans; `.ci/setup` installs
+//! `fonts-dejavu-core` when none is there).
+
+use plotters::prelude::*;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    #[error("{path}: {msg}")]
+    Input { path: String, msg: String },
+    #[error("no TrueType font for the plot labels (looked in MORTEX_FONT and {tried:?}); install fonts-dejavu-core or set MORTEX_FONT to a .ttf file")]
+    NoFont { tried: Vec<String> },
+    #[error("{path}: drawing the plot: {msg}")]
+    Draw { path: String, msg: String },
+}
+
+/// One contact pair's profile at one output step (multiplier nodes sorted by x).
+#[derive(Debug, Clone)]
+pub struct ContactProfile {
+    pub pair: String,
+    pub step: usize,
+    pub time: f64,
+    pub x: Vec<f64>,
+    pub pressure: Vec<f64>,
+    /// Friction only: shear `lambda_t`, slip of the step, accumulated slip, status (0/1/2).
+    pub shear: Option<Vec<f64>>,
+    pub slip: Option<Vec<f64>>,
+    pub accumulated_slip: Option<Vec<f64>>,
+    pub status: Option<Vec<u8>>,
+    /// Friction coefficient (files written before it was stored: unknown).
+    pub mu: Option<f64>,
+}
+
+/// Reads the profile of `pair` (the only pair if `None`) at output step `step` (the last one
+/// if `None`) from a result file.
+pub fn read_profile(path: &Path, step: Option<usize>, pair: Option<&str>) -> Result<ContactProfile, PlotError> {
+    let err = |msg: String| PlotError::Input { path: path.display().to_string(), msg };
+    let file = hdf5::File::open(path).map_err(|e| err(format!("cannot open: {e}")))?;
+    let pairs_group =
+        file.group("mesh/contacts").map_err(|_| err("the result holds no contact pair (no /mesh/contacts)".into()))?;
+    let pairs = pairs_group.member_names().map_err(|e| err(e.to_string()))?;
+    let pair = match pair {
+        Some(p) if pairs.iter().any(|q| q == p) => p.to_string(),
+        Some(p) => return Err(err(format!("no contact pair '{p}' (pairs: {pairs:?})"))),
+        None if pairs.len() == 1 => pairs[0].clone(),
+        None => return Err(err(format!("several contact pairs, choose one with --pair: {pairs:?}"))),
+    };
+    let mut steps: Vec<usize> = file
+        .group("steps")
+        .and_then(|g| g.member_names())
+        .map_err(|e| err(format!("no /steps group: {e}")))?
+        .iter()
+        .filter_map(|s| s.parse().ok())
+        .collect();
+    steps.sort_unstable();
+    let step = match step.or(steps.last().copied()) {
+        Some(s) if steps.contains(&s) => s,
+        Some(s) => return Err(err(format!("no output step {s} (steps {:?}..{:?})", steps.first(), steps.last()))),
+        None => return Err(err("the result holds no step".into())),
+    };
+    let pg = pairs_group.group(&pair).map_err(|e| err(e.to_string()))?;
+    let points: Vec<f64> = pg.dataset("points").and_then(|d| d.read_raw()).map_err(|e| err(e.to_string()))?;
+    let mu = pg.attr("mu").and_then(|a| a.read_scalar::<f64>()).ok();
+    let sg = file.group(&format!("steps/{step:06}")).map_err(|e| err(e.to_string()))?;
+    let time = sg.attr("time").and_then(|a| a.read_scalar::<f64>()).map_err(|e| err(e.to_string()))?;
+    let cg = sg.group(&format!("contacts/{pair}")).map_err(|e| err(format!("step {step}: {e}")))?;
+    let f64s = |name: &str| -> Option<Vec<f64>> { cg.dataset(name).and_then(|d| d.read_raw()).ok() };
+    let pressure = f64s("pressure").ok_or_else(|| err(format!("step {step}: no pressure of pair '{pair}'")))?;
+    let n = pressure.len();
+    if points.len() != 2 * n {
+        return Err(err(format!("pair '{pair}': {} points for {n} pressures", points.len() / 2)));
+    }
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| points[2 * a].total_cmp(&points[2 * b]));
+    let sorted = |v: Vec<f64>| -> Vec<f64> { order.iter().map(|&i| v[i]).collect() };
+    let status: Option<Vec<u8>> = cg.dataset("status").and_then(|d| d.read_raw::<u8>()).ok();
+    Ok(ContactProfile {
+        pair,
+        step,
+        time,
+        x: order.iter().map(|&i| points[2 * i]).collect(),
+        pressure: sorted(pressure),
+        shear: f64s("shear").map(sorted),
+        slip: f64s("slip").map(sorted),
+        accumulated_slip: f64s("accumulated_slip").map(sorted),
+        status: status.map(|s| order.iter().map(|&i| s[i]).collect()),
+        mu,
+    })
+}
+
+/// Font for the labels, registered once per process.
+fn register_font() -> Result<(), PlotError> {
+    static FONT: OnceLock<Result<(), Vec<String>>> = OnceLock::new();
+    FONT.get_or_init(|| {
+        let mut tried: Vec<String> = vec![];
+        let mut candidates: Vec<PathBuf> = std::env::var_os("MORTEX_FONT").map(PathBuf::from).into_iter().collect();
+        candidates.extend(
+            [
+                "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+                "/usr/share/fonts/TTF/DejaVuSans.ttf",
+                "/usr/share/fonts/dejavu/DejaVuSans.ttf",
+                "/usr/share/fonts/dejavu-sans-fonts/DejaVuSans.ttf",
+                "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
+                "/Library/Fonts/Arial.ttf",
+                "C:\\Windows\\Fonts\\arial.ttf",
+            ]
+            .iter()
+            .map(PathBuf::from),
+        );
+        for c in candidates {
+            tried.push(c.display().to_string());
+            if let Ok(bytes) = std::fs::read(&c) {
+                // plotters keeps the font for the whole process.
+                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+                if plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_ok() {
+                    return Ok(());
+                }
+            }
+        }
+        Err(tried)
+    })
+    .clone()
+    .map_err(|tried| PlotError::NoFont { tried })
+}
+
+/// Range of x to draw: the contact zone (nodes pressed or sticking/slipping) widened by half
+/// its width on each side, or every node if nothing is in contact.
+pub fn default_xlim(p: &ContactProfile) -> (f64, f64) {
+    let in_contact: Vec<f64> =
+        p.x.iter()
+            .enumerate()
+            .filter(|&(i, _)| p.pressure[i] > 0.0 || p.status.as_ref().is_some_and(|s| s[i] != 0))
+            .map(|(_, &x)| x)
+            .collect();
+    let (lo, hi) = match (in_contact.first(), in_contact.last()) {
+        (Some(&a), Some(&b)) if b > a => (a, b),
+        _ => (p.x.first().copied().unwrap_or(-1.0), p.x.last().copied().unwrap_or(1.0)),
+    };
+    let w = (hi - lo).max(1e-12);
+    (lo - 0.5 * w, hi + 0.5 * w)
+}
+
+fn span(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = values.filter(|v| v.is_finite()).fold((0.0f64, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+    let pad = 0.08 * (hi - lo).max(1e-30);
+    (lo - pad, hi + pad)
+}
+
+/// Draws the profile into a PNG at `out` (1000 x 700; with friction a second panel of slips).
+pub fn write_png(p: &ContactProfile, xlim: (f64, f64), out: &Path) -> Result<(), PlotError> {
+    register_font()?;
+    let draw_err = |e: String| PlotError::Draw { path: out.display().to_string(), msg: e };
+    let de = |e: &dyn std::fmt::Display| draw_err(e.to_string());
+    let inside: Vec<usize> = (0..p.x.len()).filter(|&i| p.x[i] >= xlim.0 && p.x[i] <= xlim.1).collect();
+    let root = BitMapBackend::new(out, (1000, 700)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| de(&e))?;
+    let friction = p.shear.is_some();
+    let (top, bottom) = if friction { root.split_vertically(430) } else { (root.clone(), root.clone()) };
+    let title = format!("contact '{}', step {}, t = {:.6}", p.pair, p.step, p.time);
+    // Top panel: pressure, shear, +-mu p.
+    let mu_p: Vec<f64> = match p.mu {
+        Some(mu) if friction => inside.iter().map(|&i| mu * p.pressure[i]).collect(),
+        _ => vec![],
+    };
+    let shear = p.shear.as_deref().unwrap_or(&[]);
+    let yr = span(
+        inside
+            .iter()
+            .map(|&i| p.pressure[i])
+            .chain(inside.iter().filter_map(|&i| shear.get(i).copied()))
+            .chain(mu_p.iter().flat_map(|&v| [v, -v])),
+    );
+    let mut ch = ChartBuilder::on(&top)
+        .caption(&title, ("sans-serif", 22))
+        .margin(12)
+        .x_label_area_size(36)
+        .y_label_area_size(64)
+        .build_cartesian_2d(xlim.0..xlim.1, yr.0..yr.1)
+        .map_err(|e| de(&e))?;
+    ch.configure_mesh().x_desc("x (mm)").y_desc("traction (MPa)").draw().map_err(|e| de(&e))?;
+    let line = |v: &[f64]| -> Vec<(f64, f64)> { inside.iter().map(|&i| (p.x[i], v[i])).collect() };
+    ch.draw_series(LineSeries::new(line(&p.pressure), BLUE.stroke_width(2)))
+        .map_err(|e| de(&e))?
+        .label("pressure p")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE.stroke_width(2)));
+    if friction {
+        ch.draw_series(LineSeries::new(line(shear), RED.stroke_width(2)))
+            .map_err(|e| de(&e))?
+            .label("shear q")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(2)));
+        if !mu_p.is_empty() {
+            let grey = RGBColor(120, 120, 120);
+            for sign in [1.0, -1.0] {
+                let s = ch
+                    .draw_series(LineSeries::new(
+                        inside.iter().zip(&mu_p).map(|(&i, &m)| (p.x[i], sign * m)),
+                        grey.stroke_width(1),
+                    ))
+                    .map_err(|e| de(&e))?;
+                if sign > 0.0 {
+                    s.label("+- mu p").legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], grey));
+                }
+            }
+        }
+        if let Some(status) = &p.status {
+            let green = RGBColor(0, 150, 0);
+            ch.draw_series(
+                inside.iter().filter(|&&i| status[i] == 1).map(|&i| Circle::new((p.x[i], shear[i]), 3, green.filled())),
+            )
+            .map_err(|e| de(&e))?
+            .label("stick")
+            .legend(move |(x, y)| Circle::new((x + 10, y), 3, green.filled()));
+            ch.draw_series(
+                inside
+                    .iter()
+                    .filter(|&&i| status[i] == 2)
+                    .map(|&i| TriangleMarker::new((p.x[i], shear[i]), 4, RED.filled())),
+            )
+            .map_err(|e| de(&e))?
+            .label("slip")
+            .legend(|(x, y)| TriangleMarker::new((x + 10, y), 4, RED.filled()));
+        }
+    }
+    ch.configure_series_labels()
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(|e| de(&e))?;
+    // Bottom panel: slip of the step and accumulated slip.
+    if let (Some(slip), Some(acc)) = (&p.slip, &p.accumulated_slip) {
+        let yr = span(inside.iter().flat_map(|&i| [slip[i], acc[i]]));
+        let mut ch = ChartBuilder::on(&bottom)
+            .margin(12)
+            .x_label_area_size(36)
+            .y_label_area_size(64)
+            .build_cartesian_2d(xlim.0..xlim.1, yr.0..yr.1)
+            .map_err(|e| de(&e))?;
+        ch.configure_mesh()
+            .x_desc("x (mm)")
+            .y_desc("slip (mm)")
+            .y_label_formatter(&|v| if v.abs() < 1e-9 * (yr.1 - yr.0) { "0".into() } else { format!("{v:.1e}") })
+            .draw()
+            .map_err(|e| de(&e))?;
+        ch.draw_series(LineSeries::new(line(slip), MAGENTA.stroke_width(2)))
+            .map_err(|e| de(&e))?
+            .label("slip of the step")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], MAGENTA.stroke_width(2)));
+        ch.draw_series(LineSeries::new(line(acc), BLACK.stroke_width(2)))
+            .map_err(|e| de(&e))?
+            .label("accumulated slip")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+        ch.configure_series_labels()
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(|e| de(&e))?;
+    }
+    root.present().map_err(|e| de(&e))?;
+    Ok(())
+}
