@@ -6,6 +6,7 @@
 //! and then in the usual system places (DejaVu Sans, Liberation Sans; `.ci/setup` installs
 //! `fonts-dejavu-core` when none is there).
 
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -152,6 +153,18 @@ fn span(values: impl Iterator<Item = f64>) -> (f64, f64) {
     (lo - pad, hi + pad)
 }
 
+type Chart<'a, 'b> = ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// The legend box of a panel (upper right).
+fn legend<'a, 'b: 'a>(ch: &mut Chart<'a, 'b>) -> Result<(), String> {
+    ch.configure_series_labels()
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(|e| e.to_string())
+}
+
 /// Draws the profile into a PNG at `out` (1000 x 700; with friction a second panel of slips).
 pub fn write_png(p: &ContactProfile, xlim: (f64, f64), out: &Path) -> Result<(), PlotError> {
     register_font()?;
@@ -227,12 +240,7 @@ pub fn write_png(p: &ContactProfile, xlim: (f64, f64), out: &Path) -> Result<(),
             .legend(|(x, y)| TriangleMarker::new((x + 10, y), 4, RED.filled()));
         }
     }
-    ch.configure_series_labels()
-        .background_style(WHITE.mix(0.9))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(|e| de(&e))?;
+    legend(&mut ch).map_err(|e| de(&e))?;
     // Bottom panel: slip of the step and accumulated slip.
     if let (Some(slip), Some(acc)) = (&p.slip, &p.accumulated_slip) {
         let yr = span(inside.iter().flat_map(|&i| [slip[i], acc[i]]));
@@ -256,12 +264,7 @@ pub fn write_png(p: &ContactProfile, xlim: (f64, f64), out: &Path) -> Result<(),
             .map_err(|e| de(&e))?
             .label("accumulated slip")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
-        ch.configure_series_labels()
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(|e| de(&e))?;
+        legend(&mut ch).map_err(|e| de(&e))?;
     }
     root.present().map_err(|e| de(&e))?;
     Ok(())
