@@ -107,7 +107,7 @@ fn check_small_sliding(
     let slide = in_contact
         .iter()
         .map(|&j| {
-            let s: f64 = m.friction_rows[j].iter().map(|&(d, c)| c * u[d]).sum();
+            let s: f64 = m.friction_rows[j].iter().map(|&(d, c)| c * u[d]).sum::<f64>() - m.friction_s0[j];
             (s / m.contact_phi[m.friction_normal[j]]).abs()
         })
         .fold(0.0, f64::max);
@@ -327,6 +327,33 @@ impl<'m> StaticAnalysis<'m> {
         let times = self.model.times.clone();
         for (k, &t) in times.iter().enumerate().skip(state.step) {
             let report = self.advance_to(state, k + 1, t)?;
+            observer(&report, state).map_err(|msg| AnalysisError::Observer { step: k + 1, msg })?;
+        }
+        Ok(())
+    }
+
+    /// Runs every remaining output step of a model with finite-sliding contact pairs: at the
+    /// start of each step the pairs are re-paired in the converged configuration
+    /// ([`Model::repaired`]) and the step is solved on that pairing (pattern, factorisation and
+    /// interface operator rebuilt: the pairing, not the iteration, changes them). A restart
+    /// needs nothing more than the state: the pairing is a function of `state.u`.
+    pub fn run_repairing<F>(
+        model: &Model,
+        state: &mut SimState,
+        parallel: bool,
+        mut observer: F,
+    ) -> Result<(), AnalysisError>
+    where
+        F: FnMut(&StepReport, &SimState) -> Result<(), String>,
+    {
+        for (k, &t) in model.times.iter().enumerate().skip(state.step) {
+            let current = model.repaired(&state.u);
+            let mut analysis = StaticAnalysis::new(&current)?;
+            analysis.set_parallel(parallel);
+            let report = analysis.advance_to(state, k + 1, t)?;
+            // The log of a per-step operator means nothing to the next step.
+            state.interface_log.clear();
+            tracing::debug!(step = k + 1, "contact re-paired for the step");
             observer(&report, state).map_err(|msg| AnalysisError::Observer { step: k + 1, msg })?;
         }
         Ok(())

@@ -244,7 +244,7 @@ pub fn hertz_model_with(
         &["arc".to_string()],
         bl,
         other,
-        crate::model::ContactParams { friction: 0.0, multipliers },
+        crate::model::ContactParams { friction: 0.0, multipliers, ..Default::default() },
     )?;
     let newton = NewtonParams { max_iterations: 60, ..Default::default() };
     b.build(LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)])?, vec![1.0], newton, LinearSolverKind::Cholesky)

@@ -235,7 +235,11 @@ fn run(
             bar.inc(1);
             Ok(())
         };
-        analysis.run(&mut state, &mut observer)
+        if model.has_finite_sliding() {
+            StaticAnalysis::run_repairing(model, &mut state, !c.serial, &mut observer)
+        } else {
+            analysis.run(&mut state, &mut observer)
+        }
     };
     bar.finish_and_clear();
     let completed = res.is_ok();

@@ -139,6 +139,9 @@ pub struct Model {
     /// each belongs to. Multipliers: ties, then contact normals, then these.
     pub friction_rows: Vec<ConstraintRow>,
     pub friction_normal: Vec<usize>,
+    /// `friction_rows[j] . u` at the pairing (0 for the reference pairing): slides are measured
+    /// from it.
+    pub friction_s0: Vec<f64>,
     pub contacts: Vec<ContactInfo>,
 }
 
@@ -153,9 +156,37 @@ pub struct ContactInfo {
     pub space: MultiplierSpace,
     /// Index of the pair's first row in `Model::contact_rows`.
     pub first_row: usize,
-    /// Per multiplier node, its row in `Model::friction_rows` (none when frictionless or unpaired).
+    /// Per multiplier node, its row in `Model::friction_rows` (none when frictionless, or
+    /// unpaired under small sliding; every node has one under finite sliding).
     pub friction_row: Vec<Option<usize>>,
     pub multipliers: Multipliers,
+    pub sliding: Sliding,
+    /// The pair's geometry, kept for re-pairing: mortar surface (reference), other side,
+    /// pairing reach.
+    pub side: MortarSide,
+    pub other: PairedSide,
+    pub max_gap: f64,
+}
+
+impl ContactInfo {
+    /// Global node of each multiplier node (multiplier nodes sit on mortar vertices).
+    pub fn multiplier_nodes(&self) -> Vec<usize> {
+        let n = self.side.nodes.len();
+        self.multipliers
+            .chains
+            .iter()
+            .flat_map(|ch| ch.lm_at.iter().map(|&k| self.side.nodes[ch.vertices[k] % n]))
+            .collect()
+    }
+}
+
+/// The other side of a contact pair as the model keeps it.
+#[derive(Debug, Clone)]
+pub enum PairedSide {
+    /// Real edges (global node ids).
+    Edges(Vec<[usize; 2]>),
+    /// A virtual surface embedded in host body `host`.
+    Embedded { host: usize, embedding: Embedding },
 }
 
 /// The other surface of a contact pair.
@@ -185,11 +216,27 @@ pub struct ContactParams {
     /// Coarse-grained: spaced like the other side's elements near each vertex (removes the
     /// traction oscillation of a mortar side finer than the other side's elements).
     pub multipliers: MultiplierSpace,
+    /// Small sliding: mortar pairing once, from the reference geometry. Finite: re-paired from
+    /// the converged configuration at the start of every step (see [`Model::repaired`]).
+    pub sliding: Sliding,
+}
+
+/// How far the surfaces of a contact pair may slide along each other.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Sliding {
+    /// Pairing from the reference geometry (fretting, partial slip: slides well below the
+    /// contact width; beyond it a typed `SlidingBeyondPairing` error).
+    #[default]
+    Small,
+    /// Pairing refreshed from the converged configuration at every step (sliding strokes
+    /// longer than the contact).
+    Finite,
 }
 
 impl Default for ContactParams {
     fn default() -> Self {
-        ContactParams { friction: 0.0, multipliers: MultiplierSpace::Classical }
+        ContactParams { friction: 0.0, multipliers: MultiplierSpace::Classical, sliding: Sliding::Small }
     }
 }
 
@@ -261,6 +308,70 @@ fn edge_chain(edges: &[[usize; 2]]) -> Result<(Vec<usize>, bool), String> {
 }
 
 impl Model {
+    /// Whether any contact pair is re-paired every step (finite sliding).
+    pub fn has_finite_sliding(&self) -> bool {
+        self.contacts.iter().any(|c| c.sliding == Sliding::Finite)
+    }
+
+    /// This model with the finite-sliding contact pairs re-paired in the configuration
+    /// `x = X + u` (the converged state at the start of a step): the mortar integrals, normals
+    /// and tangents are recomputed on the displaced surfaces (a virtual surface moves with its
+    /// host: its pieces keep their host reference coordinates), and the rows are shifted so
+    /// that they stay linear in the total displacement:
+    /// `g(u') = g_x + C_x (u' - u)`, i.e. `g0 = g_x - C_x u`; slips are measured from
+    /// `friction_s0 = T_x u`. Multiplier nodes, their number and order do not change, so the
+    /// state carries over. Small-sliding pairs keep their reference rows.
+    pub fn repaired(&self, u: &[f64]) -> Model {
+        let mut m = self.clone();
+        let x = |n: usize| self.coords[n] + Vector2::new(u[2 * n], u[2 * n + 1]);
+        for c in self.contacts.iter().filter(|c| c.sliding == Sliding::Finite) {
+            let side = MortarSide {
+                nodes: c.side.nodes.clone(),
+                points: c.side.nodes.iter().map(|&n| x(n)).collect(),
+                closed: c.side.closed,
+            };
+            let (edge_pts, host_mesh, moved);
+            let other = match &c.other {
+                PairedSide::Edges(edges) => {
+                    edge_pts = edges.iter().map(|e| [x(e[0]), x(e[1])]).collect::<Vec<_>>();
+                    OtherSide::Edges { nodes: edges, points: &edge_pts }
+                }
+                PairedSide::Embedded { host, embedding } => {
+                    let b = &self.bodies[*host];
+                    let mut mesh = b.mesh.clone();
+                    for (i, p) in mesh.nodes.iter_mut().enumerate() {
+                        *p = x(b.node_offset + i);
+                    }
+                    let mut e = embedding.clone();
+                    for piece in e.pieces.iter_mut() {
+                        let mapped = crate::fem::element::MappedElement::new(
+                            mesh.cells[piece.cell].kind,
+                            mesh.cell_coords(piece.cell),
+                        );
+                        piece.a = mapped.map(piece.xi_a);
+                        piece.b = mapped.map(piece.xi_b);
+                    }
+                    host_mesh = mesh;
+                    moved = e;
+                    OtherSide::Embedded { host: &host_mesh, host_offset: b.node_offset, embedding: &moved }
+                }
+            };
+            let rows = weighted_gaps(&side, &c.multipliers, &other, c.max_gap);
+            for (l, r) in rows.into_iter().enumerate() {
+                let k = c.first_row + l;
+                let cu: f64 = r.normal.iter().map(|&(d, v)| v * u[d]).sum();
+                m.contact_g0[k] = r.g0 - cu;
+                m.contact_phi[k] = r.phi;
+                m.contact_rows[k] = r.normal;
+                if let Some(j) = c.friction_row[l] {
+                    m.friction_s0[j] = r.tangent.iter().map(|&(d, v)| v * u[d]).sum();
+                    m.friction_rows[j] = r.tangent;
+                }
+            }
+        }
+        m
+    }
+
     /// True when every material is linear: the stiffness is then factored once for the whole run.
     pub fn is_linear(&self) -> bool {
         self.materials.iter().all(|m| !m.has_state()) && self.contact_rows.is_empty()
@@ -942,11 +1053,11 @@ impl ModelBuilder {
                 / nseg as f64;
             let max_gap = 2.0 * h;
             let pts: Vec<[Point2<f64>; 2]>;
-            let other = match &c.other {
+            let (other, paired) = match &c.other {
                 ContactOther::Edges(edges) => {
                     pts =
                         edges.iter().map(|e| [coords_of(&self.bodies, e[0]), coords_of(&self.bodies, e[1])]).collect();
-                    OtherSide::Edges { nodes: edges, points: &pts }
+                    (OtherSide::Edges { nodes: edges, points: &pts }, PairedSide::Edges(edges.clone()))
                 }
                 ContactOther::Cut(cut) => {
                     let Some(i) = self.free_cuts.iter().position(|f| &f.0 == cut) else {
@@ -954,9 +1065,13 @@ impl ModelBuilder {
                     };
                     let (b, emb) = &cut_embeddings[i];
                     let host = &self.bodies[*b];
-                    OtherSide::Embedded { host: &host.mesh, host_offset: host.node_offset, embedding: emb }
+                    (
+                        OtherSide::Embedded { host: &host.mesh, host_offset: host.node_offset, embedding: emb },
+                        PairedSide::Embedded { host: *b, embedding: emb.clone() },
+                    )
                 }
             };
+            let finite = c.params.sliding == Sliding::Finite;
             let lm = match c.params.multipliers {
                 MultiplierSpace::Classical => build_multipliers(&c.side, MultiplierSpace::Classical, 1.0),
                 MultiplierSpace::CoarseGrained => {
@@ -967,7 +1082,9 @@ impl ModelBuilder {
             let first_row = contact_rows.len();
             let mut friction_row = Vec::with_capacity(rows.len());
             for r in rows {
-                friction_row.push(if c.params.friction > 0.0 && r.phi > 0.0 {
+                // Finite sliding: every node gets a friction row (pairings come and go), so the
+                // multiplier layout stays the same when the pair is re-paired.
+                friction_row.push(if c.params.friction > 0.0 && (r.phi > 0.0 || finite) {
                     friction_rows.push(r.tangent);
                     friction_normal.push(contact_rows.len());
                     Some(friction_rows.len() - 1)
@@ -989,8 +1106,13 @@ impl ModelBuilder {
                 first_row,
                 friction_row,
                 multipliers: lm,
+                sliding: c.params.sliding,
+                side: c.side.clone(),
+                other: paired,
+                max_gap,
             });
         }
+        let friction_s0 = vec![0.0; friction_rows.len()];
         Ok(Model {
             hypothesis: self.hypothesis,
             bodies: self.bodies,
@@ -1025,6 +1147,7 @@ impl ModelBuilder {
             contact_mu,
             friction_rows,
             friction_normal,
+            friction_s0,
             contacts,
         })
     }

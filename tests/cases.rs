@@ -240,3 +240,30 @@ fn fretting_loop_case() {
         .sum();
     assert!((w / w_exact - 1.0).abs() < 0.05, "dissipation per cycle {w:.4e} vs {w_exact:.4e}");
 }
+
+/// Finite sliding (`sliding_block`): after the 3 mm drag the tangential reaction on the block is
+/// mu P = 15 N/mm (Coulomb and equilibrium; tolerance 1e-3: each step is paired on the deformed
+/// configuration it starts from, tests/sliding.rs), every node carrying pressure slips, the
+/// multiplier nodes sit on the block's new footprint x in [2.5, 3.5] (current positions), and
+/// their accumulated slip is the stroke less the elastic shear of the first increments (1%).
+#[test]
+fn sliding_block_case() {
+    let out = run_case("sliding_block");
+    let f = hdf5::File::open(&out).unwrap();
+    let last = f.group("steps").unwrap().member_names().unwrap().into_iter().max().unwrap();
+    let r = read2(&f, &format!("steps/{last}/upper/reaction"));
+    let q: f64 = r.column(0).sum();
+    assert!((q.abs() / 15.0 - 1.0).abs() < 1e-3, "tangential reaction {q}");
+    let c = format!("steps/{last}/contacts/drag");
+    let p = f.dataset(&format!("{c}/pressure")).unwrap().read_raw::<f64>().unwrap();
+    let status = f.dataset(&format!("{c}/status")).unwrap().read_raw::<u8>().unwrap();
+    let acc = f.dataset(&format!("{c}/accumulated_slip")).unwrap().read_raw::<f64>().unwrap();
+    let pos = read2(&f, &format!("{c}/position"));
+    for l in 0..p.len() {
+        assert!(pos[[l, 0]] > 2.5 - 1e-9 && pos[[l, 0]] < 3.5 + 1e-9, "node {l} at {}", pos[[l, 0]]);
+        if p[l] > 1e-6 {
+            assert_eq!(status[l], 2, "node {l} carries pressure {} but does not slip", p[l]);
+            assert!((acc[l] / 3.0 - 1.0).abs() < 0.01, "node {l}: accumulated slip {}", acc[l]);
+        }
+    }
+}

@@ -112,6 +112,10 @@ pub struct ContactSpec {
     pub friction: f64,
     /// Multiplier space on the mortar surface (default classical for contact).
     pub multipliers: Option<MultiplierSpace>,
+    /// "small" (default: pairing from the reference geometry) or "finite" (re-paired every
+    /// step, for strokes longer than the contact).
+    #[serde(default)]
+    pub sliding: crate::model::Sliding,
 }
 
 /// A free virtual surface cutting a body's mesh (X-FEM): the body keeps its material on one
@@ -643,6 +647,7 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         let params = crate::model::ContactParams {
             friction: c.friction,
             multipliers: c.multipliers.unwrap_or(MultiplierSpace::Classical),
+            sliding: c.sliding,
         };
         b.add_contact(&name, mortar, &c.mortar_surface, other_body, other, params)
             .map_err(|e| model_err(&cx, k("mortar_surface"), e))?;

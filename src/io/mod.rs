@@ -16,7 +16,8 @@
 //!   `normals` `(l, 2)` of the multiplier nodes (outward normal of the patch) and per step
 //!   `/steps/NNNNNN/ties/<tie>/traction` `(l, 2)`: the traction on the patch, `t = sigma n = -lambda`.
 //! * Contacts: `/mesh/contacts/<pair>/points` `(l, 2)` (attribute `mu`) and per step
-//!   `/steps/NNNNNN/contacts/<pair>/pressure` `(l)` (`p = -lambda_n >= 0`); with friction also
+//!   `/steps/NNNNNN/contacts/<pair>/pressure` `(l)` (`p = -lambda_n >= 0`), `position` `(l, 2)`
+//!   (current position of the multiplier nodes); with friction also
 //!   `shear` (`lambda_t` along `t = n` turned +90 degrees), `slip` (slip of the step),
 //!   `accumulated_slip` and `status` (0 open, 1 stick, 2 slip); `/steps/NNNNNN/contacts/
 //!   dissipation` (frictional energy dissipated so far, per unit thickness).
@@ -245,6 +246,14 @@ impl ResultWriter {
                     let p: Vec<f64> = (0..nl).map(|l| -state.multipliers[nt + c.first_row + l]).collect();
                     let pg = cg.create_group(&c.name)?;
                     pg.new_dataset_builder().with_data(&Array1::from(p)).create("pressure")?;
+                    // Current position of the multiplier nodes (they slide under finite sliding).
+                    let xy: Vec<f64> = c
+                        .multiplier_nodes()
+                        .iter()
+                        .zip(&c.multipliers.points)
+                        .flat_map(|(&n, x)| [x.x + state.u[2 * n], x.y + state.u[2 * n + 1]])
+                        .collect();
+                    pg.new_dataset_builder().with_data(&array2(nl, 2, xy)).create("position")?;
                     if c.mu > 0.0 {
                         // Per node: shear lambda_t, slip of the step and accumulated slip (weighted
                         // slips divided by int Phi: lengths), status 0 open / 1 stick / 2 slip.
@@ -301,8 +310,10 @@ impl ResultWriter {
         }
         let (nt, nn) = (model.constraints.len(), model.contact_rows.len());
         for c in &model.contacts {
+            let nodes = c.multiplier_nodes();
             for l in 0..c.multipliers.num_nodes {
-                let x = c.multipliers.points[l];
+                let (p0, n) = (c.multipliers.points[l], nodes[l]);
+                let x = nalgebra::Point2::new(p0.x + state.u[2 * n], p0.y + state.u[2 * n + 1]);
                 let p = -state.multipliers[nt + c.first_row + l];
                 let (q, ds, acc, st) = c.friction_row[l].map_or((0.0, 0.0, 0.0, 0), |j| {
                     let phi = model.contact_phi[model.friction_normal[j]];
@@ -323,7 +334,7 @@ impl ResultWriter {
     }
 
     /// Closes the file and renames it into place; `completed` records whether the run finished.
-    /// Contact profiles go to `<name>_contact.csv` beside it (step, time, pair, node position,
+    /// Contact profiles go to `<name>_contact.csv` beside it (step, time, pair, current node position,
     /// pressure, shear, slip of the step, accumulated slip, status 0 open / 1 stick / 2 slip).
     pub fn finish(mut self, completed: bool) -> Result<PathBuf, OutputError> {
         if !self.contact_csv.is_empty() {

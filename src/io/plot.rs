@@ -73,6 +73,8 @@ pub fn read_profile(path: &Path, step: Option<usize>, pair: Option<&str>) -> Res
     let cg = sg.group(&format!("contacts/{pair}")).map_err(|e| err(format!("step {step}: {e}")))?;
     let f64s = |name: &str| -> Option<Vec<f64>> { cg.dataset(name).and_then(|d| d.read_raw()).ok() };
     let pressure = f64s("pressure").ok_or_else(|| err(format!("step {step}: no pressure of pair '{pair}'")))?;
+    // Current positions where the file has them (they move under finite sliding).
+    let points = f64s("position").filter(|p| p.len() == points.len()).unwrap_or(points);
     let n = pressure.len();
     if points.len() != 2 * n {
         return Err(err(format!("pair '{pair}': {} points for {n} pressures", points.len() / 2)));
@@ -196,7 +198,7 @@ pub fn write_png(p: &ContactProfile, xlim: (f64, f64), out: &Path) -> Result<(),
         .y_label_area_size(64)
         .build_cartesian_2d(xlim.0..xlim.1, yr.0..yr.1)
         .map_err(|e| de(&e))?;
-    ch.configure_mesh().x_desc("x (mm)").y_desc("traction (MPa)").draw().map_err(|e| de(&e))?;
+    ch.configure_mesh().x_desc("x (mm, current)").y_desc("traction (MPa)").draw().map_err(|e| de(&e))?;
     let line = |v: &[f64]| -> Vec<(f64, f64)> { inside.iter().map(|&i| (p.x[i], v[i])).collect() };
     ch.draw_series(LineSeries::new(line(&p.pressure), BLUE.stroke_width(2)))
         .map_err(|e| de(&e))?
@@ -251,7 +253,7 @@ pub fn write_png(p: &ContactProfile, xlim: (f64, f64), out: &Path) -> Result<(),
             .build_cartesian_2d(xlim.0..xlim.1, yr.0..yr.1)
             .map_err(|e| de(&e))?;
         ch.configure_mesh()
-            .x_desc("x (mm)")
+            .x_desc("x (mm, current)")
             .y_desc("slip (mm)")
             .y_label_formatter(&|v| if v.abs() < 1e-9 * (yr.1 - yr.0) { "0".into() } else { format!("{v:.1e}") })
             .draw()

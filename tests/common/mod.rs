@@ -175,7 +175,7 @@ impl CylinderPair {
         } else {
             mortex::mortar::MultiplierSpace::Classical
         };
-        let params = mortex::model::ContactParams { friction: self.mu, multipliers };
+        let params = mortex::model::ContactParams { friction: self.mu, multipliers, ..Default::default() };
         b.add_contact("c", up, &["arc".to_string()], lo, other, params).expect("contact");
         let newton = mortex::solver::newton::NewtonParams { max_iterations: 60, ..Default::default() };
         b.build(LoadPath::new(self.normal_path.clone()).expect("path"), self.times.clone(), newton, Default::default())
