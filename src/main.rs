@@ -167,7 +167,18 @@ fn check(path: PathBuf) -> Result<(), String> {
         m.end_time(),
         if m.is_linear() { "linear (one factorisation)" } else { "nonlinear (Newton)" }
     );
-    println!("  output: {}", c.output.display());
+    for ci in &m.contacts {
+        println!(
+            "  contact '{}': mortar '{}', {:?} multipliers ({} nodes), mu = {}, {:?} sliding",
+            ci.name, m.bodies[ci.mortar].name, ci.space, ci.multipliers.num_nodes, ci.mu, ci.sliding
+        );
+    }
+    let every = match c.checkpoint_every {
+        0 => "no checkpoints".to_string(),
+        1 => "a checkpoint every step".to_string(),
+        n => format!("a checkpoint every {n} steps"),
+    };
+    println!("  output: {} ({every})", c.output.display());
     Ok(())
 }
 
