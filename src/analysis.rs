@@ -69,6 +69,8 @@ pub struct StaticAnalysis<'m> {
     trial_f_int: Vec<f64>,
     /// Interface condensation (contact between linear elastic bodies).
     condensed: Option<condensed::Condensed>,
+    /// Active contact nodes in the last Newton iteration (reported when a step fails).
+    last_active: usize,
 }
 
 /// Multiplier-block entries of the Coulomb slip rows: (tangential row, its normal row).
@@ -227,6 +229,7 @@ impl<'m> StaticAnalysis<'m> {
                 trial_stress: vec![Stress4::zeros(); model.elements.num_points()],
                 trial_f_int: vec![0.0; model.dofs.num_dofs],
                 condensed: Some(cd),
+                last_active: 0,
             });
         }
         // Constraint rows are scaled by `alpha ~ E / |C|` in the matrix so that both blocks of the
@@ -267,6 +270,7 @@ impl<'m> StaticAnalysis<'m> {
             trial_stress: vec![Stress4::zeros(); model.elements.num_points()],
             trial_f_int: vec![0.0; model.dofs.num_dofs],
             condensed: None,
+            last_active: 0,
         })
     }
 
@@ -386,6 +390,7 @@ impl<'m> StaticAnalysis<'m> {
                             residual: res,
                             rtol: params.rtol,
                             cutbacks: report.cutbacks - 1,
+                            active_contact_nodes: self.last_active,
                         }
                         .into());
                     }
@@ -451,6 +456,7 @@ impl<'m> StaticAnalysis<'m> {
                 slip[j] = m.friction_rows[j].iter().map(|&(d, c)| c * (u[d] - state.u[d])).sum();
             }
             contact_sets(m, &mu, &gaps, &slip, it == 0, &mut active, &mut status);
+            self.last_active = active.iter().filter(|&&a| a).count();
             let set_changed = prev_active.as_ref().map(|pa| pa != &active).unwrap_or(nc > 0) || prev_status != status;
             prev_status.clone_from(&status);
             if nc > 0 {
@@ -789,6 +795,7 @@ impl<'m> StaticAnalysis<'m> {
                         mult[i] = lam0[i] + dlam[a];
                     }
                     contact_sets(m, &mult, &gaps, &slip, it == 0, &mut active, &mut status);
+                    self.last_active = active.iter().filter(|&&a| a).count();
                     // Rows outside the set stay open (checked after the solve).
                     for k in (0..nc).filter(|&k| cd.live_of[nt + k].is_none()) {
                         active[k] = false;

@@ -308,3 +308,24 @@ fn plot_contact_profile_png() {
         assert!(!ok && text.contains(needle) && !text.contains("panicked"), "{args:?}:\n{text}");
     }
 }
+
+/// A contact step that cannot converge (two Newton iterations allowed, no cut-back) is a typed
+/// error naming the step, iteration, residual and the size of the active contact set.
+#[test]
+fn contact_newton_failure_reports_the_active_set() {
+    let d = tmpdir("contact-fail");
+    let case = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("wear_cases/cattaneo_mindlin.toml"))
+        .unwrap()
+        + "\n[solver.newton]\nmax_iterations = 2\nmax_cutbacks = 0\n";
+    std::fs::write(d.join("fail.toml"), case).unwrap();
+    let (ok, text) = run(&["run", "fail.toml", "--quiet", "-o", "fail.h5"], &d);
+    assert!(!ok && !text.contains("panicked"), "{text}");
+    assert!(text.contains("step 1") && text.contains("iteration 2"), "{text}");
+    let active: usize = text
+        .split(" active contact nodes")
+        .next()
+        .and_then(|h| h.rsplit(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no active-set size in: {text}"));
+    assert!(active > 0, "{text}");
+}

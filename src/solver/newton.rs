@@ -25,7 +25,7 @@ impl Default for NewtonParams {
 
 #[derive(Debug, thiserror::Error)]
 pub enum NewtonError {
-    #[error("Newton did not converge in step {step} (time {time}, load factor {load_factor}) after {cutbacks} cut-backs: iteration {iteration}, relative residual {residual:.3e} (tolerance {rtol:.1e})")]
+    #[error("Newton did not converge in step {step} (time {time}, load factor {load_factor}) after {cutbacks} cut-backs: iteration {iteration}, relative residual {residual:.3e} (tolerance {rtol:.1e}), {active_contact_nodes} active contact nodes")]
     NotConverged {
         step: usize,
         time: f64,
@@ -34,6 +34,8 @@ pub enum NewtonError {
         residual: f64,
         rtol: f64,
         cutbacks: usize,
+        /// Contact multiplier nodes in the active set at the last iteration (0 without contact).
+        active_contact_nodes: usize,
     },
     #[error("linear solve failed in step {step}, iteration {iteration}: {source}")]
     Linear { step: usize, iteration: usize, source: LinearSolverError },
