@@ -23,9 +23,19 @@ impl Default for NewtonParams {
     }
 }
 
+/// The residual of a failed step for messages: infinite means the contact active set was still
+/// changing when the iterations ran out (no residual of a settled set exists).
+fn residual_text(r: f64) -> String {
+    if r.is_finite() {
+        format!("relative residual {r:.3e}")
+    } else {
+        "contact active set still changing".to_string()
+    }
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum NewtonError {
-    #[error("Newton did not converge in step {step} (time {time}, load factor {load_factor}) after {cutbacks} cut-backs: iteration {iteration}, relative residual {residual:.3e} (tolerance {rtol:.1e}), {active_contact_nodes} active contact nodes")]
+    #[error("Newton did not converge in step {step} (time {time}, load factor {load_factor}) after {cutbacks} cut-backs: iteration {iteration}, {res} (tolerance {rtol:.1e}), {active_contact_nodes} active contact nodes", res = residual_text(*.residual))]
     NotConverged {
         step: usize,
         time: f64,
