@@ -47,8 +47,9 @@ pub enum AnalysisError {
     )]
     GrossSliding { step: usize, time: f64, slipping: usize },
     #[error(
-        "step {step} (time {time}): contact nodes slid {slide:.3e} from their reference pairing, more than the \
-         contact width {width:.3e}: beyond small sliding (a tangential load above mu times the normal load?)"
+        "step {step} (time {time}): contact nodes slid {slide:.3e} from their pairing, more than the contact \
+         width {width:.3e}: beyond small sliding (use sliding = \"finite\" on the pair, smaller increments, or \
+         check for a tangential load above mu times the normal load)"
     )]
     SlidingBeyondPairing { step: usize, time: f64, slide: f64, width: f64 },
 }
