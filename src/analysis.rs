@@ -306,7 +306,11 @@ impl<'m> StaticAnalysis<'m> {
 
     /// The unloaded, virgin state.
     pub fn initial_state(&self) -> SimState {
-        let m = self.model;
+        Self::initial_state_of(self.model)
+    }
+
+    /// The unloaded, virgin state of `m` (no solver set up).
+    pub fn initial_state_of(m: &Model) -> SimState {
         SimState {
             step: 0,
             time: m.load_path.points[0].0,
@@ -471,27 +475,7 @@ impl<'m> StaticAnalysis<'m> {
                 );
             }
             prev_active = Some(active.clone());
-            self.assembler.assemble(
-                &AssemblyInput {
-                    coords: &m.coords,
-                    elements: &m.elements,
-                    materials: &m.materials,
-                    rules: &m.rules,
-                    u: &u,
-                    state_old: &state.history,
-                },
-                AssemblyOutput {
-                    values: if need_tangent { Some(&mut self.values) } else { None },
-                    f_int: &mut self.trial_f_int,
-                    stress: &mut self.trial_stress,
-                    state_new: &mut self.trial_history,
-                },
-                self.parallel,
-            );
-            // Constant penalty stiffness (ghost penalty): its force joins the internal force.
-            for &(i, j, v) in &m.penalty {
-                self.trial_f_int[i] += v * u[j];
-            }
+            self.assemble_trial(&u, &state.history, need_tangent);
             // Constraint forces C^T mu and constraint residual -C u (with its scale |C| |u|).
             ct_mu.iter_mut().for_each(|v| *v = 0.0);
             let mut g_scale = 0.0;
@@ -690,6 +674,13 @@ impl<'m> StaticAnalysis<'m> {
 
     /// Internal force (with the ghost-penalty force) at `u` into `trial_f_int`, no tangent.
     fn internal_force(&mut self, u: &[f64], history: &[PlasticState]) {
+        self.assemble_trial(u, history, false);
+    }
+
+    /// Element loop at `u` from the converged `history`: internal force, stresses and trial
+    /// history into the trial buffers, the tangent into `values` when asked; the constant
+    /// penalty stiffness (ghost penalty) adds its force to the internal force.
+    fn assemble_trial(&mut self, u: &[f64], history: &[PlasticState], with_tangent: bool) {
         let m = self.model;
         self.assembler.assemble(
             &AssemblyInput {
@@ -701,7 +692,7 @@ impl<'m> StaticAnalysis<'m> {
                 state_old: history,
             },
             AssemblyOutput {
-                values: None,
+                values: if with_tangent { Some(&mut self.values) } else { None },
                 f_int: &mut self.trial_f_int,
                 stress: &mut self.trial_stress,
                 state_new: &mut self.trial_history,

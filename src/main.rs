@@ -191,13 +191,21 @@ fn run(
 ) -> Result<(), String> {
     let c = case::load(&path).map_err(|e| e.to_string())?;
     let model = &c.model;
-    let mut analysis = StaticAnalysis::new(model).map_err(|e| e.to_string())?;
-    analysis.set_parallel(!c.serial);
+    // Finite sliding sets a solver up per step (run_repairing); otherwise one for the run.
+    let mut analysis = if model.has_finite_sliding() {
+        None
+    } else {
+        let mut a = StaticAnalysis::new(model).map_err(|e| e.to_string())?;
+        a.set_parallel(!c.serial);
+        Some(a)
+    };
     let (mut state, out) = match &restart {
-        None => (analysis.initial_state(), output.unwrap_or_else(|| c.output.clone())),
+        None => (StaticAnalysis::initial_state_of(model), output.unwrap_or_else(|| c.output.clone())),
         Some(file) => {
             let cp = mortex::io::checkpoint::read(file, from_step, model).map_err(|e| e.to_string())?;
-            analysis.resume(&cp).map_err(|e| format!("{}: {e}", file.display()))?;
+            if let Some(a) = analysis.as_mut() {
+                a.resume(&cp).map_err(|e| format!("{}: {e}", file.display()))?;
+            }
             let out = output.unwrap_or_else(|| {
                 let name = file.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
                 let stem = name.trim_end_matches(".partial").trim_end_matches(".h5");
@@ -246,10 +254,9 @@ fn run(
             bar.inc(1);
             Ok(())
         };
-        if model.has_finite_sliding() {
-            StaticAnalysis::run_repairing(model, &mut state, !c.serial, &mut observer)
-        } else {
-            analysis.run(&mut state, &mut observer)
+        match analysis.as_mut() {
+            Some(a) => a.run(&mut state, &mut observer),
+            None => StaticAnalysis::run_repairing(model, &mut state, !c.serial, &mut observer),
         }
     };
     bar.finish_and_clear();

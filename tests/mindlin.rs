@@ -43,9 +43,9 @@ struct CmResult {
     q: Vec<(f64, f64)>,
 }
 
-fn cattaneo_mindlin(n_fine: usize, core: f64, virtual_lower: bool, ratio: f64) -> CmResult {
-    let q_load = ratio * MU * P;
-    let scene = CylinderPair {
+/// The two-cylinder scene under P (ramped over [0, 1]) and the tangential force path `tangential`.
+fn pair(n_fine: usize, core: f64, virtual_lower: bool, tangential: Vec<(f64, f64)>, times: Vec<f64>) -> CylinderPair {
+    CylinderPair {
         n_fine,
         core,
         virtual_lower,
@@ -53,9 +53,14 @@ fn cattaneo_mindlin(n_fine: usize, core: f64, virtual_lower: bool, ratio: f64) -
         mu: MU,
         normal_load: P,
         normal_path: vec![(0.0, 0.0), (1.0, 1.0)],
-        tangential_path: vec![(0.0, 0.0), (1.0, 0.0), (2.0, q_load)],
-        times: vec![1.0, 2.0],
-    };
+        tangential_path: tangential,
+        times,
+    }
+}
+
+fn cattaneo_mindlin(n_fine: usize, core: f64, virtual_lower: bool, ratio: f64) -> CmResult {
+    let q_load = ratio * MU * P;
+    let scene = pair(n_fine, core, virtual_lower, vec![(0.0, 0.0), (1.0, 0.0), (2.0, q_load)], vec![1.0, 2.0]);
     let model = scene.build();
     let s = solve(&model);
     let v = contact_profile(&model, &s);
@@ -258,17 +263,7 @@ fn fretting_cycle(n_fine: usize, core: f64, virtual_lower: bool, per_quarter: us
     let n_out = 1 + 8 * per_quarter;
     let mut times = vec![1.0, 2.0];
     times.extend((1..=n_out - 1).map(|i| 2.0 + 8.0 * i as f64 / (n_out - 1) as f64));
-    let scene = CylinderPair {
-        n_fine,
-        core,
-        virtual_lower,
-        coarse_grained: std::env::var("CM_CG").is_ok(),
-        mu: MU,
-        normal_load: P,
-        normal_path: vec![(0.0, 0.0), (1.0, 1.0)],
-        tangential_path: tp.clone(),
-        times,
-    };
+    let scene = pair(n_fine, core, virtual_lower, tp.clone(), times);
     let model = scene.build();
     let master_x = {
         // The platen's master node: the first node of the upper body's top set.

@@ -260,12 +260,7 @@ pub type ConstraintRow = Vec<(usize, f64)>;
 /// `reach`: a real edge's length, or the size of the host cell holding a virtual piece), or the
 /// mortar side's own adjacent segment length where nothing is near.
 pub fn other_side_spacing(side: &MortarSide, other: &OtherSide, reach: f64) -> Vec<f64> {
-    let segs = other.segments();
-    let boxes: Vec<_> = segs
-        .iter()
-        .map(|(a, b)| (Point2::new(a.x.min(b.x), a.y.min(b.y)), Point2::new(a.x.max(b.x), a.y.max(b.y))))
-        .collect();
-    let index = BoxIndex::new(&boxes);
+    let (segs, index) = other.indexed_segments();
     let n = side.points.len();
     let mut cand = Vec::new();
     (0..n)
@@ -311,6 +306,17 @@ pub enum OtherSide<'a> {
 }
 
 impl OtherSide<'_> {
+    /// The segments and a BVH over their bounding boxes (for pairing queries).
+    fn indexed_segments(&self) -> (Vec<(Point2<f64>, Point2<f64>)>, BoxIndex) {
+        let segs = self.segments();
+        let boxes: Vec<_> = segs
+            .iter()
+            .map(|(a, b)| (Point2::new(a.x.min(b.x), a.y.min(b.y)), Point2::new(a.x.max(b.x), a.y.max(b.y))))
+            .collect();
+        let index = BoxIndex::new(&boxes);
+        (segs, index)
+    }
+
     fn segments(&self) -> Vec<(Point2<f64>, Point2<f64>)> {
         match self {
             OtherSide::Embedded { embedding, .. } => embedding.pieces.iter().map(|p| (p.a, p.b)).collect(),
@@ -377,12 +383,7 @@ fn for_each_mortar_point(
     accept: impl Fn(Point2<f64>, Point2<f64>, Point2<f64>, Point2<f64>) -> bool,
     mut f: impl FnMut(&MortarPoint),
 ) {
-    let segs = other.segments();
-    let boxes: Vec<_> = segs
-        .iter()
-        .map(|(a, b)| (Point2::new(a.x.min(b.x), a.y.min(b.y)), Point2::new(a.x.max(b.x), a.y.max(b.y))))
-        .collect();
-    let index = BoxIndex::new(&boxes);
+    let (segs, index) = other.indexed_segments();
     let (gx, gw) = gauss_legendre(4);
     let mut cand = Vec::new();
     for ch in &lm.chains {
