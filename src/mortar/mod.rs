@@ -296,6 +296,9 @@ fn nrm_dist_segment(a: Point2<f64>, b: Point2<f64>, p: Point2<f64>) -> f64 {
     (a + d * t - p).norm()
 }
 
+/// Straight segments by their end points.
+type Segments = Vec<(Point2<f64>, Point2<f64>)>;
+
 /// The non-mortar side of an interface: straight segments whose points interpolate
 /// displacements from either a host cell (virtual surface) or a real edge.
 pub enum OtherSide<'a> {
@@ -307,7 +310,7 @@ pub enum OtherSide<'a> {
 
 impl OtherSide<'_> {
     /// The segments and a BVH over their bounding boxes (for pairing queries).
-    fn indexed_segments(&self) -> (Vec<(Point2<f64>, Point2<f64>)>, BoxIndex) {
+    fn indexed_segments(&self) -> (Segments, BoxIndex) {
         let segs = self.segments();
         let boxes: Vec<_> = segs
             .iter()
@@ -317,7 +320,7 @@ impl OtherSide<'_> {
         (segs, index)
     }
 
-    fn segments(&self) -> Vec<(Point2<f64>, Point2<f64>)> {
+    fn segments(&self) -> Segments {
         match self {
             OtherSide::Embedded { embedding, .. } => embedding.pieces.iter().map(|p| (p.a, p.b)).collect(),
             OtherSide::Edges { points, .. } => points.iter().map(|p| (p[0], p[1])).collect(),
