@@ -22,6 +22,9 @@ mod condensed;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StepReport {
     pub step: usize,
+    /// Cycle and increment within it (cycle 0: before the cycles, or a non-cyclic case).
+    pub cycle: usize,
+    pub increment: usize,
     pub time: f64,
     pub load_factor: f64,
     /// Newton iterations summed over sub-steps.
@@ -52,6 +55,8 @@ pub enum AnalysisError {
          check for a tangential load above mu times the normal load)"
     )]
     SlidingBeyondPairing { step: usize, time: f64, slide: f64, width: f64 },
+    #[error("step {step} (time {time}): moving the virtual surfaces: {source}")]
+    Surface { step: usize, time: f64, source: crate::model::ModelError },
 }
 
 pub struct StaticAnalysis<'m> {
@@ -341,38 +346,24 @@ impl<'m> StaticAnalysis<'m> {
         Ok(())
     }
 
-    /// Runs every remaining output step of a model with finite-sliding contact pairs: at the
-    /// start of each step the pairs are re-paired in the converged configuration
-    /// ([`Model::repaired`]) and the step is solved on that pairing (pattern, factorisation and
-    /// interface operator rebuilt: the pairing, not the iteration, changes them). A restart
-    /// needs nothing more than the state: the pairing is a function of `state.u`.
-    pub fn run_repairing<F>(
-        model: &Model,
-        state: &mut SimState,
-        parallel: bool,
-        mut observer: F,
-    ) -> Result<(), AnalysisError>
-    where
-        F: FnMut(&StepReport, &SimState) -> Result<(), String>,
-    {
-        for (k, &t) in model.times.iter().enumerate().skip(state.step) {
-            let current = model.repaired(&state.u);
-            let mut analysis = StaticAnalysis::new(&current)?;
-            analysis.set_parallel(parallel);
-            let report = analysis.advance_to(state, k + 1, t)?;
-            // The log of a per-step operator means nothing to the next step.
-            state.interface_log.clear();
-            tracing::debug!(step = k + 1, "contact re-paired for the step");
-            observer(&report, state).map_err(|msg| AnalysisError::Observer { step: k + 1, msg })?;
-        }
-        Ok(())
-    }
-
     /// Advances `state` to time `t_end` (output step `step`), with cut-backs if needed.
     pub fn advance_to(&mut self, state: &mut SimState, step: usize, t_end: f64) -> Result<StepReport, AnalysisError> {
         let params = self.model.newton;
-        let mut report = StepReport { step, time: t_end, load_factor: 0.0, iterations: 0, cutbacks: 0, residual: 0.0 };
+        let (cycle, increment) = self.model.step_label(step);
+        let mut report = StepReport {
+            step,
+            cycle,
+            increment,
+            time: t_end,
+            load_factor: 0.0,
+            iterations: 0,
+            cutbacks: 0,
+            residual: 0.0,
+        };
         let mut dt = t_end - state.time;
+        // Points without material (moving surfaces) are skipped by the kernel and keep the
+        // stress they had: the trial buffer starts from the converged values.
+        self.trial_stress.copy_from_slice(&state.stress);
         while state.time < t_end || dt == 0.0 {
             let t_try = if state.time + dt >= t_end { t_end } else { state.time + dt };
             match self.newton(state, step, t_try)? {
@@ -390,7 +381,7 @@ impl<'m> StaticAnalysis<'m> {
                         return Err(NewtonError::NotConverged {
                             step,
                             time: t_try,
-                            load_factor: self.model.load_path.factor(t_try),
+                            load_factor: self.model.curve_factor(0, t_try),
                             iteration: its,
                             residual: res,
                             rtol: params.rtol,
@@ -665,7 +656,7 @@ impl<'m> StaticAnalysis<'m> {
         state.u = u;
         state.multipliers = mu;
         state.time = t;
-        state.load_factor = m.load_path.factor(t);
+        state.load_factor = m.curve_factor(0, t);
         std::mem::swap(&mut state.history, &mut self.trial_history);
         self.trial_history.copy_from_slice(&state.history);
         state.stress.copy_from_slice(&self.trial_stress);

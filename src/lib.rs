@@ -14,6 +14,8 @@ pub mod assembly;
 pub mod bench;
 pub mod case;
 pub mod cut;
+pub mod discretisation;
+pub mod driver;
 pub mod fem;
 pub mod io;
 pub mod mesh;

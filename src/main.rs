@@ -2,7 +2,6 @@
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use mortex::analysis::StaticAnalysis;
 use mortex::case;
 use mortex::io::ResultWriter;
 use std::path::PathBuf;
@@ -191,21 +190,10 @@ fn run(
 ) -> Result<(), String> {
     let c = case::load(&path).map_err(|e| e.to_string())?;
     let model = &c.model;
-    // Finite sliding sets a solver up per step (run_repairing); otherwise one for the run.
-    let mut analysis = if model.has_finite_sliding() {
-        None
-    } else {
-        let mut a = StaticAnalysis::new(model).map_err(|e| e.to_string())?;
-        a.set_parallel(!c.serial);
-        Some(a)
-    };
     let (mut state, out) = match &restart {
-        None => (StaticAnalysis::initial_state_of(model), output.unwrap_or_else(|| c.output.clone())),
+        None => (mortex::analysis::StaticAnalysis::initial_state_of(model), output.unwrap_or_else(|| c.output.clone())),
         Some(file) => {
             let cp = mortex::io::checkpoint::read(file, from_step, model).map_err(|e| e.to_string())?;
-            if let Some(a) = analysis.as_mut() {
-                a.resume(&cp).map_err(|e| format!("{}: {e}", file.display()))?;
-            }
             let out = output.unwrap_or_else(|| {
                 let name = file.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
                 let stem = name.trim_end_matches(".partial").trim_end_matches(".h5");
@@ -243,10 +231,13 @@ fn run(
     let started = std::time::Instant::now();
     let mut total_its = 0;
     let res = {
-        let mut observer = |r: &mortex::analysis::StepReport, s: &mortex::state::SimState| -> Result<(), String> {
+        let observer = |r: &mortex::analysis::StepReport,
+                        s: &mortex::state::SimState,
+                        step_model: &mortex::model::Model|
+         -> Result<(), String> {
             total_its += r.iterations;
-            let reactions = model.reactions(s);
-            writer.write_step(model, r, s, &reactions).map_err(|e| e.to_string())?;
+            let reactions = step_model.reactions(s);
+            writer.write_step(step_model, r, s, &reactions).map_err(|e| e.to_string())?;
             bar.set_message(format!(
                 "t = {:.4}, lambda = {:.4}, {} it, res {:.1e}",
                 r.time, r.load_factor, r.iterations, r.residual
@@ -254,10 +245,7 @@ fn run(
             bar.inc(1);
             Ok(())
         };
-        match analysis.as_mut() {
-            Some(a) => a.run(&mut state, &mut observer),
-            None => StaticAnalysis::run_repairing(model, &mut state, !c.serial, &mut observer),
-        }
+        mortex::driver::run(model, &mut state, mortex::driver::RunOptions { parallel: !c.serial }, observer)
     };
     bar.finish_and_clear();
     let completed = res.is_ok();

@@ -8,7 +8,8 @@
 //! cyclic tangential load: fretting).
 
 use crate::assembly::{DofMap, ElementTable};
-use crate::cut::{cut_mesh, subtriangulation_rule, CellCut, CutMesh, SMALL_FRACTION};
+use crate::cut::{cut_mesh, subtriangulation_rule, CellCut, CutMesh};
+use crate::discretisation::{held_dofs, Band, FreeSurface, SurfaceMotion};
 use crate::fem::element::ReferenceElement;
 use crate::fem::element::Seg2;
 use crate::fem::kernel::Formulation;
@@ -143,6 +144,73 @@ pub struct Model {
     /// from it.
     pub friction_s0: Vec<f64>,
     pub contacts: Vec<ContactInfo>,
+    /// Free virtual surfaces (cuts), where they are now.
+    pub surfaces: Vec<FreeSurface>,
+    /// Per body: the band of fixed points of its moving surfaces (`None`: nothing moves in it).
+    pub bands: Vec<Option<Band>>,
+    /// Ghost-penalty entries per body (`penalty` is their concatenation) and its factor.
+    pub penalty_parts: Vec<Vec<(usize, usize, f64)>>,
+    pub ghost_penalty: f64,
+    /// Per body: DOFs switched off (no material in their support), held at their last value.
+    pub held: Vec<Vec<usize>>,
+    /// The repeated window of the load history, if the case is cyclic.
+    pub cycle: Option<Cycle>,
+}
+
+/// A load history declared as one cycle repeated: every curve is evaluated at
+/// `start + (t - start) mod period` beyond `start` (the part before it, e.g. the normal load,
+/// runs once). Output steps carry `(cycle, increment)`: cycle 0 is the part before the window.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cycle {
+    pub start: f64,
+    pub period: f64,
+    pub count: usize,
+    /// Output steps per cycle, and before the window.
+    pub increments: usize,
+    pub ramp_increments: usize,
+}
+
+impl Cycle {
+    /// Pseudo-time inside the first cycle that the curves see at time `t`.
+    pub fn local_time(&self, t: f64) -> f64 {
+        if t <= self.start + self.period {
+            t
+        } else {
+            let r = (t - self.start).rem_euclid(self.period);
+            // The end of a cycle is the end of the window, not its start (same factors for a
+            // periodic history, but the window's last point is where the cycle ends).
+            if r == 0.0 {
+                self.start + self.period
+            } else {
+                self.start + r
+            }
+        }
+    }
+    /// Output times: `ramp_increments` steps up to `start`, then `increments` per cycle.
+    pub fn times(&self, t0: f64) -> Vec<f64> {
+        let mut v = Vec::with_capacity(self.ramp_increments + self.count * self.increments);
+        if self.start > t0 {
+            for i in 1..=self.ramp_increments {
+                v.push(t0 + (self.start - t0) * i as f64 / self.ramp_increments as f64);
+            }
+        }
+        for c in 0..self.count {
+            for i in 1..=self.increments {
+                v.push(self.start + self.period * (c as f64 + i as f64 / self.increments as f64));
+            }
+        }
+        v
+    }
+    /// `(cycle, increment)` of output step `step` (1-based; cycle 0 is the part before the window).
+    pub fn label(&self, step: usize, has_ramp: bool) -> (usize, usize) {
+        let ramp = if has_ramp { self.ramp_increments } else { 0 };
+        if step <= ramp {
+            (0, step)
+        } else {
+            let k = step - ramp - 1;
+            (k / self.increments + 1, k % self.increments + 1)
+        }
+    }
 }
 
 /// A mortar contact pair; multipliers (contact pressure `p = -lambda_n`, shear `lambda_t` along
@@ -166,6 +234,8 @@ pub struct ContactInfo {
     pub side: MortarSide,
     pub other: PairedSide,
     pub max_gap: f64,
+    /// The free surface (index into `Model::surfaces`) that is the other side, if virtual.
+    pub other_surface: Option<usize>,
 }
 
 impl ContactInfo {
@@ -416,8 +486,17 @@ impl Model {
         r
     }
 
+    /// `(cycle, increment)` of output step `step` (1-based); `(0, step)` for a non-cyclic case.
+    pub fn step_label(&self, step: usize) -> (usize, usize) {
+        match &self.cycle {
+            Some(c) => c.label(step, c.start > self.load_path.points[0].0),
+            None => (0, step),
+        }
+    }
+
     /// Factor of load curve `c` at time `t`.
     pub fn curve_factor(&self, c: usize, t: f64) -> f64 {
+        let t = self.cycle.map_or(t, |cy| cy.local_time(t));
         if c == 0 {
             self.load_path.factor(t)
         } else {
@@ -426,6 +505,7 @@ impl Model {
     }
     /// External force at time `t` over all DOFs.
     pub fn external_force(&self, t: f64, out: &mut [f64]) {
+        let t = self.cycle.map_or(t, |cy| cy.local_time(t));
         let l0 = self.load_path.factor(t);
         for (o, f) in out.iter_mut().zip(&self.f_ext) {
             *o = l0 * f;
@@ -442,8 +522,11 @@ impl Model {
         let factors: Vec<f64> = (0..=self.curves.len()).map(|c| self.curve_factor(c, t)).collect();
         self.prescribed.iter().zip(&self.prescribed_curve).map(move |(&(d, v), &c)| (d, factors[c] * v))
     }
-    /// Last time of any load curve.
+    /// Last time of any load curve (of the whole run, for a cyclic case).
     pub fn end_time(&self) -> f64 {
+        if let Some(c) = &self.cycle {
+            return c.start + c.period * c.count as f64;
+        }
         self.curves.iter().map(|c| c.end_time()).fold(self.load_path.end_time(), f64::max)
     }
 
@@ -463,6 +546,21 @@ impl Model {
 
 /// Default ghost-penalty factor (dimensionless, times `E h` per edge).
 pub const DEFAULT_GHOST_PENALTY: f64 = 0.05;
+
+/// Factor of builder curve `c` (0: the load path) at `t`.
+fn curve_value(curves: &[LoadPath], load_path: &LoadPath, c: usize, t: f64) -> f64 {
+    if c == 0 {
+        load_path.factor(t)
+    } else {
+        curves[c - 1].factor(t)
+    }
+}
+
+/// Smallest and largest factor of curve `c` (piecewise linear: extremes at its points).
+fn curve_range(curves: &[LoadPath], load_path: &LoadPath, c: usize) -> (f64, f64) {
+    let pts = if c == 0 { &load_path.points } else { &curves[c - 1].points };
+    pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.1), hi.max(p.1)))
+}
 
 /// Reference coordinates of a global node.
 fn coords_of(bodies: &[Body], n: usize) -> Point2<f64> {
@@ -484,8 +582,9 @@ pub struct ModelBuilder {
     /// Curve that loads and prescribed values added now follow.
     curve: usize,
     ties: Vec<TieSpec>,
-    /// Free virtual surfaces: (name, body, surface with the material on its left).
-    free_cuts: Vec<(String, usize, VirtualSurface)>,
+    /// Free virtual surfaces: (name, body, surface with the material on its left, motion).
+    free_cuts: Vec<(String, usize, VirtualSurface, Option<SurfaceMotion>)>,
+    cycle: Option<Cycle>,
     ghost_penalty: f64,
     contacts: Vec<ContactSpec>,
     /// Multi-point constraints `u(node) - u(master) = 0` (rigid sets), global DOFs.
@@ -508,7 +607,40 @@ impl ModelBuilder {
             ghost_penalty: DEFAULT_GHOST_PENALTY,
             contacts: vec![],
             rigid_rows: vec![],
+            cycle: None,
         }
+    }
+
+    /// Makes the load history cyclic (see [`Cycle`]); the output times given to
+    /// [`Self::build`] should be [`Cycle::times`].
+    pub fn set_cycle(&mut self, cycle: Cycle) {
+        self.cycle = Some(cycle);
+    }
+
+    /// Makes a free cut move during the run (re-cut on fixed points, see
+    /// [`crate::discretisation`]). Its band of fixed points is derived from the motion's
+    /// factor range when the model is built.
+    pub fn set_cut_motion(&mut self, name: &str, motion: SurfaceMotion) -> Result<(), ModelError> {
+        let err = |msg: String| ModelError::Tie { tie: name.to_string(), msg };
+        let c = motion.curve();
+        if c > self.curves.len() {
+            return Err(err(format!("load curve {c} does not exist")));
+        }
+        let ok = match motion {
+            SurfaceMotion::Translation { direction, .. } => direction.x.is_finite() && direction.y.is_finite(),
+            SurfaceMotion::NormalOffset { distance, .. } => distance.is_finite(),
+        };
+        if !ok {
+            return Err(err("the motion must be finite".into()));
+        }
+        let Some(f) = self.free_cuts.iter_mut().find(|f| f.0 == name) else {
+            return Err(err(format!("no cut named '{name}'")));
+        };
+        if self.ties.iter().any(|t| t.host == f.1 && t.other_edges.is_none()) {
+            return Err(err("a moving surface cannot share its host with a tie boundary yet".into()));
+        }
+        f.3 = Some(motion);
+        Ok(())
     }
 
     /// Mortar contact (small sliding, fixed pairing from the reference geometry), frictionless
@@ -609,7 +741,7 @@ impl ModelBuilder {
         }
         let surf = VirtualSurface { vertices, closed };
         surf.validate().map_err(|e| ModelError::Tie { tie: name.to_string(), msg: e.to_string() })?;
-        self.free_cuts.push((name.to_string(), body, surf));
+        self.free_cuts.push((name.to_string(), body, surf, None));
         Ok(())
     }
 
@@ -699,6 +831,9 @@ impl ModelBuilder {
         self.curves.len()
     }
     /// Last time of the extra curves (`-inf` without any).
+    pub fn curves(&self) -> &[LoadPath] {
+        &self.curves
+    }
     pub fn curves_end_time(&self) -> f64 {
         self.curves.iter().map(|c| c.end_time()).fold(f64::NEG_INFINITY, f64::max)
     }
@@ -879,13 +1014,23 @@ impl ModelBuilder {
             })?;
         }
         let mut cut_embeddings: Vec<(usize, Embedding)> = Vec::new();
-        for (name, body, surf) in &self.free_cuts {
+        let t_start = load_path.points[0].0;
+        for (name, body, surf, motion) in &self.free_cuts {
             let index = BoxIndex::over_cells(&self.bodies[*body].mesh);
-            let emb = embed(surf, &self.bodies[*body].mesh, &index)
+            // A moving surface starts where its motion puts it at the start of the load path.
+            let placed = match motion {
+                Some(m) => VirtualSurface {
+                    vertices: m.place(surf, curve_value(&self.curves, &load_path, m.curve(), t_start)),
+                    closed: surf.closed,
+                },
+                None => surf.clone(),
+            };
+            let emb = embed(&placed, &self.bodies[*body].mesh, &index)
                 .map_err(|e| ModelError::Tie { tie: name.clone(), msg: e.to_string() })?;
             cut_embeddings.push((*body, emb));
         }
-        let mut penalty = Vec::new();
+        let mut penalty_parts: Vec<Vec<(usize, usize, f64)>> = vec![vec![]; self.bodies.len()];
+        let mut bands: Vec<Option<Band>> = vec![None; self.bodies.len()];
         for (b, body) in self.bodies.iter().enumerate() {
             let embs: Vec<&Embedding> =
                 embeddings.iter().chain(cut_embeddings.iter()).filter(|(h, _)| *h == b).map(|(_, e)| e).collect();
@@ -911,9 +1056,35 @@ impl ModelBuilder {
                     }
                     ModelError::Tie { tie, msg: e.to_string() }
                 })?;
+                // Moving surfaces: the band of cells they may visit gets fixed points now.
+                let mut band_cells_b: Vec<usize> = Vec::new();
+                for (name, cb, surf, motion) in self.free_cuts.iter() {
+                    let (Some(motion), true) = (motion, *cb == b) else { continue };
+                    let range = curve_range(&self.curves, &load_path, motion.curve());
+                    let cells = crate::discretisation::band_cells(&body.mesh, &adjacency, surf, motion, range)
+                        .map_err(|e| ModelError::Tie { tie: name.clone(), msg: e.to_string() })?;
+                    band_cells_b.extend(cells);
+                }
+                if !band_cells_b.is_empty() {
+                    band_cells_b.sort_unstable();
+                    band_cells_b.dedup();
+                    let fixed_embeddings = embeddings.iter().filter(|(h, _)| *h == b).map(|(_, e)| e.clone()).collect();
+                    let points = if self.materials[body.material].has_state() {
+                        crate::cut::BandPoints::Material
+                    } else {
+                        crate::cut::BandPoints::Any
+                    };
+                    bands[b] = Some(Band {
+                        cells: band_cells_b,
+                        rules: vec![],
+                        points,
+                        adjacency: adjacency.clone(),
+                        fixed_embeddings,
+                    });
+                }
                 if self.ghost_penalty > 0.0 {
                     let young = self.materials[body.material].elastic().young;
-                    penalty.extend(crate::cut::ghost_penalty(
+                    penalty_parts[b].extend(crate::cut::ghost_penalty(
                         &body.mesh,
                         &adjacency,
                         &c,
@@ -933,16 +1104,25 @@ impl ModelBuilder {
         el.point_offset.push(0);
         el.state_offset.push(0);
         let mut coords = Vec::new();
-        for b in &self.bodies {
+        for (bi, b) in self.bodies.iter().enumerate() {
             coords.extend_from_slice(&b.mesh.nodes);
             let stateful = self.materials[b.material].has_state();
-            let cut = cuts[self.bodies.iter().position(|x| x.name == b.name).unwrap_or(0)].as_ref();
+            let cut = cuts[bi].as_ref();
             for (ci, c) in b.mesh.cells.iter().enumerate() {
                 let mut nodes = [usize::MAX; 4];
                 for (k, &n) in c.nodes().iter().enumerate() {
                     nodes[k] = n + b.node_offset;
                 }
+                let in_band = bands[bi].as_ref().is_some_and(|band| band.cells.binary_search(&ci).is_ok());
                 let r = match cut.map(|cm| &cm.cells[ci]) {
+                    Some(state) if in_band => {
+                        let which = bands[bi].as_ref().map_or(crate::cut::BandPoints::Material, |band| band.points);
+                        rules.push(crate::discretisation::initial_band_weights(&b.mesh, ci, state, which));
+                        if let Some(band) = bands[bi].as_mut() {
+                            band.rules.push(rules.len() - 1);
+                        }
+                        rules.len() - 1
+                    }
                     None | Some(CellCut::Material) => rule_of(c.kind),
                     Some(CellCut::Void) => 2,
                     Some(CellCut::Cut { loops, .. }) => {
@@ -967,24 +1147,6 @@ impl ModelBuilder {
         let mut prescribed = self.prescribed;
         let mut f_ext_curves = std::mem::take(&mut self.f_curves);
         let f_ext0 = f_ext_curves.remove(0);
-        // Deactivate host nodes whose support keeps (almost) no material.
-        let mut deactivated_dofs = 0;
-        for (b, cut) in cuts.iter().enumerate() {
-            if let Some(cm) = cut {
-                let off = self.bodies[b].node_offset;
-                for (n, &f) in cm.node_fraction.iter().enumerate() {
-                    if f < SMALL_FRACTION {
-                        for c in 0..2 {
-                            let d = 2 * (n + off) + c;
-                            if !prescribed.iter().any(|p| p.0 == d) {
-                                prescribed.insert(0, (d, 0.0, 0));
-                                deactivated_dofs += 1;
-                            }
-                        }
-                    }
-                }
-            }
-        }
         // Mortar tying rows.
         let mut constraints = Vec::new();
         let mut ties = Vec::new();
@@ -1036,7 +1198,19 @@ impl ModelBuilder {
         keep.sort_unstable();
         prescribed = keep.into_iter().map(|i| prescribed[i]).collect();
         prescribed.sort_by_key(|p| p.0);
-        let constrained: Vec<usize> = prescribed.iter().map(|p| p.0).collect();
+        // Switch off host nodes whose support keeps (almost) no material: their DOFs leave the
+        // unknowns and keep their value (zero until a surface moves).
+        let prescribed_pairs: Vec<(usize, f64)> = prescribed.iter().map(|p| (p.0, p.1)).collect();
+        let held: Vec<Vec<usize>> = cuts
+            .iter()
+            .enumerate()
+            .map(|(b, cut)| {
+                cut.as_ref().map_or(vec![], |cm| held_dofs(cm, self.bodies[b].node_offset, &prescribed_pairs))
+            })
+            .collect();
+        let deactivated_dofs = held.iter().map(|h| h.len()).sum();
+        let mut constrained: Vec<usize> = prescribed.iter().map(|p| p.0).collect();
+        constrained.extend(held.iter().flatten().copied());
         let dofs = DofMap::new(coords.len(), &constrained);
         if dofs.num_free == 0 {
             return Err(ModelError::NoFreeDofs);
@@ -1053,6 +1227,7 @@ impl ModelBuilder {
                 / nseg as f64;
             let max_gap = 2.0 * h;
             let pts: Vec<[Point2<f64>; 2]>;
+            let mut other_surface = None;
             let (other, paired) = match &c.other {
                 ContactOther::Edges(edges) => {
                     pts =
@@ -1063,6 +1238,7 @@ impl ModelBuilder {
                     let Some(i) = self.free_cuts.iter().position(|f| &f.0 == cut) else {
                         return Err(ModelError::Tie { tie: c.name.clone(), msg: format!("no cut named '{cut}'") });
                     };
+                    other_surface = Some(i);
                     let (b, emb) = &cut_embeddings[i];
                     let host = &self.bodies[*b];
                     (
@@ -1071,7 +1247,6 @@ impl ModelBuilder {
                     )
                 }
             };
-            let finite = c.params.sliding == Sliding::Finite;
             let lm = match c.params.multipliers {
                 MultiplierSpace::Classical => build_multipliers(&c.side, MultiplierSpace::Classical, 1.0),
                 MultiplierSpace::CoarseGrained => {
@@ -1082,9 +1257,10 @@ impl ModelBuilder {
             let first_row = contact_rows.len();
             let mut friction_row = Vec::with_capacity(rows.len());
             for r in rows {
-                // Finite sliding: every node gets a friction row (pairings come and go), so the
-                // multiplier layout stays the same when the pair is re-paired.
-                friction_row.push(if c.params.friction > 0.0 && (r.phi > 0.0 || finite) {
+                // Every node of a frictional pair gets a friction row, paired or not (pairings
+                // come and go under finite sliding and moving surfaces): the multiplier layout
+                // is fixed for the run.
+                friction_row.push(if c.params.friction > 0.0 {
                     friction_rows.push(r.tangent);
                     friction_normal.push(contact_rows.len());
                     Some(friction_rows.len() - 1)
@@ -1110,9 +1286,27 @@ impl ModelBuilder {
                 side: c.side.clone(),
                 other: paired,
                 max_gap,
+                other_surface,
             });
         }
         let friction_s0 = vec![0.0; friction_rows.len()];
+        let surfaces = self
+            .free_cuts
+            .iter()
+            .zip(cut_embeddings)
+            .map(|((name, body, surf, motion), (_, embedding))| FreeSurface {
+                name: name.clone(),
+                body: *body,
+                base: surf.clone(),
+                motion: *motion,
+                vertices: match motion {
+                    Some(m) => m.place(surf, curve_value(&self.curves, &load_path, m.curve(), t_start)),
+                    None => surf.vertices.clone(),
+                },
+                embedding,
+            })
+            .collect();
+        let penalty = penalty_parts.iter().flatten().copied().collect();
         Ok(Model {
             hypothesis: self.hypothesis,
             bodies: self.bodies,
@@ -1149,6 +1343,12 @@ impl ModelBuilder {
             friction_normal,
             friction_s0,
             contacts,
+            surfaces,
+            bands,
+            penalty_parts,
+            ghost_penalty: self.ghost_penalty,
+            held,
+            cycle: self.cycle,
         })
     }
 }

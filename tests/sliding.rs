@@ -96,7 +96,7 @@ fn drag(virtual_lower: bool, increments: usize) -> f64 {
         let mut checked = 0;
         let mut worst_q: f64 = 0.0;
         let mut u_start = s.u.clone();
-        StaticAnalysis::run_repairing(&model, &mut s, true, |r, st| {
+        mortex::driver::run(&model, &mut s, mortex::driver::RunOptions::default(), |r, st, _| {
             // The pairing this step was solved on (from the state it started from).
             let paired = model.repaired(&u_start);
             u_start.clone_from(&st.u);
@@ -219,7 +219,7 @@ fn finite_sliding_resumes_bit_for_bit() {
     let (model, _) = drag_model(true, Sliding::Finite, 12);
     let mut s = StaticAnalysis::new(&model).unwrap().initial_state();
     let mut full = vec![];
-    StaticAnalysis::run_repairing(&model, &mut s, true, |_, st| {
+    mortex::driver::run(&model, &mut s, mortex::driver::RunOptions::default(), |_, st, _| {
         full.push(st.clone());
         Ok(())
     })
@@ -230,7 +230,7 @@ fn finite_sliding_resumes_bit_for_bit() {
     for k in [2, 7] {
         let mut resumed = full[k - 1].clone();
         let mut later = vec![];
-        StaticAnalysis::run_repairing(&model, &mut resumed, true, |_, st| {
+        mortex::driver::run(&model, &mut resumed, mortex::driver::RunOptions::default(), |_, st, _| {
             later.push(st.clone());
             Ok(())
         })
@@ -252,7 +252,7 @@ fn finite_sliding_monolithic_equals_condensed() {
     let run = |j2: bool| {
         let (model, _) = drag_model_with(true, Sliding::Finite, 12, j2);
         let mut s = StaticAnalysis::new(&model).unwrap().initial_state();
-        StaticAnalysis::run_repairing(&model, &mut s, true, |_, _| Ok(())).unwrap();
+        mortex::driver::run(&model, &mut s, mortex::driver::RunOptions::default(), |_, _, _| Ok(())).unwrap();
         s
     };
     let (c, m) = (run(false), run(true));

@@ -132,6 +132,20 @@ pub struct CutSpec {
     /// Side of the polyline (walking from the first point) on which material is kept.
     #[serde(default)]
     pub keep: KeepSide,
+    /// Prescribed motion during the run: the surface moves through its host, re-cut on fixed
+    /// integration points (no remeshing).
+    pub motion: Option<MotionSpec>,
+}
+
+/// Motion of a virtual surface: `translation = [dx, dy]` or `offset = d` (along the normal
+/// into the kept material; negative: outwards), scaled by a load curve.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotionSpec {
+    pub translation: Option<[f64; 2]>,
+    pub offset: Option<f64>,
+    /// Load curve scaling the motion (default: `steps.path`).
+    pub curve: Option<String>,
 }
 
 #[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq, Default)]
@@ -314,6 +328,11 @@ pub struct StepsSpec {
     pub increments: usize,
     /// Explicit output times.
     pub times: Option<Vec<f64>>,
+    /// Cyclic history: the window `[start, end]` of the history repeats `cycles` times with
+    /// `increments` output steps per cycle; before `start`, `ramp_increments` steps (default 1).
+    pub cycle: Option<[f64; 2]>,
+    pub cycles: Option<usize>,
+    pub ramp_increments: Option<usize>,
 }
 
 fn default_path() -> Vec<[f64; 2]> {
@@ -324,7 +343,7 @@ fn default_increments() -> usize {
 }
 impl Default for StepsSpec {
     fn default() -> Self {
-        StepsSpec { path: default_path(), increments: 1, times: None }
+        StepsSpec { path: default_path(), increments: 1, times: None, cycle: None, cycles: None, ramp_increments: None }
     }
 }
 
@@ -350,6 +369,9 @@ pub struct OutputSpec {
     /// A checkpoint (the whole state, for `mortex run --restart`) every this many output steps;
     /// default 1, 0 for none.
     pub checkpoint_every: Option<usize>,
+    /// Full fields (nodal, cell and point fields) every this many output steps (default 1; the
+    /// last step always has them). Contact and surface series are written every step.
+    pub fields_every: Option<usize>,
 }
 
 /// A validated case: the model plus run options.
@@ -361,7 +383,14 @@ pub struct Case {
     pub serial: bool,
     /// Checkpoint interval in output steps (0: none).
     pub checkpoint_every: usize,
+    /// Full-field interval in output steps (>= 1).
+    pub fields_every: usize,
 }
+
+/// Largest number of output steps a case may ask for (each is a group in the result file).
+pub const MAX_OUTPUT_STEPS: usize = 10_000_000;
+/// Largest number of cells a generated mesh may have (about 2 GB of model data).
+pub const MAX_GENERATED_CELLS: usize = 20_000_000;
 
 struct Ctx<'a> {
     path: &'a str,
@@ -613,6 +642,28 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         }
         let name = c.name.clone().unwrap_or_else(|| format!("cut{i}"));
         b.add_cut(&name, bi, pts, c.closed, c.keep == KeepSide::Left).map_err(|e| model_err(&cx, k("points"), e))?;
+        if let Some(m) = &c.motion {
+            let curve = curve_id(&m.curve, k("motion.curve"))?;
+            let motion = match (m.translation, m.offset) {
+                (Some(d), None) => crate::discretisation::SurfaceMotion::Translation {
+                    direction: Vector2::new(
+                        cx.finite(&k("motion.translation"), d[0])?,
+                        cx.finite(&k("motion.translation"), d[1])?,
+                    ),
+                    curve,
+                },
+                (None, Some(d)) => {
+                    // Offsets are along the normal into the kept material; the model keeps the
+                    // material on the left of its polyline.
+                    crate::discretisation::SurfaceMotion::NormalOffset {
+                        distance: cx.finite(&k("motion.offset"), d)?,
+                        curve,
+                    }
+                }
+                _ => return Err(cx.err(k("motion"), "give exactly one of translation, offset")),
+            };
+            b.set_cut_motion(&name, motion).map_err(|e| model_err(&cx, k("motion"), e))?;
+        }
     }
 
     for (i, c) in raw.contacts.iter().enumerate() {
@@ -664,8 +715,59 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
     let path_pts: Vec<(f64, f64)> = raw.steps.path.iter().map(|p| (p[0], p[1])).collect();
     let load_path = LoadPath::new(path_pts).map_err(|e| model_err(&cx, "steps.path".into(), e))?;
     let (t0, t1) = (load_path.points[0].0, load_path.end_time().max(curves_end));
-    let times = match &raw.steps.times {
-        Some(ts) => {
+    let cyclic = match (raw.steps.cycle, raw.steps.cycles) {
+        (None, None) => None,
+        (Some(w), Some(n)) => {
+            let (start, end) = (cx.finite("steps.cycle", w[0])?, cx.finite("steps.cycle", w[1])?);
+            if !(start >= t0 && end > start && end <= t1 + 1e-12 * t1.abs().max(1.0)) {
+                return Err(cx.err(
+                    "steps.cycle",
+                    format!(
+                        "the window [{start}, {end}] must lie inside the load history [{t0}, {t1}] with start < end"
+                    ),
+                ));
+            }
+            if n == 0 {
+                return Err(cx.err("steps.cycles", "must be at least 1"));
+            }
+            if raw.steps.times.is_some() {
+                return Err(cx.err("steps.times", "cannot be combined with steps.cycle (output steps come per cycle)"));
+            }
+            let increments = raw.steps.increments;
+            let ramp = raw.steps.ramp_increments.unwrap_or(1);
+            if increments == 0 || ramp == 0 {
+                return Err(cx.err("steps.increments", "increments and ramp_increments must be at least 1"));
+            }
+            if n.checked_mul(increments).is_none_or(|v| v > MAX_OUTPUT_STEPS) {
+                return Err(cx.err(
+                    "steps.cycles",
+                    format!("{n} cycles x {increments} increments is more than {MAX_OUTPUT_STEPS} output steps"),
+                ));
+            }
+            // Every history must close over the window, or the cycles would jump.
+            let mut histories: Vec<(&str, &LoadPath)> = vec![("steps.path", &load_path)];
+            for (c, cs) in b.curves().iter().zip(&raw.curves) {
+                histories.push((cs.name.as_str(), c));
+            }
+            for (name, h) in histories {
+                let (fa, fb) = (h.factor(start), h.factor(end));
+                if (fa - fb).abs() > 1e-12 * fa.abs().max(fb.abs()).max(1.0) {
+                    return Err(cx.err(
+                        "steps.cycle",
+                        format!("curve '{name}' does not close over the cycle: factor {fa} at {start}, {fb} at {end}"),
+                    ));
+                }
+            }
+            Some(crate::model::Cycle { start, period: end - start, count: n, increments, ramp_increments: ramp })
+        }
+        _ => return Err(cx.err("steps.cycle", "give both steps.cycle = [start, end] and steps.cycles = N")),
+    };
+    let times = match (&raw.steps.times, cyclic) {
+        (_, Some(cy)) => {
+            b.set_cycle(cy);
+            cy.times(t0)
+        }
+        (Some(ts), None) => {
             if ts.is_empty() || ts.windows(2).any(|w| w[1] <= w[0]) || ts.iter().any(|t| !t.is_finite() || *t <= t0) {
                 return Err(cx.err(
                     "steps.times",
@@ -674,10 +776,13 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
             }
             ts.clone()
         }
-        None => {
+        (None, None) => {
             let n = raw.steps.increments;
             if n == 0 {
                 return Err(cx.err("steps.increments", "must be at least 1"));
+            }
+            if n > MAX_OUTPUT_STEPS {
+                return Err(cx.err("steps.increments", format!("{n} is more than {MAX_OUTPUT_STEPS} output steps")));
             }
             (1..=n).map(|i| t0 + (t1 - t0) * i as f64 / n as f64).collect()
         }
@@ -717,6 +822,11 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         output,
         serial: raw.solver.serial,
         checkpoint_every: raw.output.checkpoint_every.unwrap_or(1),
+        fields_every: match raw.output.fields_every {
+            None => 1,
+            Some(0) => return Err(cx.err("output.fields_every", "must be at least 1")),
+            Some(k) => k,
+        },
     })
 }
 
@@ -725,10 +835,41 @@ fn model_err(cx: &Ctx, key: String, e: ModelError) -> CaseError {
 }
 
 fn build_mesh(spec: &MeshSpec, base: &Path) -> Result<Mesh2, String> {
+    let divisions = match spec {
+        MeshSpec::Rectangle { divisions, .. }
+        | MeshSpec::Disc { divisions, .. }
+        | MeshSpec::AnnulusSector { divisions, .. }
+        | MeshSpec::HalfDisc { divisions, .. } => Some(*divisions),
+        MeshSpec::Gmsh { .. } => None,
+    };
+    let floats: Vec<f64> = match spec {
+        MeshSpec::Rectangle { origin, size, grading, rotation, .. } => {
+            origin.iter().chain(size).chain(grading).copied().chain([*rotation]).collect()
+        }
+        MeshSpec::Disc { centre, radius, .. } => vec![centre[0], centre[1], *radius],
+        MeshSpec::AnnulusSector { inner_radius, outer_radius, angles, radial_grading, .. } => {
+            vec![*inner_radius, *outer_radius, angles[0], angles[1], *radial_grading]
+        }
+        MeshSpec::HalfDisc { centre, radius, radial_grading, angular_grading, .. } => {
+            vec![centre[0], centre[1], *radius, *radial_grading, *angular_grading]
+        }
+        MeshSpec::Gmsh { .. } => vec![],
+    };
+    if let Some(v) = floats.iter().find(|v| !v.is_finite()) {
+        return Err(format!("mesh parameters must be finite numbers (got {v})"));
+    }
+    if let Some(d) = divisions {
+        if d[0].checked_mul(d[1]).and_then(|n| n.checked_mul(4)).is_none_or(|n| n > 4 * MAX_GENERATED_CELLS) {
+            return Err(format!("divisions {} x {} exceed {MAX_GENERATED_CELLS} cells", d[0], d[1]));
+        }
+    }
     let m = match spec {
         MeshSpec::Rectangle { origin, size, divisions, grading, cell, rotation, refine_to_centre } => {
             if divisions[0] == 0 || divisions[1] == 0 || !(grading[0] > 0.0 && grading[1] > 0.0) {
                 return Err("rectangle needs divisions >= 1 and positive grading ratios".into());
+            }
+            if !(size[0] > 0.0 && size[1] > 0.0) {
+                return Err(format!("rectangle size must be positive, got [{}, {}]", size[0], size[1]));
             }
             let lines = |k: usize| {
                 if refine_to_centre[k] {

@@ -499,12 +499,71 @@ pub fn subtriangulation_rule(mesh: &Mesh2, c: usize, loops: &[Vec<Point2<f64>>])
     rule
 }
 
-/// The richer fixed rule of a cell that may be cut later (wear band): 8 x 8 Gauss on `Quad4`,
-/// a 64-point collapsed Gauss rule on `Tri3`.
+/// The richer fixed rule of a cell that a moving surface may visit (its band): 8 x 8 Gauss on
+/// `Quad4`, a 64-point collapsed Gauss rule on `Tri3`, plus the cell's vertices and edge
+/// midpoints with weight zero. The weights are those of the uncut cell (exact to degree 15 /
+/// 14); a cut refits them ([`band_weights`]). The boundary points put every material
+/// centroid inside the convex hull of the points, so first moments can always be fitted when
+/// every point may carry weight.
 pub fn band_rule(kind: CellKind) -> QuadratureRule {
-    match kind {
-        CellKind::Quad4 => quad_gauss(8),
-        CellKind::Tri3 => collapsed_triangle_rule(14),
+    let (mut rule, extra): (QuadratureRule, &[[f64; 2]]) = match kind {
+        CellKind::Quad4 => (
+            quad_gauss(8),
+            &[[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0], [0.0, -1.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]],
+        ),
+        CellKind::Tri3 => {
+            (collapsed_triangle_rule(14), &[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.5, 0.0], [0.5, 0.5], [0.0, 0.5]])
+        }
+    };
+    for p in extra {
+        rule.points.push(*p);
+        rule.weights.push(0.0);
+    }
+    rule
+}
+
+/// Which fixed points of a band cell may carry weight once it is cut.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BandPoints {
+    /// Only points inside the material (bodies with history: a point in the void keeps its last
+    /// values and weight zero).
+    Material,
+    /// Every point of the cell (bodies without history: the integrand is the polynomial
+    /// extension of the cell's field, nothing is stored at the points, so a point in the void
+    /// may serve as a quadrature point; first moments are then always matched).
+    Any,
+}
+
+/// Reference weights of a band cell's fixed `rule` (from [`band_rule`]) for its current cut
+/// state: the uncut weights for a material cell, zeros for a void one, moment-fitted weights
+/// ([`fit_weights`]) for a cut one. Returns the weights and the moment degree matched
+/// (`None`: not even the area; `Some(usize::MAX)` for an uncut cell).
+pub fn band_weights(
+    mesh: &Mesh2,
+    c: usize,
+    rule: &QuadratureRule,
+    full_weights: &[f64],
+    state: &CellCut,
+    which: BandPoints,
+) -> (Vec<f64>, Option<usize>) {
+    match state {
+        CellCut::Material => (full_weights.to_vec(), Some(usize::MAX)),
+        CellCut::Void => (vec![0.0; rule.len()], Some(usize::MAX)),
+        CellCut::Cut { loops, .. } => {
+            let mapped = MappedElement::new(mesh.cells[c].kind, mesh.cell_coords(c));
+            let x: Vec<Point2<f64>> = rule.points.iter().map(|xi| mapped.map(*xi)).collect();
+            let h = cell_size(&cell_polygon(mesh, c));
+            let inside: Vec<bool> = match which {
+                BandPoints::Any => vec![true; x.len()],
+                BandPoints::Material => x
+                    .iter()
+                    .map(|p| loops.iter().any(|l| point_in_loop(l, *p) || point_on_loop_boundary(l, *p, 1e-12 * h)))
+                    .collect(),
+            };
+            let (w, degree) = fit_weights(&x, &inside, loops);
+            let w_ref = w.iter().zip(&rule.points).map(|(w, xi)| w / mapped.jacobian(*xi).determinant()).collect();
+            (w_ref, degree)
+        }
     }
 }
 

@@ -73,8 +73,10 @@ fn b_matrix(ev: &ShapeEval, nn: usize, bbar_vol: Option<&[f64; 8]>, b: &mut [[f6
 pub fn element_kernel(inp: &ElementInput, out: &mut ElementOutput) -> f64 {
     let nn = inp.kind.num_nodes();
     let ndof = 2 * nn;
-    if inp.rule.is_empty() {
-        // A void cell (all material cut away): no points, no contribution.
+    if inp.rule.weights.iter().all(|&w| w == 0.0) {
+        // A void cell (all material cut away, or a band cell whose points all lie in the void):
+        // no contribution; its points keep their last values.
+        out.state_new.copy_from_slice(inp.state_old);
         *out.fe = [0.0; 8];
         if let Some(ke) = out.ke.as_deref_mut() {
             *ke = [0.0; 64];
@@ -116,6 +118,14 @@ pub fn element_kernel(inp: &ElementInput, out: &mut ElementOutput) -> f64 {
         _ => None,
     };
     for (q, (xi, w)) in inp.rule.points.iter().zip(&inp.rule.weights).enumerate() {
+        if *w == 0.0 {
+            // A fixed point without material (moving surfaces): it keeps its last values and
+            // its history does not advance.
+            if let (Some(new), Some(old)) = (out.state_new.get_mut(q), inp.state_old.get(q)) {
+                *new = *old;
+            }
+            continue;
+        }
         mapped.eval(*xi, &mut ev);
         let dv = w * ev.det_j * inp.thickness;
         measure += dv;

@@ -1,0 +1,383 @@
+//! Moving virtual surfaces on fixed integration points (re-cutting without remeshing).
+//!
+//! A free cut may move during a run ([`SurfaceMotion`]: a translation or a normal offset
+//! following a load curve; the wear loop moves surfaces by its own law). Every host cell the
+//! surface may visit (its *band*, derived from the motion when the model is built) gets the
+//! fixed points of [`band_rule`] once; each surface update re-embeds the surface, re-cuts the
+//! host ([`cut_mesh`]) and refits the weights of the band cells by moment fitting on those
+//! points ([`band_weights`]). Nothing else changes: the element table, the point and state
+//! layout, the multiplier rows and therefore `SimState` keep their sizes and order for the
+//! whole run.
+//!
+//! What a re-cut refits (Sudhakar & Wall, CMAME 258 (2013) 39, moment fitting; non-negative
+//! weights by Lawson-Hanson NNLS):
+//! * bodies without history ([`BandPoints::Any`]): every fixed point of a cut band cell may
+//!   carry weight (nothing is stored there; the integrand is the polynomial extension of the
+//!   cell's field). The rule contains the cell's vertices, so areas and first moments are
+//!   matched exactly for every cut, slivers included (patch test exact); second moments
+//!   where a non-negative fit exists (thin slivers fall back to degree 1);
+//! * bodies with history ([`BandPoints::Material`]): only points inside the material carry
+//!   weight; points left in the void get weight zero and keep their last values (the kernel
+//!   skips them). For slivers below about 25 % of a cell, exact first moments are generally not
+//!   reachable with non-negative weights on the points inside; the fit then falls back to
+//!   degree 0 (area), and the ghost penalty keeps such cells stable.
+//!
+//! Host nodes whose support keeps less than [`SMALL_FRACTION`] of its area are switched off:
+//! their DOFs leave the unknowns and keep their last value (held, not prescribed), and come
+//! back when material returns. The ghost penalty and the contact rows of pairs whose other
+//! side is the moving surface are rebuilt at every update.
+
+use crate::assembly::DofMap;
+use crate::cut::{band_rule, band_weights, cut_mesh, BandPoints, CellAdjacency, CellCut, SMALL_FRACTION};
+use crate::mesh::{CellKind, Mesh2};
+use crate::model::{Model, ModelError, PairedSide, Sliding};
+use crate::mortar::{weighted_gaps, OtherSide};
+use crate::surface::{cell_polygon, embed, BoxIndex, Embedding, VirtualSurface};
+use nalgebra::{Point2, Vector2};
+
+/// Prescribed motion of a free cut.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SurfaceMotion {
+    /// Every vertex moves by `factor(t) * direction`.
+    Translation { direction: Vector2<f64>, curve: usize },
+    /// Every segment moves along its inward normal (into the material) by `factor(t) *
+    /// distance`; vertices are mitred so that segments stay parallel to themselves.
+    NormalOffset { distance: f64, curve: usize },
+}
+
+impl SurfaceMotion {
+    pub fn curve(&self) -> usize {
+        match *self {
+            SurfaceMotion::Translation { curve, .. } | SurfaceMotion::NormalOffset { curve, .. } => curve,
+        }
+    }
+    /// Largest distance a vertex moves per unit factor.
+    fn reach(&self, base: &VirtualSurface) -> f64 {
+        match *self {
+            SurfaceMotion::Translation { direction, .. } => direction.norm(),
+            SurfaceMotion::NormalOffset { distance, .. } => {
+                mitre_vectors(base).iter().map(|m| m.norm()).fold(0.0, f64::max) * distance.abs()
+            }
+        }
+    }
+    /// Vertices of `base` moved by factor `f`.
+    pub fn place(&self, base: &VirtualSurface, f: f64) -> Vec<Point2<f64>> {
+        match *self {
+            SurfaceMotion::Translation { direction, .. } => base.vertices.iter().map(|p| p + direction * f).collect(),
+            SurfaceMotion::NormalOffset { distance, .. } => {
+                let m = mitre_vectors(base);
+                base.vertices.iter().zip(&m).map(|(p, m)| p + m * (distance * f)).collect()
+            }
+        }
+    }
+}
+
+/// Per vertex, the displacement that moves every adjacent segment by a unit distance along its
+/// left (material-side) normal: `(n_a + n_b) / (1 + n_a . n_b)`.
+fn mitre_vectors(s: &VirtualSurface) -> Vec<Vector2<f64>> {
+    let nv = s.vertices.len();
+    let ns = s.num_segments();
+    let normal = |i: usize| {
+        let (a, b) = s.segment(i);
+        let t = (b - a).normalize();
+        Vector2::new(-t.y, t.x)
+    };
+    (0..nv)
+        .map(|i| {
+            let before = if i > 0 {
+                Some(i - 1)
+            } else if s.closed {
+                Some(ns - 1)
+            } else {
+                None
+            };
+            let after = if i < ns { Some(i) } else { None };
+            match (before, after) {
+                (Some(a), Some(b)) => {
+                    let (na, nb) = (normal(a), normal(b));
+                    (na + nb) / (1.0 + na.dot(&nb)).max(1e-3)
+                }
+                (Some(a), None) => normal(a),
+                (None, Some(b)) => normal(b),
+                (None, None) => Vector2::zeros(),
+            }
+        })
+        .collect()
+}
+
+/// A free virtual surface (traction-free boundary, or the other side of a contact) of a body.
+#[derive(Debug, Clone)]
+pub struct FreeSurface {
+    pub name: String,
+    pub body: usize,
+    /// Polyline at its reference position, material on its left.
+    pub base: VirtualSurface,
+    pub motion: Option<SurfaceMotion>,
+    /// Where it is now (the model's current discretisation).
+    pub vertices: Vec<Point2<f64>>,
+    pub embedding: Embedding,
+}
+
+/// The fixed-point band of a body with a moving surface.
+#[derive(Debug, Clone)]
+pub struct Band {
+    /// Band cells (sorted) and the rule index of each (one rule per band cell: the points are
+    /// fixed, the weights refitted).
+    pub cells: Vec<usize>,
+    pub rules: Vec<usize>,
+    pub points: BandPoints,
+    pub adjacency: CellAdjacency,
+    /// Surfaces embedded in the body that never move (tie boundaries).
+    pub fixed_embeddings: Vec<Embedding>,
+}
+
+/// What one surface update did (for logs and tests).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RecutReport {
+    /// Surfaces that moved.
+    pub moved: usize,
+    /// Band cells refitted, by moment degree reached: `[area only, first, second]`; cells cut
+    /// where no weight could be fitted at all.
+    pub cut_cells_by_degree: [usize; 3],
+    pub unfitted_cells: usize,
+    /// Host DOFs switched off after the update.
+    pub held_dofs: usize,
+}
+
+/// Cells a moving surface visits over the factor range `[f_min, f_max]` of its curve: the cells
+/// cut at sampled positions (a quarter of the smallest cell edge apart) and their edge
+/// neighbours (a surface clipping a corner between two samples).
+pub fn band_cells(
+    mesh: &Mesh2,
+    adjacency: &CellAdjacency,
+    base: &VirtualSurface,
+    motion: &SurfaceMotion,
+    f_range: (f64, f64),
+) -> Result<Vec<usize>, crate::surface::SurfaceError> {
+    let index = BoxIndex::over_cells(mesh);
+    let h_min = (0..mesh.num_cells())
+        .map(|c| {
+            let p = cell_polygon(mesh, c);
+            (0..p.len()).map(|k| (p[(k + 1) % p.len()] - p[k]).norm()).fold(f64::INFINITY, f64::min)
+        })
+        .fold(f64::INFINITY, f64::min);
+    let travel = (f_range.1 - f_range.0) * motion.reach(base);
+    let samples = ((travel / (0.25 * h_min)).ceil() as usize).clamp(1, 100_000);
+    let mut mark = vec![false; mesh.num_cells()];
+    for s in 0..=samples {
+        let f = f_range.0 + (f_range.1 - f_range.0) * s as f64 / samples as f64;
+        let surf = VirtualSurface { vertices: motion.place(base, f), closed: base.closed };
+        let emb = embed(&surf, mesh, &index)?;
+        for p in &emb.cell_pieces {
+            mark[p.cell] = true;
+        }
+    }
+    let core: Vec<usize> = (0..mesh.num_cells()).filter(|&c| mark[c]).collect();
+    for &c in &core {
+        for k in 0..mesh.cells[c].nodes().len() {
+            if let Some(nb) = adjacency.neighbour(c, k) {
+                mark[nb] = true;
+            }
+        }
+    }
+    Ok((0..mesh.num_cells()).filter(|&c| mark[c]).collect())
+}
+
+/// Uncut weights of the band rule of each cell kind.
+fn full_weights(kind: CellKind) -> Vec<f64> {
+    band_rule(kind).weights
+}
+
+impl Model {
+    /// Vertices of free surface `i` at time `t` (its reference vertices when it does not move).
+    pub fn surface_vertices_at(&self, i: usize, t: f64) -> Vec<Point2<f64>> {
+        let s = &self.surfaces[i];
+        match &s.motion {
+            Some(m) => m.place(&s.base, self.curve_factor(m.curve(), t)),
+            None => s.base.vertices.clone(),
+        }
+    }
+
+    /// Whether any surface of the model moves during the run.
+    pub fn has_moving_surfaces(&self) -> bool {
+        self.surfaces.iter().any(|s| s.motion.is_some())
+    }
+
+    /// Moves every moving surface to its position at time `t` and re-cuts (see the module
+    /// documentation). The state layout does not change.
+    pub fn place_surfaces(&mut self, t: f64) -> Result<RecutReport, ModelError> {
+        let positions: Vec<(usize, Vec<Point2<f64>>)> = (0..self.surfaces.len())
+            .filter(|&i| self.surfaces[i].motion.is_some())
+            .map(|i| (i, self.surface_vertices_at(i, t)))
+            .collect();
+        self.move_surfaces(&positions)
+    }
+
+    /// Moves free surfaces to new vertex positions (`(surface index, vertices)`, same vertex
+    /// count) and re-cuts their hosts on the fixed band points.
+    pub fn move_surfaces(&mut self, positions: &[(usize, Vec<Point2<f64>>)]) -> Result<RecutReport, ModelError> {
+        let mut report = RecutReport::default();
+        let mut bodies: Vec<usize> = Vec::new();
+        let mut moved: Vec<usize> = Vec::new();
+        for (i, v) in positions {
+            let s = &self.surfaces[*i];
+            let err = |msg: String| ModelError::Tie { tie: s.name.clone(), msg };
+            if v.len() != s.base.vertices.len() {
+                return Err(err(format!(
+                    "a move gave {} vertices, the surface has {}",
+                    v.len(),
+                    s.base.vertices.len()
+                )));
+            }
+            if *v == s.vertices {
+                continue;
+            }
+            if self.bands[s.body].is_none() {
+                return Err(err("the surface was not declared moving: its host has no band of fixed points".into()));
+            }
+            if v.iter().any(|p| !p.x.is_finite() || !p.y.is_finite()) {
+                return Err(err("a move gave a non-finite vertex".into()));
+            }
+            let surf = VirtualSurface { vertices: v.clone(), closed: s.base.closed };
+            surf.validate().map_err(|e| err(e.to_string()))?;
+            let mesh = &self.bodies[s.body].mesh;
+            let emb = embed(&surf, mesh, &BoxIndex::over_cells(mesh)).map_err(|e| err(e.to_string()))?;
+            let body = s.body;
+            self.surfaces[*i].vertices = v.clone();
+            self.surfaces[*i].embedding = emb;
+            moved.push(*i);
+            if !bodies.contains(&body) {
+                bodies.push(body);
+            }
+        }
+        report.moved = moved.len();
+        for &b in &bodies {
+            self.recut_body(b, &mut report)?;
+        }
+        if !moved.is_empty() {
+            self.refresh_contact_rows(&moved);
+            self.penalty = self.penalty_parts.iter().flatten().copied().collect();
+            let mut constrained: Vec<usize> = self.prescribed.iter().map(|p| p.0).collect();
+            constrained.extend(self.held.iter().flatten().copied());
+            self.dofs = DofMap::new(self.coords.len(), &constrained);
+            if self.dofs.num_free == 0 {
+                return Err(ModelError::NoFreeDofs);
+            }
+        }
+        report.held_dofs = self.held.iter().map(|h| h.len()).sum();
+        self.deactivated_dofs = report.held_dofs;
+        Ok(report)
+    }
+
+    /// Re-cuts body `b` with its current surfaces: cut state, band weights, ghost penalty and
+    /// switched-off nodes.
+    fn recut_body(&mut self, b: usize, report: &mut RecutReport) -> Result<(), ModelError> {
+        let Some(band) = self.bands[b].as_ref() else { return Ok(()) };
+        let body = &self.bodies[b];
+        let mut embs: Vec<&Embedding> = band.fixed_embeddings.iter().collect();
+        embs.extend(self.surfaces.iter().filter(|s| s.body == b).map(|s| &s.embedding));
+        let first_surface = self.surfaces.iter().find(|s| s.body == b).map(|s| s.name.clone()).unwrap_or_default();
+        let tie_err = |msg: String| ModelError::Tie { tie: first_surface.clone(), msg };
+        let cm = cut_mesh(&body.mesh, &band.adjacency, &embs).map_err(|e| tie_err(e.to_string()))?;
+        // Outside the band nothing may change: its cells have fixed rules.
+        if let Some(old) = &self.cuts[b] {
+            for c in 0..body.mesh.num_cells() {
+                if cm.cells[c] != old.cells[c] && band.cells.binary_search(&c).is_err() {
+                    return Err(tie_err(format!(
+                        "the surface reached host cell {c}, outside the band of fixed points prepared for its motion"
+                    )));
+                }
+            }
+        }
+        for (&c, &r) in band.cells.iter().zip(&band.rules) {
+            let kind = body.mesh.cells[c].kind;
+            let (w, degree) =
+                band_weights(&body.mesh, c, &self.rules[r], &full_weights(kind), &cm.cells[c], band.points);
+            if matches!(cm.cells[c], CellCut::Cut { .. }) {
+                match degree {
+                    Some(d) if d <= 2 => report.cut_cells_by_degree[d] += 1,
+                    _ => report.unfitted_cells += 1,
+                }
+            }
+            self.rules[r].weights = w;
+        }
+        self.penalty_parts[b] = if self.ghost_penalty > 0.0 {
+            let young = self.materials[body.material].elastic().young;
+            crate::cut::ghost_penalty(&body.mesh, &band.adjacency, &cm, body.node_offset, young, self.ghost_penalty)
+        } else {
+            vec![]
+        };
+        self.held[b] = held_dofs(&cm, body.node_offset, &self.prescribed);
+        self.cuts[b] = Some(cm);
+        Ok(())
+    }
+
+    /// Rebuilds the weighted-gap rows of contact pairs whose other side is a moved surface
+    /// (small sliding: from the reference geometry; finite sliding re-pairs every step anyway).
+    fn refresh_contact_rows(&mut self, moved: &[usize]) {
+        for ci in 0..self.contacts.len() {
+            let Some(si) = self.contacts[ci].other_surface else { continue };
+            if !moved.contains(&si) {
+                continue;
+            }
+            let s = &self.surfaces[si];
+            let host = &self.bodies[s.body];
+            let c = &self.contacts[ci];
+            let rows = weighted_gaps(
+                &c.side,
+                &c.multipliers,
+                &OtherSide::Embedded { host: &host.mesh, host_offset: host.node_offset, embedding: &s.embedding },
+                c.max_gap,
+            );
+            let (first, sliding) = (c.first_row, c.sliding);
+            let friction_row = c.friction_row.clone();
+            let emb = s.embedding.clone();
+            let host_index = s.body;
+            for (l, r) in rows.into_iter().enumerate() {
+                let k = first + l;
+                self.contact_g0[k] = r.g0;
+                self.contact_phi[k] = r.phi;
+                self.contact_rows[k] = r.normal;
+                if let Some(j) = friction_row[l] {
+                    self.friction_rows[j] = r.tangent;
+                    if sliding == Sliding::Small {
+                        self.friction_s0[j] = 0.0;
+                    }
+                }
+            }
+            self.contacts[ci].other = PairedSide::Embedded { host: host_index, embedding: emb };
+        }
+    }
+}
+
+/// DOFs of the nodes of a cut body whose support keeps less than [`SMALL_FRACTION`] of its
+/// area (except those already prescribed): switched off, held at their last value.
+pub fn held_dofs(cm: &crate::cut::CutMesh, node_offset: usize, prescribed: &[(usize, f64)]) -> Vec<usize> {
+    let mut v = Vec::new();
+    for (n, &f) in cm.node_fraction.iter().enumerate() {
+        if f < SMALL_FRACTION {
+            for c in 0..2 {
+                let d = 2 * (n + node_offset) + c;
+                if prescribed.binary_search_by_key(&d, |p| p.0).is_err() {
+                    v.push(d);
+                }
+            }
+        }
+    }
+    v
+}
+
+/// Band weights of a freshly built band cell (used by the model builder: the first
+/// placement is the same computation as every later one).
+pub fn initial_band_weights(
+    mesh: &Mesh2,
+    c: usize,
+    state: &CellCut,
+    which: BandPoints,
+) -> crate::fem::quadrature::QuadratureRule {
+    let kind = mesh.cells[c].kind;
+    let mut rule = band_rule(kind);
+    let full = rule.weights.clone();
+    rule.weights = band_weights(mesh, c, &rule, &full, state, which).0;
+    rule
+}
