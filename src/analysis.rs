@@ -16,6 +16,11 @@ use crate::solver::newton::NewtonError;
 use crate::state::SimState;
 use nalgebra::{DMatrix, DVector};
 
+pub use crate::contact::FrictionStatus;
+use crate::contact::{
+    friction_couplings, gross_sliding, row_laws, slide_from_pairing, update_sets, zero_open_multipliers, RowLaw,
+};
+
 mod condensed;
 
 /// What one converged output step did.
@@ -79,27 +84,8 @@ pub struct StaticAnalysis<'m> {
     last_active: usize,
 }
 
-/// Multiplier-block entries of the Coulomb slip rows: (tangential row, its normal row).
-fn friction_couplings(m: &Model) -> Vec<(usize, usize)> {
-    let (nt, nc) = (m.constraints.len(), m.contact_rows.len());
-    m.friction_normal.iter().enumerate().map(|(j, &k)| (nt + nc + j, nt + k)).collect()
-}
-
-/// Every friction node in contact slips, all in one direction: a load-controlled body held only
-/// by friction then has no equilibrium (gross sliding).
-fn gross_sliding(status: &[FrictionStatus]) -> Option<usize> {
-    let slipping: Vec<bool> =
-        status.iter().filter_map(|s| if let FrictionStatus::Slip(d) = s { Some(*d) } else { None }).collect();
-    let stick = status.contains(&FrictionStatus::Stick);
-    (!stick && !slipping.is_empty() && slipping.iter().all(|&d| d == slipping[0])).then_some(slipping.len())
-}
-
-/// Pairing and normals come from the reference geometry (small sliding): a converged state in
-/// which nodes in contact have slid further from their reference partners than the whole
-/// contact is wide has left the model's range (load-controlled gross sliding finds such a
-/// far-slid "equilibrium" on the tilted normals). Relative tangential displacement per node:
-/// `s_j / int Phi_j` (the reference part of `s` cancels in the increments, not here: the rows
-/// carry only the displacement part).
+/// Small sliding pairs from the reference geometry: a converged state whose nodes in contact
+/// slid further from their partners than the whole contact is wide has left the model's range.
 fn check_small_sliding(
     m: &Model,
     u: &[f64],
@@ -107,94 +93,16 @@ fn check_small_sliding(
     step: usize,
     t: f64,
 ) -> Result<(), AnalysisError> {
-    let in_contact: Vec<usize> = (0..status.len()).filter(|&j| status[j] != FrictionStatus::Open).collect();
-    if in_contact.is_empty() {
-        return Ok(());
-    }
-    let width: f64 = in_contact.iter().map(|&j| m.contact_phi[m.friction_normal[j]]).sum();
-    let slide = in_contact
-        .iter()
-        .map(|&j| {
-            let s: f64 = m.friction_rows[j].iter().map(|&(d, c)| c * u[d]).sum::<f64>() - m.friction_s0[j];
-            (s / m.contact_phi[m.friction_normal[j]]).abs()
-        })
-        .fold(0.0, f64::max);
-    if slide > width {
-        return Err(AnalysisError::SlidingBeyondPairing { step, time: t, slide, width });
-    }
-    Ok(())
-}
-
-/// Coulomb status of a tangential multiplier in one Newton iteration.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum FrictionStatus {
-    /// The node is not in contact: `lambda_t = 0`.
-    Open,
-    /// `|lambda_t_hat| <= -mu lambda_n_hat`: no slip in this step (`ds_t = 0`).
-    Stick,
-    /// `lambda_t = -mu lambda_n sign(lambda_t_hat)`; `true` for a positive sign.
-    Slip(bool),
-}
-
-/// Active set and Coulomb statuses of one semi-smooth Newton iteration (Alart-Curnier): normal
-/// node `k` is active when `lambda_hat_n = lambda_n + eps_n g_k / int Phi_k <= 0`; an active
-/// node sticks when `|lambda_hat_t| <= -mu lambda_hat_n` (`lambda_hat_t = lambda_t + eps_t ds / int
-/// Phi`), else slips in the direction of `lambda_hat_t`. `gaps` are the weighted gaps, `slip` the
-/// weighted slip increments of the step, `mult` all multipliers. In the first iteration of a step
-/// with nothing active, the closest paired nodes start active so that no body floats.
-fn contact_sets(
-    m: &Model,
-    mult: &[f64],
-    gaps: &[f64],
-    slip: &[f64],
-    first_iteration: bool,
-    active: &mut [bool],
-    status: &mut [FrictionStatus],
-) {
-    let (nt, nc) = (m.constraints.len(), m.contact_rows.len());
-    for k in 0..nc {
-        let phi = m.contact_phi[k];
-        active[k] = phi > 0.0 && mult[nt + k] + m.contact_eps[k] * gaps[k] / phi <= 0.0;
-    }
-    if first_iteration && nc > 0 && !active.iter().any(|&a| a) {
-        let gt = |k: usize| gaps[k] / m.contact_phi[k];
-        let paired = (0..nc).filter(|&k| m.contact_phi[k] > 0.0);
-        if let Some(gmin) = paired.clone().map(gt).min_by(f64::total_cmp) {
-            for k in paired {
-                active[k] = gt(k) <= gmin + 1e-6 * gmin.abs() + f64::MIN_POSITIVE;
-            }
+    match slide_from_pairing(m, u, status) {
+        Some((slide, width)) if slide > width => {
+            Err(AnalysisError::SlidingBeyondPairing { step, time: t, slide, width })
         }
-    }
-    for (j, st) in status.iter_mut().enumerate() {
-        let k = m.friction_normal[j];
-        *st = if !active[k] {
-            FrictionStatus::Open
-        } else {
-            let (phi, eps) = (m.contact_phi[k], m.contact_eps[k]);
-            let lt_hat = mult[nt + nc + j] + eps * slip[j] / phi;
-            let ln_hat = mult[nt + k] + eps * gaps[k] / phi;
-            if lt_hat.abs() <= m.contact_mu[k] * (-ln_hat).max(0.0) {
-                FrictionStatus::Stick
-            } else {
-                FrictionStatus::Slip(lt_hat > 0.0)
-            }
-        };
+        _ => Ok(()),
     }
 }
 
 /// Passes of iterative refinement of one condensed step.
 const MAX_REFINEMENTS: usize = 3;
-
-/// Sets the multipliers of open contact nodes (normal and tangential) to exactly zero.
-fn zero_open_multipliers(m: &Model, mult: &mut [f64], active: &[bool], status: &[FrictionStatus]) {
-    let (nt, nc) = (m.constraints.len(), m.contact_rows.len());
-    for (k, _) in active.iter().enumerate().filter(|(_, a)| !**a) {
-        mult[nt + k] = 0.0;
-    }
-    for (j, _) in status.iter().enumerate().filter(|(_, s)| **s == FrictionStatus::Open) {
-        mult[nt + nc + j] = 0.0;
-    }
-}
 
 /// `C^T lambda` over all DOFs.
 fn constraint_forces(m: &Model, mult: &[f64], out: &mut [f64]) {
@@ -451,7 +359,7 @@ impl<'m> StaticAnalysis<'m> {
             for j in 0..nfr {
                 slip[j] = m.friction_rows[j].iter().map(|&(d, c)| c * (u[d] - state.u[d])).sum();
             }
-            contact_sets(m, &mu, &gaps, &slip, it == 0, &mut active, &mut status);
+            update_sets(m, &mu, &gaps, &slip, it == 0, &mut active, &mut status);
             self.last_active = active.iter().filter(|&&a| a).count();
             let set_changed = prev_active.as_ref().map(|pa| pa != &active).unwrap_or(nc > 0) || prev_status != status;
             prev_status.clone_from(&status);
@@ -480,67 +388,51 @@ impl<'m> StaticAnalysis<'m> {
                 r[nf + k] = -self.alpha * g;
                 g_scale += gs * gs;
             }
-            // Contact rows: active -> g_k = 0; inactive -> lambda_k = 0.
-            for k in 0..nc {
-                let row = &m.contact_rows[k];
-                for &(d, c) in row {
-                    ct_mu[d] += c * mu[nt + k];
-                }
-                if active[k] {
-                    r[nf + nt + k] = -self.alpha * gaps[k];
-                    let gs: f64 = m.contact_g0[k].abs() + row.iter().map(|&(d, c)| (c * u[d]).abs()).sum::<f64>();
-                    g_scale += gs * gs;
-                } else {
-                    r[nf + nt + k] = -mu[nt + k] / self.alpha;
-                }
-            }
-            // Friction rows: stick -> ds_t = 0; slip -> lambda_t + mu s lambda_n = 0; open -> 0.
+            // Contact and friction rows, each by its law for the current sets (src/contact):
+            // constraint -> gap g_k = 0 (normal) or slip ds = 0 (stick); free -> lambda = 0;
+            // slip -> lambda_t - coef lambda_n = 0.
+            let laws = row_laws(m, &active, &status);
             let mut slip_res = 0.0f64;
-            for j in 0..nfr {
-                let (k, i) = (m.friction_normal[j], nt + nc + j);
-                for &(d, c) in &m.friction_rows[j] {
+            for i in nt..nm {
+                let row = if i < nt + nc { &m.contact_rows[i - nt] } else { &m.friction_rows[i - nt - nc] };
+                for &(d, c) in row {
                     ct_mu[d] += c * mu[i];
                 }
-                r[nf + i] = match status[j] {
-                    FrictionStatus::Stick => {
-                        let gs: f64 = m.friction_rows[j].iter().map(|&(d, c)| (c * u[d]).abs()).sum();
+                r[nf + i] = match laws[i] {
+                    RowLaw::Constraint => {
+                        let (value, offset) = if i < nt + nc {
+                            (gaps[i - nt], m.contact_g0[i - nt].abs())
+                        } else {
+                            (slip[i - nt - nc], 0.0)
+                        };
+                        let gs: f64 = offset + row.iter().map(|&(d, c)| (c * u[d]).abs()).sum::<f64>();
                         g_scale += gs * gs;
-                        -self.alpha * slip[j]
+                        -self.alpha * value
                     }
-                    FrictionStatus::Slip(pos) => {
-                        let s = if pos { 1.0 } else { -1.0 };
-                        let res = mu[i] + m.contact_mu[k] * s * mu[nt + k];
+                    RowLaw::Free => -mu[i] / self.alpha,
+                    RowLaw::Slip { normal, coef } => {
+                        let res = mu[i] - coef * mu[normal];
                         slip_res = slip_res.max(res.abs());
                         -res / self.alpha
                     }
-                    FrictionStatus::Open => -mu[i] / self.alpha,
                 };
             }
             if need_tangent && nc > 0 {
                 let pat = &self.assembler.pattern;
-                let gap_row = |row: usize| {
-                    if row < nt + nc {
-                        active[row - nt]
-                    } else {
-                        status[row - nt - nc] == FrictionStatus::Stick
-                    }
-                };
                 for &(row, p1, p2, coef) in &pat.constraint_scatter {
                     if row >= nt {
                         self.values[p2] += coef;
-                        if gap_row(row) {
+                        if laws[row] == RowLaw::Constraint {
                             self.values[p1] += coef;
                         }
                     }
                 }
                 for (k, &pd) in pat.diag_scatter.iter().enumerate() {
-                    self.values[pd] = if gap_row(nt + k) { 0.0 } else { 1.0 };
+                    self.values[pd] = if laws[nt + k] == RowLaw::Constraint { 0.0 } else { 1.0 };
                 }
                 for (j, &pc) in pat.coupling_scatter.iter().enumerate() {
-                    let mu_k = m.contact_mu[m.friction_normal[j]];
-                    self.values[pc] = match status[j] {
-                        FrictionStatus::Slip(true) => mu_k,
-                        FrictionStatus::Slip(false) => -mu_k,
+                    self.values[pc] = match laws[nt + nc + j] {
+                        RowLaw::Slip { coef, .. } => -coef,
                         _ => 0.0,
                     };
                 }
@@ -777,7 +669,7 @@ impl<'m> StaticAnalysis<'m> {
                     for (a, &i) in cd.live.iter().enumerate() {
                         mult[i] = lam0[i] + dlam[a];
                     }
-                    contact_sets(m, &mult, &gaps, &slip, it == 0, &mut active, &mut status);
+                    update_sets(m, &mult, &gaps, &slip, it == 0, &mut active, &mut status);
                     self.last_active = active.iter().filter(|&&a| a).count();
                     // Rows outside the set stay open (checked after the solve).
                     for k in (0..nc).filter(|&k| cd.live_of[nt + k].is_none()) {
@@ -806,34 +698,22 @@ impl<'m> StaticAnalysis<'m> {
                         Fixed(f64),
                         Slip { normal: usize, s: f64, rest: f64 },
                     }
+                    let row_law = row_laws(m, &active, &status);
                     let laws: Vec<Law> = cd
                         .live
                         .iter()
                         .enumerate()
-                        .map(|(a, &i)| {
-                            if i < nt {
-                                Law::Gap(-w0[a])
-                            } else if i < nt + nc {
-                                let k = i - nt;
-                                if active[k] {
-                                    Law::Gap(-(m.contact_g0[k] + w0[a]))
-                                } else {
-                                    Law::Fixed(-lam0[i])
-                                }
-                            } else {
-                                let j = i - nt - nc;
-                                let k = m.friction_normal[j];
-                                match status[j] {
-                                    FrictionStatus::Stick => Law::Gap(-slip0[j]),
-                                    FrictionStatus::Open => Law::Fixed(-lam0[i]),
-                                    FrictionStatus::Slip(pos) => {
-                                        let s = if pos { 1.0 } else { -1.0 };
-                                        let mk = m.contact_mu[k];
-                                        let normal = cd.live_of[nt + k].unwrap_or(a);
-                                        Law::Slip { normal, s: -mk * s, rest: -(lam0[i] + mk * s * lam0[nt + k]) }
-                                    }
-                                }
-                            }
+                        .map(|(a, &i)| match row_law[i] {
+                            // The row's value at the start of the step is known; its target is 0.
+                            RowLaw::Constraint if i < nt => Law::Gap(-w0[a]),
+                            RowLaw::Constraint if i < nt + nc => Law::Gap(-(m.contact_g0[i - nt] + w0[a])),
+                            RowLaw::Constraint => Law::Gap(-slip0[i - nt - nc]),
+                            RowLaw::Free => Law::Fixed(-lam0[i]),
+                            RowLaw::Slip { normal, coef } => Law::Slip {
+                                normal: cd.live_of[normal].unwrap_or(a),
+                                s: coef,
+                                rest: -(lam0[i] - coef * lam0[normal]),
+                            },
                         })
                         .collect();
                     // (I - rho D) dw + D dlambda = C z, unknowns x_a = dlambda_a (gap rows) or dw_a.

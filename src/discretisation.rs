@@ -30,8 +30,7 @@
 use crate::assembly::DofMap;
 use crate::cut::{band_rule, band_weights, cut_mesh, BandPoints, CellAdjacency, CellCut, SMALL_FRACTION};
 use crate::mesh::{CellKind, Mesh2};
-use crate::model::{Model, ModelError, PairedSide, Sliding};
-use crate::mortar::{weighted_gaps, OtherSide};
+use crate::model::{Model, ModelError, PairedSide};
 use crate::surface::{cell_polygon, embed, BoxIndex, Embedding, VirtualSurface};
 use nalgebra::{Point2, Vector2};
 
@@ -116,6 +115,20 @@ pub struct FreeSurface {
     /// Where it is now (the model's current discretisation).
     pub vertices: Vec<Point2<f64>>,
     pub embedding: Embedding,
+    /// The polyline runs against the order the user gave (reversed to keep the material on
+    /// its left): output reverses it back.
+    pub reversed: bool,
+}
+
+impl FreeSurface {
+    /// Current vertices in the order the user gave them.
+    pub fn user_vertices(&self) -> Vec<Point2<f64>> {
+        let mut v = self.vertices.clone();
+        if self.reversed {
+            v.reverse();
+        }
+        v
+    }
 }
 
 /// The fixed-point band of a body with a moving surface.
@@ -193,7 +206,9 @@ impl Model {
     pub fn surface_vertices_at(&self, i: usize, t: f64) -> Vec<Point2<f64>> {
         let s = &self.surfaces[i];
         match &s.motion {
-            Some(m) => m.place(&s.base, self.curve_factor(m.curve(), t)),
+            // A motion is a process over the whole run: its curve is read at the absolute time,
+            // never wrapped into the load cycle.
+            Some(m) => m.place(&s.base, self.curve_factor_absolute(m.curve(), t)),
             None => s.base.vertices.clone(),
         }
     }
@@ -315,37 +330,17 @@ impl Model {
     /// Rebuilds the weighted-gap rows of contact pairs whose other side is a moved surface
     /// (small sliding: from the reference geometry; finite sliding re-pairs every step anyway).
     fn refresh_contact_rows(&mut self, moved: &[usize]) {
-        for ci in 0..self.contacts.len() {
-            let Some(si) = self.contacts[ci].other_surface else { continue };
+        for pair in 0..self.contacts.len() {
+            let Some(si) = self.contacts[pair].other_surface else { continue };
             if !moved.contains(&si) {
                 continue;
             }
             let s = &self.surfaces[si];
-            let host = &self.bodies[s.body];
-            let c = &self.contacts[ci];
-            let rows = weighted_gaps(
-                &c.side,
-                &c.multipliers,
-                &OtherSide::Embedded { host: &host.mesh, host_offset: host.node_offset, embedding: &s.embedding },
-                c.max_gap,
-            );
-            let (first, sliding) = (c.first_row, c.sliding);
-            let friction_row = c.friction_row.clone();
-            let emb = s.embedding.clone();
-            let host_index = s.body;
-            for (l, r) in rows.into_iter().enumerate() {
-                let k = first + l;
-                self.contact_g0[k] = r.g0;
-                self.contact_phi[k] = r.phi;
-                self.contact_rows[k] = r.normal;
-                if let Some(j) = friction_row[l] {
-                    self.friction_rows[j] = r.tangent;
-                    if sliding == Sliding::Small {
-                        self.friction_s0[j] = 0.0;
-                    }
-                }
-            }
-            self.contacts[ci].other = PairedSide::Embedded { host: host_index, embedding: emb };
+            self.contacts[pair].other = PairedSide::Embedded { host: s.body, embedding: s.embedding.clone() };
+            let coords = &self.coords;
+            let rows = crate::contact::pair_rows(&self.bodies, &self.contacts[pair], &|n| coords[n]);
+            let zero = vec![0.0; self.dofs.num_dofs];
+            crate::contact::install_rows(self, pair, rows, &zero);
         }
     }
 }

@@ -13,6 +13,7 @@ pub mod analysis;
 pub mod assembly;
 pub mod bench;
 pub mod case;
+pub mod contact;
 pub mod cut;
 pub mod discretisation;
 pub mod driver;

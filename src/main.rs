@@ -153,8 +153,16 @@ fn check(path: PathBuf) -> Result<(), String> {
             let n_cut = c.cells.iter().filter(|x| matches!(x, mortex::cut::CellCut::Cut { .. })).count();
             let n_void = c.cells.iter().filter(|x| matches!(x, mortex::cut::CellCut::Void)).count();
             println!(
-                "  body '{}' is cut: {} cut cells, {} void cells, {} DOFs deactivated",
-                m.bodies[b].name, n_cut, n_void, m.deactivated_dofs
+                "  body '{}' is cut: {} cut cells, {} void cells, {} DOFs switched off{}",
+                m.bodies[b].name,
+                n_cut,
+                n_void,
+                m.held[b].len(),
+                match &m.bands[b] {
+                    Some(band) =>
+                        format!(", a band of {} cells with fixed points for its moving surface", band.cells.len()),
+                    None => String::new(),
+                }
             );
         }
     }
@@ -166,11 +174,27 @@ fn check(path: PathBuf) -> Result<(), String> {
         m.end_time(),
         if m.is_linear() { "linear (one factorisation)" } else { "nonlinear (Newton)" }
     );
+    if let Some(cy) = &m.cycle {
+        println!(
+            "  cycles: {} x [{}, {}] with {} increments per cycle ({} before the first)",
+            cy.count,
+            cy.start,
+            cy.start + cy.period,
+            cy.increments,
+            if cy.start > m.load_path.points[0].0 { cy.ramp_increments } else { 0 }
+        );
+    }
+    for s in m.surfaces.iter().filter(|s| s.motion.is_some()) {
+        println!("  moving surface '{}' in body '{}': {:?}", s.name, m.bodies[s.body].name, s.motion);
+    }
     for ci in &m.contacts {
         println!(
             "  contact '{}': mortar '{}', {:?} multipliers ({} nodes), mu = {}, {:?} sliding",
             ci.name, m.bodies[ci.mortar].name, ci.space, ci.multipliers.num_nodes, ci.mu, ci.sliding
         );
+    }
+    if c.fields_every > 1 {
+        println!("  full fields every {} steps (contact and surface series every step)", c.fields_every);
     }
     let every = match c.checkpoint_every {
         0 => "no checkpoints".to_string(),
@@ -218,6 +242,7 @@ fn run(
     }
     let mut writer = ResultWriter::create(&out, model, &c.name).map_err(|e| e.to_string())?;
     writer.set_checkpoint_every(c.checkpoint_every);
+    writer.set_fields_every(c.fields_every);
     if let Some(file) = &restart {
         writer.set_restart_origin(file, state.step).map_err(|e| e.to_string())?;
     }
@@ -238,8 +263,13 @@ fn run(
             total_its += r.iterations;
             let reactions = step_model.reactions(s);
             writer.write_step(step_model, r, s, &reactions).map_err(|e| e.to_string())?;
+            let cycle = if step_model.cycle.is_some() {
+                format!("cycle {} inc {}, ", r.cycle, r.increment)
+            } else {
+                String::new()
+            };
             bar.set_message(format!(
-                "t = {:.4}, lambda = {:.4}, {} it, res {:.1e}",
+                "{cycle}t = {:.4}, lambda = {:.4}, {} it, res {:.1e}",
                 r.time, r.load_factor, r.iterations, r.residual
             ));
             bar.inc(1);

@@ -16,7 +16,6 @@ use crate::fem::kernel::Formulation;
 use crate::fem::material::{Material, PlaneHypothesis};
 use crate::fem::quadrature::QuadratureRule;
 use crate::mesh::{CellKind, Mesh2};
-use crate::mortar::weighted_gaps;
 use crate::mortar::{
     build_multipliers, build_multipliers_local, other_side_spacing, tying_rows, ConstraintRow, MortarSide,
     MultiplierSpace, Multipliers, OtherSide,
@@ -40,6 +39,10 @@ pub enum ModelError {
     NoFreeDofs,
     #[error("interface '{tie}': {msg}")]
     Tie { tie: String, msg: String },
+    /// A contact pair's definition; `key` names the case key (`friction`, `mortar_surface`,
+    /// `other_cut`).
+    #[error("contact '{contact}': {msg}")]
+    Contact { contact: String, key: &'static str, msg: String },
 }
 
 /// One body: its mesh and where its nodes and elements sit in the global numbering.
@@ -394,50 +397,9 @@ impl Model {
     pub fn repaired(&self, u: &[f64]) -> Model {
         let mut m = self.clone();
         let x = |n: usize| self.coords[n] + Vector2::new(u[2 * n], u[2 * n + 1]);
-        for c in self.contacts.iter().filter(|c| c.sliding == Sliding::Finite) {
-            let side = MortarSide {
-                nodes: c.side.nodes.clone(),
-                points: c.side.nodes.iter().map(|&n| x(n)).collect(),
-                closed: c.side.closed,
-            };
-            let (edge_pts, host_mesh, moved);
-            let other = match &c.other {
-                PairedSide::Edges(edges) => {
-                    edge_pts = edges.iter().map(|e| [x(e[0]), x(e[1])]).collect::<Vec<_>>();
-                    OtherSide::Edges { nodes: edges, points: &edge_pts }
-                }
-                PairedSide::Embedded { host, embedding } => {
-                    let b = &self.bodies[*host];
-                    let mut mesh = b.mesh.clone();
-                    for (i, p) in mesh.nodes.iter_mut().enumerate() {
-                        *p = x(b.node_offset + i);
-                    }
-                    let mut e = embedding.clone();
-                    for piece in e.pieces.iter_mut() {
-                        let mapped = crate::fem::element::MappedElement::new(
-                            mesh.cells[piece.cell].kind,
-                            mesh.cell_coords(piece.cell),
-                        );
-                        piece.a = mapped.map(piece.xi_a);
-                        piece.b = mapped.map(piece.xi_b);
-                    }
-                    host_mesh = mesh;
-                    moved = e;
-                    OtherSide::Embedded { host: &host_mesh, host_offset: b.node_offset, embedding: &moved }
-                }
-            };
-            let rows = weighted_gaps(&side, &c.multipliers, &other, c.max_gap);
-            for (l, r) in rows.into_iter().enumerate() {
-                let k = c.first_row + l;
-                let cu: f64 = r.normal.iter().map(|&(d, v)| v * u[d]).sum();
-                m.contact_g0[k] = r.g0 - cu;
-                m.contact_phi[k] = r.phi;
-                m.contact_rows[k] = r.normal;
-                if let Some(j) = c.friction_row[l] {
-                    m.friction_s0[j] = r.tangent.iter().map(|&(d, v)| v * u[d]).sum();
-                    m.friction_rows[j] = r.tangent;
-                }
-            }
+        for (pair, c) in self.contacts.iter().enumerate().filter(|(_, c)| c.sliding == Sliding::Finite) {
+            let rows = crate::contact::pair_rows(&self.bodies, c, &x);
+            crate::contact::install_rows(&mut m, pair, rows, u);
         }
         m
     }
@@ -494,9 +456,12 @@ impl Model {
         }
     }
 
-    /// Factor of load curve `c` at time `t`.
+    /// Factor of load curve `c` at time `t` (inside the cycle window for a cyclic case).
     pub fn curve_factor(&self, c: usize, t: f64) -> f64 {
-        let t = self.cycle.map_or(t, |cy| cy.local_time(t));
+        self.curve_factor_absolute(c, self.cycle.map_or(t, |cy| cy.local_time(t)))
+    }
+    /// Factor of load curve `c` at time `t`, read as given (surface motions).
+    pub fn curve_factor_absolute(&self, c: usize, t: f64) -> f64 {
         if c == 0 {
             self.load_path.factor(t)
         } else {
@@ -584,6 +549,8 @@ pub struct ModelBuilder {
     ties: Vec<TieSpec>,
     /// Free virtual surfaces: (name, body, surface with the material on its left, motion).
     free_cuts: Vec<(String, usize, VirtualSurface, Option<SurfaceMotion>)>,
+    /// Per free cut: the polyline was reversed to keep the material on its left.
+    reversed_cuts: Vec<bool>,
     cycle: Option<Cycle>,
     ghost_penalty: f64,
     contacts: Vec<ContactSpec>,
@@ -607,6 +574,7 @@ impl ModelBuilder {
             ghost_penalty: DEFAULT_GHOST_PENALTY,
             contacts: vec![],
             rigid_rows: vec![],
+            reversed_cuts: vec![],
             cycle: None,
         }
     }
@@ -658,12 +626,18 @@ impl ModelBuilder {
     ) -> Result<(), ModelError> {
         let mu = params.friction;
         if !(mu.is_finite() && mu >= 0.0) {
-            return Err(ModelError::Tie {
-                tie: name.to_string(),
+            return Err(ModelError::Contact {
+                contact: name.to_string(),
+                key: "friction",
                 msg: format!("the friction coefficient must be finite and >= 0 (got {mu})"),
             });
         }
-        let side = self.mortar_side(name, mortar, mortar_sets, "contact surface")?;
+        let side = self.mortar_side(name, mortar, mortar_sets, "contact surface").map_err(|e| match e {
+            ModelError::Tie { msg, .. } => {
+                ModelError::Contact { contact: name.to_string(), key: "mortar_surface", msg }
+            }
+            other => other,
+        })?;
         let mb = &self.bodies[mortar];
         let young = self.materials[mb.material]
             .elastic()
@@ -736,12 +710,15 @@ impl ModelBuilder {
         closed: bool,
         keep_left: bool,
     ) -> Result<(), ModelError> {
+        // Validated as given, so that segment indices in errors are the user's.
+        let given = VirtualSurface { vertices: vertices.clone(), closed };
+        given.validate().map_err(|e| ModelError::Tie { tie: name.to_string(), msg: e.to_string() })?;
         if !keep_left {
             vertices.reverse();
         }
         let surf = VirtualSurface { vertices, closed };
-        surf.validate().map_err(|e| ModelError::Tie { tie: name.to_string(), msg: e.to_string() })?;
         self.free_cuts.push((name.to_string(), body, surf, None));
+        self.reversed_cuts.push(!keep_left);
         Ok(())
     }
 
@@ -1236,7 +1213,11 @@ impl ModelBuilder {
                 }
                 ContactOther::Cut(cut) => {
                     let Some(i) = self.free_cuts.iter().position(|f| &f.0 == cut) else {
-                        return Err(ModelError::Tie { tie: c.name.clone(), msg: format!("no cut named '{cut}'") });
+                        return Err(ModelError::Contact {
+                            contact: c.name.clone(),
+                            key: "other_cut",
+                            msg: format!("no cut named '{cut}'"),
+                        });
                     };
                     other_surface = Some(i);
                     let (b, emb) = &cut_embeddings[i];
@@ -1253,14 +1234,27 @@ impl ModelBuilder {
                     build_multipliers_local(&c.side, &other_side_spacing(&c.side, &other, max_gap))
                 }
             };
-            let rows = weighted_gaps(&c.side, &lm, &other, max_gap);
-            let first_row = contact_rows.len();
-            let mut friction_row = Vec::with_capacity(rows.len());
+            let mut info = ContactInfo {
+                name: c.name.clone(),
+                mortar: c.mortar,
+                mu: c.params.friction,
+                space: c.params.multipliers,
+                first_row: contact_rows.len(),
+                friction_row: vec![],
+                multipliers: lm,
+                sliding: c.params.sliding,
+                side: c.side.clone(),
+                other: paired,
+                max_gap,
+                other_surface,
+            };
+            // The reference pairing, by the same routine as every re-pairing.
+            let rows = crate::contact::pair_rows(&self.bodies, &info, &|n| coords_of(&self.bodies, n));
             for r in rows {
                 // Every node of a frictional pair gets a friction row, paired or not (pairings
                 // come and go under finite sliding and moving surfaces): the multiplier layout
                 // is fixed for the run.
-                friction_row.push(if c.params.friction > 0.0 {
+                info.friction_row.push(if c.params.friction > 0.0 {
                     friction_rows.push(r.tangent);
                     friction_normal.push(contact_rows.len());
                     Some(friction_rows.len() - 1)
@@ -1274,27 +1268,16 @@ impl ModelBuilder {
                 contact_eps.push(c.young / h);
                 contact_mu.push(c.params.friction);
             }
-            contacts.push(ContactInfo {
-                name: c.name.clone(),
-                mortar: c.mortar,
-                mu: c.params.friction,
-                space: c.params.multipliers,
-                first_row,
-                friction_row,
-                multipliers: lm,
-                sliding: c.params.sliding,
-                side: c.side.clone(),
-                other: paired,
-                max_gap,
-                other_surface,
-            });
+            contacts.push(info);
         }
         let friction_s0 = vec![0.0; friction_rows.len()];
         let surfaces = self
             .free_cuts
             .iter()
             .zip(cut_embeddings)
-            .map(|((name, body, surf, motion), (_, embedding))| FreeSurface {
+            .zip(&self.reversed_cuts)
+            .map(|(((name, body, surf, motion), (_, embedding)), &reversed)| FreeSurface {
+                reversed,
                 name: name.clone(),
                 body: *body,
                 base: surf.clone(),

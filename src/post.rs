@@ -59,10 +59,14 @@ pub fn nodal_fields(model: &Model, state: &SimState) -> NodalFields {
                 a[node] += wk * alpha;
             }
         }
-        for comp in 0..4 {
-            cell_stress[e][comp] /= vol;
+        // A void cell (no material, or a band cell whose points all lie in the void) keeps
+        // zeros, not 0/0.
+        if vol > 0.0 {
+            for comp in 0..4 {
+                cell_stress[e][comp] /= vol;
+            }
+            cell_eqps[e] /= vol;
         }
-        cell_eqps[e] /= vol;
     }
     for i in 0..n {
         if wsum[i] > 0.0 {
@@ -91,19 +95,9 @@ pub struct ContactNode {
 
 /// The multiplier nodes of contact pair `pair`, sorted by their x coordinate.
 pub fn contact_profile(model: &Model, state: &SimState, pair: usize) -> Vec<ContactNode> {
-    let c = &model.contacts[pair];
-    let (nt, nn) = (model.constraints.len(), model.contact_rows.len());
-    let mut v: Vec<ContactNode> = (0..c.multipliers.num_nodes)
-        .map(|l| {
-            let (shear, status) =
-                c.friction_row[l].map_or((0.0, 0), |j| (state.multipliers[nt + nn + j], state.friction_status[j]));
-            ContactNode {
-                x: c.multipliers.points[l],
-                pressure: -state.multipliers[nt + c.first_row + l],
-                shear,
-                status,
-            }
-        })
+    let mut v: Vec<ContactNode> = crate::contact::contact_field(model, state, pair)
+        .iter()
+        .map(|n| ContactNode { x: n.reference, pressure: n.pressure, shear: n.shear, status: n.status.code() })
         .collect();
     v.sort_by(|a, b| a.x.x.total_cmp(&b.x.x));
     v

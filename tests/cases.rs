@@ -166,7 +166,7 @@ fn block_contact_case() {
     // The same profile in the CSV beside the HDF5 file (one row per multiplier node and step).
     let csv = std::fs::read_to_string(format!("{}_contact.csv", out.with_extension("").display())).unwrap();
     let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some("step,time,pair,x,y,pressure,shear,slip,accumulated_slip,status"));
+    assert_eq!(lines.next(), Some("step,time,pair,x,y,pressure,shear,slip,accumulated_slip,status,cycle,increment"));
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert_eq!(rows.len(), p.len());
     for r in &rows {
@@ -266,4 +266,46 @@ fn sliding_block_case() {
             assert!((acc[l] / 3.0 - 1.0).abs() < 0.01, "node {l}: accumulated slip {}", acc[l]);
         }
     }
+}
+
+/// Moving contact surface under a cyclic load (see the case header): at every step the contact
+/// pressure is `p(t) = 50 MPa x path factor` at every multiplier node and the stress uniform at
+/// every point with material (round-off, 1e-8); steps carry their cycle and increment; the
+/// surface moved 1 mm and the host's material fraction is written per step.
+#[test]
+fn moving_contact_case() {
+    let out = run_case("moving_contact");
+    let f = hdf5::File::open(&out).unwrap();
+    let factor = |t: f64| {
+        // steps.path [[0, 0], [1, 1], [2, 0.5], [3, 1]], window [1, 3] repeated.
+        let local = if t <= 1.0 { t } else { 1.0 + (t - 1.0).rem_euclid(2.0) };
+        let local = if t > 1.0 && local == 1.0 { 3.0 } else { local };
+        if local <= 1.0 {
+            local
+        } else if local <= 2.0 {
+            1.0 - 0.5 * (local - 1.0)
+        } else {
+            0.5 + 0.5 * (local - 2.0)
+        }
+    };
+    let steps: u64 = f.attr("num_steps").unwrap().read_scalar().unwrap();
+    assert_eq!(steps, 13);
+    for k in 1..=steps {
+        let g = f.group(&format!("steps/{k:06}")).unwrap();
+        let t: f64 = g.attr("time").unwrap().read_scalar().unwrap();
+        let (cycle, inc): (u64, u64) =
+            (g.attr("cycle").unwrap().read_scalar().unwrap(), g.attr("increment").unwrap().read_scalar().unwrap());
+        let expected_label = if k == 1 { (0, 1) } else { ((k - 2) / 4 + 1, (k - 2) % 4 + 1) };
+        assert_eq!((cycle, inc), expected_label, "step {k}");
+        let p = 50.0 * factor(t);
+        let pressure = g.dataset("contacts/interface/pressure").unwrap().read_raw::<f64>().unwrap();
+        for (l, v) in pressure.iter().enumerate() {
+            assert!((v - p).abs() < 1e-8 * 50.0, "step {k} (t = {t}): node {l}: pressure {v} vs {p}");
+        }
+        let fraction = g.dataset("host/material_fraction").unwrap().read_raw::<f64>().unwrap();
+        assert_eq!(fraction.len(), 48);
+    }
+    // The surface ends 1 mm lower: y = 1.63 (vertices in the order the case gives them).
+    let v = read2(&f, &format!("steps/{steps:06}/surfaces/surface/vertices"));
+    assert!((v[[0, 0]] + 1.0).abs() < 1e-12 && (v[[0, 1]] - 1.63).abs() < 1e-12, "{v:?}");
 }

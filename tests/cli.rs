@@ -329,3 +329,155 @@ fn contact_newton_failure_reports_the_active_set() {
         .unwrap_or_else(|| panic!("no active-set size in: {text}"));
     assert!(active > 0, "{text}");
 }
+
+/// Bad input found by trying the engine as a new user (each: a message naming file and key,
+/// non-zero exit, no panic, nothing written).
+#[test]
+fn more_bad_inputs_give_clear_errors() {
+    let d = tmpdir("bad2");
+    let mesh = "{ type = \"rectangle\", size = [10.0, 2.0], divisions = [10, 2] }";
+    expect_error(
+        &d,
+        "rotation_nan",
+        &GOOD.replace(mesh, "{ type = \"rectangle\", size = [10.0, 2.0], divisions = [10, 2], rotation = nan }"),
+        &["rotation_nan.toml", "bodies[0].mesh", "finite"],
+    );
+    expect_error(
+        &d,
+        "huge_mesh",
+        &GOOD.replace(mesh, "{ type = \"rectangle\", size = [10.0, 2.0], divisions = [100000, 100000] }"),
+        &["huge_mesh.toml", "bodies[0].mesh", "exceed"],
+    );
+    expect_error(
+        &d,
+        "huge_increments",
+        &format!("{GOOD}\n[steps]\nincrements = 1000000000000\n"),
+        &["huge_increments.toml", "steps.increments", "more than"],
+    );
+    expect_error(
+        &d,
+        "many_increments",
+        &format!("{GOOD}\n[steps]\nincrements = 100000000\n"),
+        &["many_increments.toml", "steps.increments", "more than"],
+    );
+    let cut = "\n[[cuts]]\nbody = \"block\"\npoints = [[-1.0, 1.0], [11.0, 1.5]]\nkeep = \"right\"\n";
+    expect_error(
+        &d,
+        "motion_both",
+        &format!("{GOOD}{cut}motion = {{ offset = 0.1, translation = [0.0, 1.0] }}\n"),
+        &["motion_both.toml", "cuts[0].motion", "exactly one of"],
+    );
+    expect_error(
+        &d,
+        "motion_nan",
+        &format!("{GOOD}{cut}motion = {{ offset = nan }}\n"),
+        &["motion_nan.toml", "cuts[0].motion.offset", "finite"],
+    );
+    expect_error(
+        &d,
+        "motion_curve",
+        &format!("{GOOD}{cut}motion = {{ offset = 0.1, curve = \"wear\" }}\n"),
+        &["motion_curve.toml", "cuts[0].motion.curve", "no curve named 'wear'"],
+    );
+    expect_error(
+        &d,
+        "cycle_open",
+        &format!("{GOOD}\n[steps]\npath = [[0.0, 0.0], [1.0, 1.0], [2.0, 0.5]]\ncycle = [1.0, 2.0]\ncycles = 3\n"),
+        &["cycle_open.toml", "steps.cycle", "does not close"],
+    );
+    expect_error(
+        &d,
+        "cycle_outside",
+        &format!("{GOOD}\n[steps]\npath = [[0.0, 0.0], [1.0, 1.0]]\ncycle = [0.5, 3.0]\ncycles = 3\n"),
+        &["cycle_outside.toml", "steps.cycle", "inside the load history"],
+    );
+    expect_error(
+        &d,
+        "cycles_huge",
+        &format!("{GOOD}\n[steps]\npath = [[0.0, 0.0], [1.0, 1.0], [2.0, 1.0]]\ncycle = [1.0, 2.0]\ncycles = 100000000\nincrements = 8\n"),
+        &["cycles_huge.toml", "steps.cycles", "more than"],
+    );
+    expect_error(&d, "fields_zero", &format!("{GOOD}\n[output]\nfields_every = 0\n"), &["output.fields_every"]);
+    // A self-intersecting cut: the segments are numbered as the user gave them, whichever side
+    // is kept.
+    expect_error(
+        &d,
+        "self_cross",
+        &format!("{GOOD}\n[[cuts]]\nbody = \"block\"\npoints = [[-1.0, 0.5], [11.0, 0.5], [11.0, 1.5], [5.0, -1.0]]\nkeep = \"right\"\n"),
+        &["self_cross.toml", "cuts[0]", "segments 0 and 2"],
+    );
+    for name in ["rotation_nan", "huge_increments", "motion_both", "cycle_open"] {
+        assert!(!d.join(format!("results/{name}.h5")).exists(), "{name}: nothing may be written");
+    }
+}
+
+/// A valid run whose bodies have void cells writes zeros (not 0/0) for their cell fields, and
+/// every value of every dataset is finite.
+#[test]
+fn void_cells_write_finite_fields() {
+    let d = tmpdir("void");
+    let case = format!("{GOOD}\n[[cuts]]\nbody = \"block\"\npoints = [[-1.0, 0.7], [11.0, 0.7]]\nkeep = \"right\"\n");
+    std::fs::write(d.join("void.toml"), case).unwrap();
+    let (ok, text) = run(&["run", "void.toml", "--quiet"], &d);
+    assert!(ok, "{text}");
+    let f = hdf5::File::open(d.join("results/void.h5")).unwrap();
+    for name in ["cell_stress", "cell_eqps", "stress", "displacement", "von_mises"] {
+        let v = f.dataset(&format!("steps/000001/block/{name}")).unwrap().read_raw::<f64>().unwrap();
+        assert!(v.iter().all(|x| x.is_finite()), "{name} has non-finite values");
+    }
+    let cs = f.dataset("steps/000001/block/cell_stress").unwrap().read_2d::<f64>().unwrap();
+    // Row 19 (top right cell, y in [1, 2]) is void: zeros.
+    assert!(cs.row(19).iter().all(|v| *v == 0.0), "void cell: {:?}", cs.row(19));
+}
+
+/// A run that stops on a Newton failure keeps its converged steps in `<out>.h5.partial` when
+/// `<out>.h5` already holds an earlier result, which stays untouched (as does its XDMF).
+#[test]
+fn a_failed_run_keeps_its_steps_beside_an_earlier_result() {
+    let d = tmpdir("fail_keep");
+    std::fs::write(d.join("good.toml"), GOOD).unwrap();
+    let (ok, _) = run(&["run", "good.toml", "--quiet", "-o", "out.h5"], &d);
+    assert!(ok);
+    let before = std::fs::read(d.join("out.h5")).unwrap();
+    let xdmf_before = std::fs::read(d.join("out.xdmf")).unwrap();
+    // Two Newton iterations allowed on a plastic cylinder beyond its limit load.
+    let case = r#"
+[problem]
+hypothesis = "plane_strain"
+[[materials]]
+name = "steel"
+model = "j2_plastic"
+young = 210000.0
+poisson = 0.3
+yield_stress = 250.0
+[[bodies]]
+name = "cyl"
+material = "steel"
+mesh = { type = "annulus_sector", inner_radius = 1.0, outer_radius = 2.0, angles = [0.0, 90.0], divisions = [8, 4] }
+[[bcs]]
+body = "cyl"
+set = "start"
+uy = 0.0
+[[bcs]]
+body = "cyl"
+set = "end"
+ux = 0.0
+[[loads]]
+body = "cyl"
+set = "inner"
+pressure = 1.0
+[steps]
+path = [[0.0, 0.0], [1.0, 260.0]]
+increments = 4
+[solver.newton]
+max_cutbacks = 2
+"#;
+    std::fs::write(d.join("limit.toml"), case).unwrap();
+    let (ok, text) = run(&["run", "limit.toml", "--quiet", "-o", "out.h5"], &d);
+    assert!(!ok && text.contains("out.h5.partial"), "{text}");
+    assert_eq!(before, std::fs::read(d.join("out.h5")).unwrap(), "the earlier result must be untouched");
+    assert_eq!(xdmf_before, std::fs::read(d.join("out.xdmf")).unwrap(), "its XDMF too");
+    let f = hdf5::File::open(d.join("out.h5.partial")).unwrap();
+    let steps: u64 = f.attr("num_steps").unwrap().read_scalar().unwrap();
+    assert_eq!(steps, 3);
+}

@@ -700,8 +700,13 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
             multipliers: c.multipliers.unwrap_or(MultiplierSpace::Classical),
             sliding: c.sliding,
         };
-        b.add_contact(&name, mortar, &c.mortar_surface, other_body, other, params)
-            .map_err(|e| model_err(&cx, k("mortar_surface"), e))?;
+        b.add_contact(&name, mortar, &c.mortar_surface, other_body, other, params).map_err(|e| {
+            let key = match &e {
+                ModelError::Contact { key, .. } => k(key),
+                _ => k("mortar_surface"),
+            };
+            model_err(&cx, key, e)
+        })?;
     }
 
     if let Some(g) = raw.solver.ghost_penalty {
@@ -749,7 +754,10 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
             for (c, cs) in b.curves().iter().zip(&raw.curves) {
                 histories.push((cs.name.as_str(), c));
             }
-            for (name, h) in histories {
+            // Curves that move surfaces are read at the absolute time (not wrapped).
+            let motion_curves: Vec<&str> =
+                raw.cuts.iter().filter_map(|c| c.motion.as_ref().and_then(|m| m.curve.as_deref())).collect();
+            for (name, h) in histories.into_iter().filter(|(n, _)| !motion_curves.contains(n)) {
                 let (fa, fb) = (h.factor(start), h.factor(end));
                 if (fa - fb).abs() > 1e-12 * fa.abs().max(fb.abs()).max(1.0) {
                     return Err(cx.err(
@@ -810,6 +818,13 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                         .map(|(i, _)| format!("cuts[{i}]"))
                 })
                 .unwrap_or_else(|| "ties".into()),
+            ModelError::Contact { contact, key, .. } => raw
+                .contacts
+                .iter()
+                .enumerate()
+                .find(|(i, c)| c.name.clone().unwrap_or_else(|| format!("contact{i}")) == *contact)
+                .map(|(i, _)| format!("contacts[{i}].{key}"))
+                .unwrap_or_else(|| "contacts".into()),
             _ => "bcs".into(),
         };
         model_err(&cx, key, e)

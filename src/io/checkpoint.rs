@@ -9,6 +9,9 @@
 //! rows the condensed operator grew by, batch by batch. Replaying that log makes the restarted
 //! solver do the same arithmetic as the uninterrupted run, which is what "bit for bit" needs.
 //!
+//! A checkpoint group carries the attribute `complete = 1`, written after its last dataset;
+//! groups without it (a run killed while writing) are not offered for a restart.
+//!
 //! Every value is stored as the f64 it is in memory (HDF5 native doubles), so reading a
 //! checkpoint gives back the identical state.
 
@@ -64,6 +67,8 @@ pub(super) fn write(g: &hdf5::Group, state: &SimState) -> hdf5::Result<()> {
     let batches: Vec<u64> = state.interface_log.iter().map(|b| b.len() as u64).collect();
     c.new_dataset_builder().with_data(&Array1::from(rows)).create("interface_rows")?;
     c.new_dataset_builder().with_data(&Array1::from(batches)).create("interface_batches")?;
+    // Written last: a checkpoint without it was cut short (a killed run) and is not offered.
+    super::write_attr(&c, "complete", &1u8)?;
     Ok(())
 }
 
@@ -75,7 +80,12 @@ pub fn available_steps(path: &Path) -> Result<Vec<usize>, CheckpointError> {
     let mut out = vec![];
     for name in steps.member_names().map_err(|e| read(e.to_string()))? {
         let Ok(k) = name.parse::<usize>() else { continue };
-        if steps.group(&name).map(|g| g.link_exists("checkpoint")).unwrap_or(false) {
+        let complete = steps
+            .group(&name)
+            .and_then(|g| g.group("checkpoint"))
+            .map(|c| c.attr("complete").and_then(|a| a.read_scalar::<u8>()).map(|v| v == 1).unwrap_or(false))
+            .unwrap_or(false);
+        if complete {
             out.push(k);
         }
     }

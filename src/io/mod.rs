@@ -26,8 +26,19 @@
 //!   simulation state (see [`checkpoint`]); `restarted_from`, `restart_step` root attributes on
 //!   a run that resumed from one.
 //!
-//! The file is written as `<name>.h5.partial` and renamed when closed, so an earlier result is
-//! never replaced by a half-written file; the XDMF is rewritten after every step.
+//! * Steps carry `cycle` and `increment` attributes (cycle 0: before the cycles, or a
+//!   non-cyclic case). Moving surfaces: per step `/steps/NNNNNN/surfaces/<cut>/vertices`
+//!   `(v, 2)` and `/steps/NNNNNN/<body>/material_fraction` `(c)` of their host.
+//!
+//! Output that scales to long runs: full fields (nodal, cell and point fields) every
+//! `fields_every` steps and at the last step, contact and surface series every step,
+//! checkpoints every `checkpoint_every` steps; datasets of 256 entries or more are chunked and
+//! deflate-compressed (with shuffle) when the HDF5 library has deflate. The file is written as
+//! `<name>.h5.partial` and renamed when closed, so an earlier result is never replaced by a
+//! half-written file; a run that stops on an error keeps its `.h5.partial` when a result of
+//! that name already exists. The XDMF (steps with full fields) is written once, when the file
+//! is renamed into place, so it never describes another file. The contact CSV is written as
+//! the run goes (`<name>_contact.csv.partial`, renamed at the end).
 
 pub mod checkpoint;
 pub mod plot;
@@ -54,13 +65,37 @@ pub struct ResultWriter {
     final_path: PathBuf,
     partial_path: PathBuf,
     xdmf_path: PathBuf,
-    steps: Vec<(usize, f64, f64)>,
+    /// `(step, time, load factor, has full fields)`.
+    steps: Vec<(usize, f64, f64, bool)>,
     body_meta: Vec<(String, usize, usize, usize)>, // name, nodes, cells, topology length
     cut_bodies: Vec<String>,
-    /// Contact profiles of every step (CSV rows), written beside the HDF5 file on `finish`.
-    contact_csv: String,
+    /// Bodies whose material fraction changes (moving surfaces): written per step.
+    moving_bodies: Vec<String>,
+    /// Contact profiles (CSV rows), streamed to `<name>_contact.csv.partial` step by step.
+    contact_csv: Option<(std::io::BufWriter<std::fs::File>, PathBuf, PathBuf)>,
     /// A checkpoint every this many output steps (0: none).
     checkpoint_every: usize,
+    /// Full fields every this many output steps (and at the last).
+    fields_every: usize,
+    last_step: usize,
+}
+
+/// Datasets at least this long are chunked and compressed.
+const COMPRESS_MIN: usize = 256;
+
+/// Writes a dataset, shuffled and deflate-compressed (level 4, automatic chunks) when it is
+/// long enough and the HDF5 library has deflate (lossless: values read back identical).
+fn put<T: hdf5::H5Type, D: ndarray::Dimension>(
+    g: &hdf5::Group,
+    name: &str,
+    data: &ndarray::Array<T, D>,
+) -> hdf5::Result<()> {
+    if data.len() >= COMPRESS_MIN && hdf5::filters::deflate_available() {
+        g.new_dataset_builder().shuffle().deflate(4).with_data(data).create(name)?;
+    } else {
+        g.new_dataset_builder().with_data(data).create(name)?;
+    }
+    Ok(())
 }
 
 fn h5err<E: std::fmt::Display>(path: &Path, what: &str) -> impl FnOnce(E) -> OutputError {
@@ -95,6 +130,20 @@ impl ResultWriter {
         let partial_path = PathBuf::from(format!("{}.partial", path.display()));
         let xdmf_path = path.with_extension("xdmf");
         let file = hdf5::File::create(&partial_path).map_err(h5err(&partial_path, "creating the file"))?;
+        let contact_csv = if model.contacts.is_empty() {
+            None
+        } else {
+            let stem = path.with_extension("");
+            let csv = PathBuf::from(format!("{}_contact.csv", stem.display()));
+            let partial = PathBuf::from(format!("{}.partial", csv.display()));
+            let f = std::fs::File::create(&partial)
+                .map_err(|e| OutputError::Io { path: partial.display().to_string(), source: e })?;
+            let mut bw = std::io::BufWriter::new(f);
+            use std::io::Write as _;
+            bw.write_all(b"step,time,pair,x,y,pressure,shear,slip,accumulated_slip,status,cycle,increment\n")
+                .map_err(|e| OutputError::Io { path: partial.display().to_string(), source: e })?;
+            Some((bw, partial, csv))
+        };
         let mut w = ResultWriter {
             file: None,
             final_path: path.to_path_buf(),
@@ -103,8 +152,11 @@ impl ResultWriter {
             steps: vec![],
             body_meta: vec![],
             cut_bodies: vec![],
-            contact_csv: String::new(),
+            moving_bodies: vec![],
+            contact_csv,
             checkpoint_every: 1,
+            fields_every: 1,
+            last_step: model.times.len(),
         };
         let res: hdf5::Result<()> = (|| {
             write_str_attr(&file, "format", "mortex-results")?;
@@ -135,10 +187,11 @@ impl ResultWriter {
                 w.body_meta.push((b.name.clone(), n, b.mesh.num_cells(), topo.len()));
                 let bi = model.bodies.iter().position(|x| x.name == b.name).unwrap_or(0);
                 if let Some(cut) = &model.cuts[bi] {
-                    g.new_dataset_builder()
-                        .with_data(&Array1::from(cut.cell_fraction.clone()))
-                        .create("material_fraction")?;
+                    put(&g, "material_fraction", &Array1::from(cut.cell_fraction.clone()))?;
                     w.cut_bodies.push(b.name.clone());
+                    if model.bands[bi].is_some() {
+                        w.moving_bodies.push(b.name.clone());
+                    }
                 }
             }
             if !model.contacts.is_empty() {
@@ -165,7 +218,7 @@ impl ResultWriter {
             }
             let pts = model.point_coords();
             let xy: Vec<f64> = pts.iter().flat_map(|p| [p.x, p.y]).collect();
-            mesh.new_dataset_builder().with_data(&array2(pts.len(), 2, xy)).create("points")?;
+            put(&mesh, "points", &array2(pts.len(), 2, xy))?;
             file.create_group("steps")?;
             Ok(())
         })();
@@ -177,6 +230,11 @@ impl ResultWriter {
     /// Writes a checkpoint (see [`checkpoint`]) every `every` output steps (0: never; default 1).
     pub fn set_checkpoint_every(&mut self, every: usize) {
         self.checkpoint_every = every;
+    }
+
+    /// Writes the full fields every `every` output steps (>= 1; default 1) and at the last step.
+    pub fn set_fields_every(&mut self, every: usize) {
+        self.fields_every = every.max(1);
     }
 
     /// Records in the file that this run resumed from step `step` of `origin`.
@@ -201,7 +259,7 @@ impl ResultWriter {
         let Some(file) = self.file.as_ref() else {
             return Ok(());
         };
-        let fields = nodal_fields(model, state);
+        let full = report.step % self.fields_every == 0 || report.step >= self.last_step;
         let res: hdf5::Result<()> = (|| {
             let g = file.group("steps")?.create_group(&format!("{:06}", report.step))?;
             write_attr(&g, "time", &report.time)?;
@@ -209,85 +267,63 @@ impl ResultWriter {
             write_attr(&g, "iterations", &(report.iterations as u64))?;
             write_attr(&g, "cutbacks", &(report.cutbacks as u64))?;
             write_attr(&g, "residual", &report.residual)?;
-            for b in &model.bodies {
-                let bg = g.create_group(&b.name)?;
-                let (n0, n) = (b.node_offset, b.mesh.num_nodes());
-                let (c0, nc) = (b.element_offset, b.mesh.num_cells());
-                let disp: Vec<f64> = (n0..n0 + n).flat_map(|i| [state.u[2 * i], state.u[2 * i + 1], 0.0]).collect();
-                bg.new_dataset_builder().with_data(&array2(n, 3, disp)).create("displacement")?;
-                let s: Vec<f64> = fields.stress[n0..n0 + n].iter().flat_map(|s| *s).collect();
-                bg.new_dataset_builder().with_data(&array2(n, 4, s)).create("stress")?;
-                bg.new_dataset_builder()
-                    .with_data(&Array1::from(fields.von_mises[n0..n0 + n].to_vec()))
-                    .create("von_mises")?;
-                bg.new_dataset_builder().with_data(&Array1::from(fields.eqps[n0..n0 + n].to_vec())).create("eqps")?;
-                let r: Vec<f64> = reactions[2 * n0..2 * (n0 + n)].to_vec();
-                bg.new_dataset_builder().with_data(&array2(n, 2, r)).create("reaction")?;
-                let cs: Vec<f64> = fields.cell_stress[c0..c0 + nc].iter().flat_map(|s| *s).collect();
-                bg.new_dataset_builder().with_data(&array2(nc, 4, cs)).create("cell_stress")?;
-                bg.new_dataset_builder()
-                    .with_data(&Array1::from(fields.cell_eqps[c0..c0 + nc].to_vec()))
-                    .create("cell_eqps")?;
+            write_attr(&g, "cycle", &(report.cycle as u64))?;
+            write_attr(&g, "increment", &(report.increment as u64))?;
+            if full {
+                Self::write_fields(&g, model, state, reactions)?;
+            }
+            for (bi, b) in model.bodies.iter().enumerate() {
+                if let (Some(cut), true) = (&model.cuts[bi], self.moving_bodies.contains(&b.name)) {
+                    let bg = match g.group(&b.name) {
+                        Ok(bg) => bg,
+                        Err(_) => g.create_group(&b.name)?,
+                    };
+                    put(&bg, "material_fraction", &Array1::from(cut.cell_fraction.clone()))?;
+                }
+            }
+            if model.surfaces.iter().any(|s| s.motion.is_some()) {
+                let sg = g.create_group("surfaces")?;
+                for s in model.surfaces.iter().filter(|s| s.motion.is_some()) {
+                    let xy: Vec<f64> = s.user_vertices().iter().flat_map(|p| [p.x, p.y]).collect();
+                    sg.create_group(&s.name)?
+                        .new_dataset_builder()
+                        .with_data(&array2(s.vertices.len(), 2, xy))
+                        .create("vertices")?;
+                }
             }
             if !model.ties.is_empty() {
                 let tg = g.create_group("ties")?;
                 for t in &model.ties {
                     let nl = t.multipliers.num_nodes;
                     let tr: Vec<f64> = (0..2 * nl).map(|k| -state.multipliers[t.first_row + k]).collect();
-                    tg.create_group(&t.name)?.new_dataset_builder().with_data(&array2(nl, 2, tr)).create("traction")?;
+                    put(&tg.create_group(&t.name)?, "traction", &array2(nl, 2, tr))?;
                 }
             }
             if !model.contacts.is_empty() {
                 let cg = g.create_group("contacts")?;
-                let nt = model.constraints.len();
-                let nn = model.contact_rows.len();
-                for c in &model.contacts {
-                    let nl = c.multipliers.num_nodes;
-                    let p: Vec<f64> = (0..nl).map(|l| -state.multipliers[nt + c.first_row + l]).collect();
+                for (pair, c) in model.contacts.iter().enumerate() {
+                    let field = crate::contact::contact_field(model, state, pair);
+                    let nl = field.len();
+                    let col = |f: &dyn Fn(&crate::contact::ContactNodeState) -> f64| -> Array1<f64> {
+                        field.iter().map(f).collect()
+                    };
                     let pg = cg.create_group(&c.name)?;
-                    pg.new_dataset_builder().with_data(&Array1::from(p)).create("pressure")?;
+                    put(&pg, "pressure", &col(&|n| n.pressure))?;
                     // Current position of the multiplier nodes (they slide under finite sliding).
-                    let xy: Vec<f64> = c
-                        .multiplier_nodes()
-                        .iter()
-                        .zip(&c.multipliers.points)
-                        .flat_map(|(&n, x)| [x.x + state.u[2 * n], x.y + state.u[2 * n + 1]])
-                        .collect();
-                    pg.new_dataset_builder().with_data(&array2(nl, 2, xy)).create("position")?;
+                    let xy: Vec<f64> = field.iter().flat_map(|n| [n.position.x, n.position.y]).collect();
+                    put(&pg, "position", &array2(nl, 2, xy))?;
                     if c.mu > 0.0 {
-                        // Per node: shear lambda_t, slip of the step and accumulated slip (weighted
-                        // slips divided by int Phi: lengths), status 0 open / 1 stick / 2 slip.
-                        let at = |f: &dyn Fn(usize) -> f64| -> Vec<f64> {
-                            c.friction_row.iter().map(|r| r.map_or(0.0, f)).collect()
-                        };
-                        let phi = |j: usize| model.contact_phi[model.friction_normal[j]];
-                        let shear = at(&|j| state.multipliers[nt + nn + j]);
-                        let slip = at(&|j| state.slip_increment[j] / phi(j));
-                        let acc = at(&|j| state.accumulated_slip[j] / phi(j));
-                        let status: Vec<u8> =
-                            c.friction_row.iter().map(|r| r.map_or(0, |j| state.friction_status[j])).collect();
-                        pg.new_dataset_builder().with_data(&Array1::from(shear)).create("shear")?;
-                        pg.new_dataset_builder().with_data(&Array1::from(slip)).create("slip")?;
-                        pg.new_dataset_builder().with_data(&Array1::from(acc)).create("accumulated_slip")?;
-                        pg.new_dataset_builder().with_data(&Array1::from(status)).create("status")?;
+                        // Shear lambda_t, slip of the step and accumulated slip (lengths), status
+                        // 0 open / 1 stick / 2 slip.
+                        put(&pg, "shear", &col(&|n| n.shear))?;
+                        put(&pg, "slip", &col(&|n| n.slip))?;
+                        put(&pg, "accumulated_slip", &col(&|n| n.accumulated_slip))?;
+                        let status: Array1<u8> = field.iter().map(|n| n.status.code()).collect();
+                        put(&pg, "status", &status)?;
                     }
                 }
                 cg.new_dataset_builder().with_data(&Array1::from(vec![state.dissipation])).create("dissipation")?;
             }
-            let pg = g.create_group("points")?;
-            let np = state.stress.len();
-            let s: Vec<f64> = state.stress.iter().flat_map(|s| [s[0], s[1], s[2], s[3]]).collect();
-            pg.new_dataset_builder().with_data(&array2(np, 4, s)).create("stress")?;
-            let el = &model.elements;
-            let mut eqps = vec![0.0; np];
-            for e in 0..el.len() {
-                if el.state_offset[e + 1] > el.state_offset[e] {
-                    for q in 0..el.point_offset[e + 1] - el.point_offset[e] {
-                        eqps[el.point_offset[e] + q] = state.history[el.state_offset[e] + q].alpha;
-                    }
-                }
-            }
-            pg.new_dataset_builder().with_data(&Array1::from(eqps)).create("eqps")?;
             if self.checkpoint_every > 0 && report.step % self.checkpoint_every == 0 {
                 checkpoint::write(&g, state)?;
             }
@@ -295,59 +331,82 @@ impl ResultWriter {
             Ok(())
         })();
         res.map_err(h5err(&self.partial_path, &format!("writing step {}", report.step)))?;
-        self.append_contact_rows(model, state, report);
-        self.steps.push((report.step, report.time, report.load_factor));
-        self.write_xdmf()
+        self.append_contact_rows(model, state, report)?;
+        self.steps.push((report.step, report.time, report.load_factor, full));
+        Ok(())
     }
 
-    /// Contact profile rows of one step: every multiplier node of every pair.
-    fn append_contact_rows(&mut self, model: &Model, state: &SimState, report: &StepReport) {
-        if model.contacts.is_empty() {
-            return;
+    /// Nodal, cell and point fields of a step.
+    fn write_fields(g: &hdf5::Group, model: &Model, state: &SimState, reactions: &[f64]) -> hdf5::Result<()> {
+        let fields = nodal_fields(model, state);
+        for b in &model.bodies {
+            let bg = g.create_group(&b.name)?;
+            let (n0, n) = (b.node_offset, b.mesh.num_nodes());
+            let (c0, nc) = (b.element_offset, b.mesh.num_cells());
+            let disp: Vec<f64> = (n0..n0 + n).flat_map(|i| [state.u[2 * i], state.u[2 * i + 1], 0.0]).collect();
+            put(&bg, "displacement", &array2(n, 3, disp))?;
+            let s: Vec<f64> = fields.stress[n0..n0 + n].iter().flat_map(|s| *s).collect();
+            put(&bg, "stress", &array2(n, 4, s))?;
+            put(&bg, "von_mises", &Array1::from(fields.von_mises[n0..n0 + n].to_vec()))?;
+            put(&bg, "eqps", &Array1::from(fields.eqps[n0..n0 + n].to_vec()))?;
+            put(&bg, "reaction", &array2(n, 2, reactions[2 * n0..2 * (n0 + n)].to_vec()))?;
+            let cs: Vec<f64> = fields.cell_stress[c0..c0 + nc].iter().flat_map(|s| *s).collect();
+            put(&bg, "cell_stress", &array2(nc, 4, cs))?;
+            put(&bg, "cell_eqps", &Array1::from(fields.cell_eqps[c0..c0 + nc].to_vec()))?;
         }
-        if self.contact_csv.is_empty() {
-            self.contact_csv.push_str("step,time,pair,x,y,pressure,shear,slip,accumulated_slip,status\n");
+        let pg = g.create_group("points")?;
+        let np = state.stress.len();
+        let s: Vec<f64> = state.stress.iter().flat_map(|s| [s[0], s[1], s[2], s[3]]).collect();
+        put(&pg, "stress", &array2(np, 4, s))?;
+        let el = &model.elements;
+        let mut eqps = vec![0.0; np];
+        for e in 0..el.len() {
+            if el.state_offset[e + 1] > el.state_offset[e] {
+                for q in 0..el.point_offset[e + 1] - el.point_offset[e] {
+                    eqps[el.point_offset[e] + q] = state.history[el.state_offset[e] + q].alpha;
+                }
+            }
         }
-        let (nt, nn) = (model.constraints.len(), model.contact_rows.len());
-        for c in &model.contacts {
-            let nodes = c.multiplier_nodes();
-            for l in 0..c.multipliers.num_nodes {
-                let (p0, n) = (c.multipliers.points[l], nodes[l]);
-                let x = nalgebra::Point2::new(p0.x + state.u[2 * n], p0.y + state.u[2 * n + 1]);
-                let p = -state.multipliers[nt + c.first_row + l];
-                let (q, ds, acc, st) = c.friction_row[l].map_or((0.0, 0.0, 0.0, 0), |j| {
-                    let phi = model.contact_phi[model.friction_normal[j]];
-                    (
-                        state.multipliers[nt + nn + j],
-                        state.slip_increment[j] / phi,
-                        state.accumulated_slip[j] / phi,
-                        state.friction_status[j],
-                    )
-                });
+        put(&pg, "eqps", &Array1::from(eqps))
+    }
+
+    /// Contact profile rows of one step, appended to the CSV (flushed: a crashed run keeps them).
+    fn append_contact_rows(&mut self, model: &Model, state: &SimState, report: &StepReport) -> Result<(), OutputError> {
+        let Some((out, partial, _)) = self.contact_csv.as_mut() else { return Ok(()) };
+        let mut rows = String::new();
+        for (pair, c) in model.contacts.iter().enumerate() {
+            for n in crate::contact::contact_field(model, state, pair) {
                 let _ = writeln!(
-                    self.contact_csv,
-                    "{},{:e},{},{:e},{:e},{:e},{:e},{:e},{:e},{}",
-                    report.step, report.time, c.name, x.x, x.y, p, q, ds, acc, st
+                    rows,
+                    "{},{:e},{},{:e},{:e},{:e},{:e},{:e},{:e},{},{},{}",
+                    report.step,
+                    report.time,
+                    c.name,
+                    n.position.x,
+                    n.position.y,
+                    n.pressure,
+                    n.shear,
+                    n.slip,
+                    n.accumulated_slip,
+                    n.status.code(),
+                    report.cycle,
+                    report.increment
                 );
             }
         }
+        use std::io::Write as _;
+        out.write_all(rows.as_bytes())
+            .and_then(|_| out.flush())
+            .map_err(|e| OutputError::Io { path: partial.display().to_string(), source: e })
     }
 
-    /// Closes the file and renames it into place; `completed` records whether the run finished.
-    /// Contact profiles go to `<name>_contact.csv` beside it (step, time, pair, current node position,
-    /// pressure, shear, slip of the step, accumulated slip, status 0 open / 1 stick / 2 slip).
+    /// Closes the file; `completed` records whether the run finished. A finished run (or a
+    /// stopped one whose name is free) is renamed into place and gets its XDMF; a stopped run
+    /// never replaces an existing result: it stays `<name>.h5.partial` (returned), which
+    /// `--restart` reads. Contact profiles go to `<name>_contact.csv` (step, time, pair, current
+    /// node position, pressure, shear, slip of the step, accumulated slip, status 0 open / 1
+    /// stick / 2 slip, cycle, increment).
     pub fn finish(mut self, completed: bool) -> Result<PathBuf, OutputError> {
-        if !self.contact_csv.is_empty() {
-            let stem = self.final_path.with_extension("");
-            let csv = PathBuf::from(format!("{}_contact.csv", stem.display()));
-            let partial = PathBuf::from(format!("{}.partial", csv.display()));
-            let io = |p: &Path| {
-                let p = p.display().to_string();
-                move |e| OutputError::Io { path: p, source: e }
-            };
-            std::fs::write(&partial, &self.contact_csv).map_err(io(&partial))?;
-            std::fs::rename(&partial, &csv).map_err(io(&csv))?;
-        }
         if let Some(file) = self.file.take() {
             let res: hdf5::Result<()> = (|| {
                 let t: Vec<f64> = self.steps.iter().map(|s| s.1).collect();
@@ -362,20 +421,39 @@ impl ResultWriter {
             res.map_err(h5err(&self.partial_path, "closing the file"))?;
             drop(file);
         }
-        std::fs::rename(&self.partial_path, &self.final_path)
-            .map_err(|e| OutputError::Io { path: self.final_path.display().to_string(), source: e })?;
-        self.write_xdmf()?;
+        let io = |p: &Path| {
+            let p = p.display().to_string();
+            move |e| OutputError::Io { path: p, source: e }
+        };
+        let keep_partial = !completed && self.final_path.exists();
+        if let Some((mut out, partial, csv)) = self.contact_csv.take() {
+            use std::io::Write as _;
+            out.flush().map_err(io(&partial))?;
+            drop(out);
+            if !keep_partial {
+                std::fs::rename(&partial, &csv).map_err(io(&csv))?;
+            }
+        }
+        if keep_partial {
+            return Ok(self.partial_path.clone());
+        }
+        // XDMF first to its own partial, then both renamed: the XDMF beside a result always
+        // describes that result.
+        let xdmf_partial = PathBuf::from(format!("{}.partial", self.xdmf_path.display()));
+        std::fs::write(&xdmf_partial, self.xdmf_text()).map_err(io(&xdmf_partial))?;
+        std::fs::rename(&self.partial_path, &self.final_path).map_err(io(&self.final_path))?;
+        std::fs::rename(&xdmf_partial, &self.xdmf_path).map_err(io(&self.xdmf_path))?;
         Ok(self.final_path.clone())
     }
 
-    fn write_xdmf(&self) -> Result<(), OutputError> {
+    fn xdmf_text(&self) -> String {
         let h5name = self.final_path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
         let mut x = String::new();
         let _ = writeln!(x, "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n  <Grid Name=\"series\" GridType=\"Collection\" CollectionType=\"Temporal\">");
         let item = |dims: String, ty: &str, path: String| {
             format!("<DataItem Dimensions=\"{dims}\" NumberType=\"{ty}\" Precision=\"8\" Format=\"HDF\">{h5name}:{path}</DataItem>")
         };
-        for &(step, time, _) in &self.steps {
+        for &(step, time, _, _) in self.steps.iter().filter(|s| s.3) {
             let _ = writeln!(x, "   <Grid Name=\"step_{step}\" GridType=\"Collection\" CollectionType=\"Spatial\">\n    <Time Value=\"{time:e}\"/>");
             for (name, n, nc, tl) in &self.body_meta {
                 let sg = format!("/steps/{step:06}/{name}");
@@ -407,14 +485,18 @@ impl ResultWriter {
                     );
                 }
                 if self.cut_bodies.contains(name) {
-                    let _ = writeln!(x, "     <Attribute Name=\"material_fraction\" AttributeType=\"Scalar\" Center=\"Cell\">{}</Attribute>", item(format!("{nc}"), "Float", format!("/mesh/{name}/material_fraction")));
+                    let at = if self.moving_bodies.contains(name) {
+                        format!("{sg}/material_fraction")
+                    } else {
+                        format!("/mesh/{name}/material_fraction")
+                    };
+                    let _ = writeln!(x, "     <Attribute Name=\"material_fraction\" AttributeType=\"Scalar\" Center=\"Cell\">{}</Attribute>", item(format!("{nc}"), "Float", at));
                 }
                 let _ = writeln!(x, "    </Grid>");
             }
             let _ = writeln!(x, "   </Grid>");
         }
         let _ = writeln!(x, "  </Grid>\n </Domain>\n</Xdmf>");
-        std::fs::write(&self.xdmf_path, x)
-            .map_err(|e| OutputError::Io { path: self.xdmf_path.display().to_string(), source: e })
+        x
     }
 }

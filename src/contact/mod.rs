@@ -1,0 +1,292 @@
+//! Contact as its own layer: the mortar contact law at each multiplier node, the row equations
+//! it imposes for the current sets (shared by the monolithic Newton and the condensed interface
+//! solve), the contact rows of a pair (first pairing, re-pairing, moving surfaces), and the
+//! typed per-node contact field that output, post-processing and wear read.
+//!
+//! Law (Alart & Curnier, CMAME 92 (1991) 353; mortar form: Popp et al., IJNME 79 (2009) 1354),
+//! per multiplier node `k` with weighted gap `g_k`, weighted slip increment `ds_k` and
+//! `int Phi_k` (the integral of its hat over the paired part):
+//! `lambda_hat_n = lambda_n + eps_n g / int Phi`, `lambda_hat_t = lambda_t + eps_t ds / int Phi`;
+//! active if `lambda_hat_n <= 0`; an active node sticks if `|lambda_hat_t| <= -mu lambda_hat_n`,
+//! else slips with `lambda_t = -mu lambda_n sign(lambda_hat_t)`. For fixed sets each multiplier
+//! row imposes one [`RowLaw`]: its constraint (`g = 0`, `ds = 0`, tie rows), a free multiplier
+//! (`lambda = 0`: open), or the Coulomb slip relation.
+
+use crate::model::{Body, ContactInfo, Model, PairedSide};
+use crate::mortar::{weighted_gaps, ContactRow, OtherSide};
+use crate::state::SimState;
+use nalgebra::{Point2, Vector2};
+
+/// Coulomb status of a tangential multiplier in one iteration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FrictionStatus {
+    /// The node is not in contact: `lambda_t = 0`.
+    Open,
+    /// `|lambda_t_hat| <= -mu lambda_n_hat`: no slip in this step (`ds_t = 0`).
+    Stick,
+    /// `lambda_t = -mu lambda_n sign(lambda_t_hat)`; `true` for a positive sign.
+    Slip(bool),
+}
+
+impl FrictionStatus {
+    /// Stored code: 0 open, 1 stick, 2 slip.
+    pub fn code(self) -> u8 {
+        match self {
+            FrictionStatus::Open => 0,
+            FrictionStatus::Stick => 1,
+            FrictionStatus::Slip(_) => 2,
+        }
+    }
+}
+
+/// What one multiplier row imposes for the current sets.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RowLaw {
+    /// The row's constraint: tie rows `C u = 0`, active normal rows `g = 0`, stick rows `ds = 0`.
+    Constraint,
+    /// The multiplier vanishes (open node).
+    Free,
+    /// Coulomb slip: `lambda = coef * lambda_normal` (`coef = -mu sign`), `normal` the row of the
+    /// node's normal multiplier.
+    Slip { normal: usize, coef: f64 },
+}
+
+/// Multiplier rows of the model, in order: ties (and rigid sets), contact normals, friction.
+pub fn row_laws(m: &Model, active: &[bool], status: &[FrictionStatus]) -> Vec<RowLaw> {
+    let nt = m.constraints.len();
+    let mut v = vec![RowLaw::Constraint; nt];
+    v.extend(active.iter().map(|&a| if a { RowLaw::Constraint } else { RowLaw::Free }));
+    v.extend(status.iter().enumerate().map(|(j, s)| match s {
+        FrictionStatus::Stick => RowLaw::Constraint,
+        FrictionStatus::Open => RowLaw::Free,
+        FrictionStatus::Slip(pos) => {
+            let k = m.friction_normal[j];
+            RowLaw::Slip { normal: nt + k, coef: -m.contact_mu[k] * if *pos { 1.0 } else { -1.0 } }
+        }
+    }));
+    v
+}
+
+/// Multiplier-block entries of the Coulomb slip rows: (tangential row, its normal row).
+pub fn friction_couplings(m: &Model) -> Vec<(usize, usize)> {
+    let (nt, nc) = (m.constraints.len(), m.contact_rows.len());
+    m.friction_normal.iter().enumerate().map(|(j, &k)| (nt + nc + j, nt + k)).collect()
+}
+
+/// Every friction node in contact slips, all in one direction: a load-controlled body held only
+/// by friction then has no equilibrium (gross sliding). Returns the number of slipping nodes.
+pub fn gross_sliding(status: &[FrictionStatus]) -> Option<usize> {
+    let slipping: Vec<bool> =
+        status.iter().filter_map(|s| if let FrictionStatus::Slip(d) = s { Some(*d) } else { None }).collect();
+    let stick = status.contains(&FrictionStatus::Stick);
+    (!stick && !slipping.is_empty() && slipping.iter().all(|&d| d == slipping[0])).then_some(slipping.len())
+}
+
+/// Largest slide of a node in contact from its pairing, and the contact width (the sum of
+/// `int Phi` over the nodes in contact). Small sliding pairs from the reference geometry: a
+/// converged state whose nodes slid further than the contact is wide has left its range.
+pub fn slide_from_pairing(m: &Model, u: &[f64], status: &[FrictionStatus]) -> Option<(f64, f64)> {
+    let in_contact: Vec<usize> = (0..status.len()).filter(|&j| status[j] != FrictionStatus::Open).collect();
+    if in_contact.is_empty() {
+        return None;
+    }
+    let width: f64 = in_contact.iter().map(|&j| m.contact_phi[m.friction_normal[j]]).sum();
+    let slide = in_contact
+        .iter()
+        .map(|&j| {
+            let s: f64 = m.friction_rows[j].iter().map(|&(d, c)| c * u[d]).sum::<f64>() - m.friction_s0[j];
+            (s / m.contact_phi[m.friction_normal[j]]).abs()
+        })
+        .fold(0.0, f64::max);
+    Some((slide, width))
+}
+
+/// Active set and Coulomb statuses of one semi-smooth Newton iteration (see the module
+/// documentation). `gaps` are the weighted gaps, `slip` the weighted slip increments of the
+/// step, `mult` all multipliers. In the first iteration of a step with nothing active, the
+/// closest paired nodes start active so that no body floats.
+pub fn update_sets(
+    m: &Model,
+    mult: &[f64],
+    gaps: &[f64],
+    slip: &[f64],
+    first_iteration: bool,
+    active: &mut [bool],
+    status: &mut [FrictionStatus],
+) {
+    let (nt, nc) = (m.constraints.len(), m.contact_rows.len());
+    for k in 0..nc {
+        let phi = m.contact_phi[k];
+        active[k] = phi > 0.0 && mult[nt + k] + m.contact_eps[k] * gaps[k] / phi <= 0.0;
+    }
+    if first_iteration && nc > 0 && !active.iter().any(|&a| a) {
+        let gt = |k: usize| gaps[k] / m.contact_phi[k];
+        let paired = (0..nc).filter(|&k| m.contact_phi[k] > 0.0);
+        if let Some(gmin) = paired.clone().map(gt).min_by(f64::total_cmp) {
+            for k in paired {
+                active[k] = gt(k) <= gmin + 1e-6 * gmin.abs() + f64::MIN_POSITIVE;
+            }
+        }
+    }
+    for (j, st) in status.iter_mut().enumerate() {
+        let k = m.friction_normal[j];
+        *st = if !active[k] {
+            FrictionStatus::Open
+        } else {
+            let (phi, eps) = (m.contact_phi[k], m.contact_eps[k]);
+            let lt_hat = mult[nt + nc + j] + eps * slip[j] / phi;
+            let ln_hat = mult[nt + k] + eps * gaps[k] / phi;
+            if lt_hat.abs() <= m.contact_mu[k] * (-ln_hat).max(0.0) {
+                FrictionStatus::Stick
+            } else {
+                FrictionStatus::Slip(lt_hat > 0.0)
+            }
+        };
+    }
+}
+
+/// Sets the multipliers of open contact nodes (normal and tangential) to exactly zero.
+pub fn zero_open_multipliers(m: &Model, mult: &mut [f64], active: &[bool], status: &[FrictionStatus]) {
+    let (nt, nc) = (m.constraints.len(), m.contact_rows.len());
+    for (k, _) in active.iter().enumerate().filter(|(_, a)| !**a) {
+        mult[nt + k] = 0.0;
+    }
+    for (j, _) in status.iter().enumerate().filter(|(_, s)| **s == FrictionStatus::Open) {
+        mult[nt + nc + j] = 0.0;
+    }
+}
+
+/// The weighted-gap and slip rows of a pair for the other side's current geometry: `x` maps
+/// a global node to where the pair is paired (reference coordinates for small sliding, the
+/// converged configuration for finite sliding). The one routine for the first pairing, the
+/// re-pairing of finite sliding and the rows of a surface that moved.
+pub fn pair_rows(bodies: &[Body], c: &ContactInfo, x: &dyn Fn(usize) -> Point2<f64>) -> Vec<ContactRow> {
+    let side = crate::mortar::MortarSide {
+        nodes: c.side.nodes.clone(),
+        points: c.side.nodes.iter().map(|&n| x(n)).collect(),
+        closed: c.side.closed,
+    };
+    match &c.other {
+        PairedSide::Edges(edges) => {
+            let pts: Vec<[Point2<f64>; 2]> = edges.iter().map(|e| [x(e[0]), x(e[1])]).collect();
+            weighted_gaps(&side, &c.multipliers, &OtherSide::Edges { nodes: edges, points: &pts }, c.max_gap)
+        }
+        PairedSide::Embedded { host, embedding } => {
+            let b = &bodies[*host];
+            let mut mesh = b.mesh.clone();
+            for (i, p) in mesh.nodes.iter_mut().enumerate() {
+                *p = x(b.node_offset + i);
+            }
+            // A virtual surface moves with its host through its host reference coordinates.
+            let mut e = embedding.clone();
+            for piece in e.pieces.iter_mut() {
+                let mapped =
+                    crate::fem::element::MappedElement::new(mesh.cells[piece.cell].kind, mesh.cell_coords(piece.cell));
+                piece.a = mapped.map(piece.xi_a);
+                piece.b = mapped.map(piece.xi_b);
+            }
+            weighted_gaps(
+                &side,
+                &c.multipliers,
+                &OtherSide::Embedded { host: &mesh, host_offset: b.node_offset, embedding: &e },
+                c.max_gap,
+            )
+        }
+    }
+}
+
+/// Writes a pair's rows into the model: `g0 = g_x - C_x u` and `s0 = T_x u` keep the rows
+/// linear in the total displacement `u` when they were paired in a displaced configuration
+/// (zero `u`: the reference pairing).
+pub fn install_rows(m: &mut Model, pair: usize, rows: Vec<ContactRow>, u: &[f64]) {
+    let (first, friction_row) = (m.contacts[pair].first_row, m.contacts[pair].friction_row.clone());
+    for (l, r) in rows.into_iter().enumerate() {
+        let k = first + l;
+        let cu: f64 = r.normal.iter().map(|&(d, v)| v * u[d]).sum();
+        m.contact_g0[k] = r.g0 - cu;
+        m.contact_phi[k] = r.phi;
+        m.contact_rows[k] = r.normal;
+        if let Some(j) = friction_row[l] {
+            m.friction_s0[j] = r.tangent.iter().map(|&(d, v)| v * u[d]).sum();
+            m.friction_rows[j] = r.tangent;
+        }
+    }
+}
+
+/// One multiplier node of a contact pair in a state: what output, post-processing and wear read.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactNodeState {
+    /// Global mesh node carrying the multiplier (a mortar-side vertex).
+    pub node: usize,
+    /// Reference and current position.
+    pub reference: Point2<f64>,
+    pub position: Point2<f64>,
+    /// Contact pressure `p = -lambda_n` (>= 0 in contact).
+    pub pressure: f64,
+    /// Shear `lambda_t` along `t = n` turned +90 degrees (`n` the mortar side's outward normal);
+    /// 0 when frictionless.
+    pub shear: f64,
+    /// Slip of the last increment and accumulated slip, as lengths (weighted slips over
+    /// `int Phi`); 0 for unpaired or frictionless nodes.
+    pub slip: f64,
+    pub accumulated_slip: f64,
+    /// Weighted gap over `int Phi` (a length; 0 in contact, positive open; `f64::INFINITY`
+    /// for a node that is not paired).
+    pub gap: f64,
+    /// `int Phi` of the node's hat over its paired part (0: not paired).
+    pub phi: f64,
+    /// Coulomb status of the last increment (frictionless pairs have none: `Open`).
+    pub status: FrictionStatus,
+    /// Pressing on the other surface (positive pressure, or a Coulomb status other than open).
+    pub in_contact: bool,
+}
+
+/// The per-node contact field of pair `pair` in `state`, in multiplier order.
+pub fn contact_field(m: &Model, state: &SimState, pair: usize) -> Vec<ContactNodeState> {
+    let c = &m.contacts[pair];
+    let (nt, nn) = (m.constraints.len(), m.contact_rows.len());
+    let nodes = c.multiplier_nodes();
+    (0..c.multipliers.num_nodes)
+        .map(|l| {
+            let k = c.first_row + l;
+            let n = nodes[l];
+            let reference = c.multipliers.points[l];
+            let position = reference + Vector2::new(state.u[2 * n], state.u[2 * n + 1]);
+            let phi = m.contact_phi[k];
+            let per_length = |v: f64| if phi > 0.0 { v / phi } else { 0.0 };
+            let gap = if phi > 0.0 {
+                (m.contact_g0[k] + m.contact_rows[k].iter().map(|&(d, v)| v * state.u[d]).sum::<f64>()) / phi
+            } else {
+                f64::INFINITY
+            };
+            let pressure = -state.multipliers[nt + k];
+            let (shear, slip, accumulated_slip, status) = match c.friction_row[l] {
+                Some(j) => (
+                    state.multipliers[nt + nn + j],
+                    per_length(state.slip_increment[j]),
+                    per_length(state.accumulated_slip[j]),
+                    match state.friction_status[j] {
+                        1 => FrictionStatus::Stick,
+                        2 => FrictionStatus::Slip(state.multipliers[nt + nn + j] > 0.0),
+                        _ => FrictionStatus::Open,
+                    },
+                ),
+                None => (0.0, 0.0, 0.0, FrictionStatus::Open),
+            };
+            let in_contact = pressure > 0.0 || status != FrictionStatus::Open;
+            ContactNodeState {
+                node: n,
+                reference,
+                position,
+                pressure,
+                shear,
+                slip,
+                accumulated_slip,
+                gap,
+                phi,
+                status,
+                in_contact,
+            }
+        })
+        .collect()
+}
