@@ -295,3 +295,129 @@ pub fn run_hertz(h_core: f64, virtual_top: bool) -> Result<HertzRun, String> {
         l2_error: crate::post::relative_l2_error(&prof, exact, -2.0 * a, 2.0 * a),
     })
 }
+
+/// Figures of the output benchmark: a many-step contact run, solve and output timed apart.
+#[derive(Debug, Clone, Copy)]
+pub struct OutputRun {
+    pub steps: usize,
+    pub dofs: usize,
+    /// Seconds in the solver (driver minus observer) and in the result writer.
+    pub solve: f64,
+    pub output: f64,
+    /// Size of the result file and of the contact CSV, bytes.
+    pub h5_bytes: u64,
+    pub csv_bytes: u64,
+}
+
+/// A fretting-like scene of about 19k DOFs for output benchmarks: a 4 x 1 mm block (70 x 25
+/// Quad4) pressed (50 MPa) on a 4 x 3 mm block (100 x 75 Quad4), mu = 0.3, with a tangential
+/// traction cycling between +-5 MPa (10 increments per cycle) after one loading step.
+pub fn fretting_blocks_model(steps: usize) -> Result<Model, crate::model::ModelError> {
+    use crate::model::{ContactOther, ContactParams, Cycle};
+    use nalgebra::Vector2;
+    let hyp = PlaneHypothesis::PlaneStrain;
+    let mut b = ModelBuilder::new(hyp);
+    let mi = b.add_material("steel", Material::Elastic(Elastic { young: 210_000.0, poisson: 0.3, hypothesis: hyp }));
+    let mesh_err = |e: crate::mesh::MeshError| crate::model::ModelError::Tie { tie: "mesh".into(), msg: e.to_string() };
+    let lower = generate::rectangle(0.0, 0.0, 4.0, 3.0, 100, 75, 1.0, 1.0, CellKind::Quad4).map_err(mesh_err)?;
+    let upper = generate::rectangle(0.0, 3.0, 4.0, 1.0, 70, 25, 1.0, 1.0, CellKind::Quad4).map_err(mesh_err)?;
+    let lo = b.add_body("lower", lower, mi, Formulation::Standard, 1.0);
+    let up = b.add_body("upper", upper, mi, Formulation::Standard, 1.0);
+    b.fix(lo, "bottom", 0, 0.0)?;
+    b.fix(lo, "bottom", 1, 0.0)?;
+    b.fix(up, "top_left", 0, 0.0)?;
+    b.pressure(up, "top", 50.0)?;
+    let shear = b.add_curve(LoadPath::new(vec![(0.0, 0.0), (1.0, 0.0), (1.25, 1.0), (1.75, -1.0), (2.0, 0.0)])?);
+    b.use_curve(shear);
+    b.traction(up, "top", Vector2::new(5.0, 0.0))?;
+    b.use_curve(0);
+    let other = ContactOther::Edges(b.global_edges(lo, &["top".to_string()])?);
+    b.add_contact("pair", up, &["bottom".to_string()], lo, other, ContactParams::friction(0.3))?;
+    let cycles = steps.saturating_sub(1).div_ceil(10).max(1);
+    let cycle = Cycle { start: 1.0, period: 1.0, count: cycles, increments: 10, ramp_increments: 1 };
+    b.set_cycle(cycle);
+    let mut times = cycle.times(0.0);
+    times.truncate(steps.max(1));
+    b.build(
+        LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0), (2.0, 1.0)])?,
+        times,
+        NewtonParams::default(),
+        LinearSolverKind::Cholesky,
+    )
+}
+
+/// Runs [`fretting_blocks_model`] for `steps` steps writing `out` (full fields every
+/// `fields_every` steps, a checkpoint every `checkpoint_every`, 0: none).
+pub fn run_output_bench(
+    steps: usize,
+    fields_every: usize,
+    checkpoint_every: usize,
+    out: &std::path::Path,
+) -> Result<OutputRun, String> {
+    let model = fretting_blocks_model(steps).map_err(|e| e.to_string())?;
+    let mut state = crate::analysis::StaticAnalysis::initial_state_of(&model);
+    let mut writer = crate::io::ResultWriter::create(out, &model, "output-bench").map_err(|e| e.to_string())?;
+    writer.set_fields_every(fields_every);
+    writer.set_checkpoint_every(checkpoint_every);
+    let mut output = 0.0;
+    let start = Instant::now();
+    crate::driver::run(&model, &mut state, crate::driver::RunOptions::default(), |r, s, m| {
+        let t0 = Instant::now();
+        writer.write_step(m, r, s).map_err(|e| e.to_string())?;
+        output += t0.elapsed().as_secs_f64();
+        Ok(())
+    })
+    .map_err(|e| e.to_string())?;
+    let t0 = Instant::now();
+    let file = writer.finish(true).map_err(|e| e.to_string())?;
+    output += t0.elapsed().as_secs_f64();
+    let total = start.elapsed().as_secs_f64();
+    let size = |p: &std::path::Path| std::fs::metadata(p).map(|m| m.len()).unwrap_or(0);
+    let csv = std::path::PathBuf::from(format!("{}_contact.csv", file.with_extension("").display()));
+    Ok(OutputRun {
+        steps: model.times.len(),
+        dofs: model.dofs.num_dofs,
+        solve: total - output,
+        output,
+        h5_bytes: size(&file),
+        csv_bytes: size(&csv),
+    })
+}
+
+/// Re-cut after a surface move: a straight open surface crossing an `n x n` `Quad4` unit square
+/// host, moving one cell down; returns (cells, band cells, cut cells, seconds per move: embed,
+/// re-cut, refit, ghost penalty, DOF map, averaged over `moves` moves).
+pub fn time_recut(n: usize, moves: usize) -> Result<(usize, usize, usize, f64), String> {
+    use crate::discretisation::SurfaceMotion;
+    use nalgebra::{Point2, Vector2};
+    let hyp = PlaneHypothesis::PlaneStrain;
+    let mut b = ModelBuilder::new(hyp);
+    let mi = b.add_material("steel", Material::Elastic(Elastic { young: 210_000.0, poisson: 0.3, hypothesis: hyp }));
+    let host = generate::rectangle(0.0, 0.0, 1.0, 1.0, n, n, 1.0, 1.0, CellKind::Quad4).map_err(|e| e.to_string())?;
+    let body = b.add_body("host", host, mi, Formulation::Standard, 1.0);
+    let h = 1.0 / n as f64;
+    let y0 = 0.5 + 0.37 * h;
+    b.add_cut("surface", body, vec![Point2::new(-0.1, y0), Point2::new(1.1, y0 + 0.013)], false, false)
+        .map_err(|e| e.to_string())?;
+    let curve = b.add_curve(LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)]).map_err(|e| e.to_string())?);
+    b.set_cut_motion("surface", SurfaceMotion::Translation { direction: Vector2::new(0.0, -h), curve })
+        .map_err(|e| e.to_string())?;
+    b.fix(body, "bottom", 0, 0.0).map_err(|e| e.to_string())?;
+    b.fix(body, "bottom", 1, 0.0).map_err(|e| e.to_string())?;
+    let mut model = b
+        .build(
+            LoadPath::new(vec![(0.0, 1.0), (1.0, 1.0)]).map_err(|e| e.to_string())?,
+            vec![1.0],
+            NewtonParams::default(),
+            LinearSolverKind::Cholesky,
+        )
+        .map_err(|e| e.to_string())?;
+    let band = model.bands[body].as_ref().map_or(0, |b| b.cells.len());
+    let start = Instant::now();
+    let mut cut = 0;
+    for k in 1..=moves {
+        let r = model.place_surfaces(k as f64 / moves as f64).map_err(|e| e.to_string())?;
+        cut = r.cut_cells_by_degree.iter().sum::<usize>() + r.unfitted_cells;
+    }
+    Ok((n * n, band, cut, start.elapsed().as_secs_f64() / moves as f64))
+}

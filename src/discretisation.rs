@@ -140,6 +140,8 @@ pub struct Band {
     pub rules: Vec<usize>,
     pub points: BandPoints,
     pub adjacency: CellAdjacency,
+    /// BVH over the host's cells (built once).
+    pub index: std::sync::Arc<BoxIndex>,
     /// Surfaces embedded in the body that never move (tie boundaries).
     pub fixed_embeddings: Vec<Embedding>,
 }
@@ -256,7 +258,8 @@ impl Model {
             let surf = VirtualSurface { vertices: v.clone(), closed: s.base.closed };
             surf.validate().map_err(|e| err(e.to_string()))?;
             let mesh = &self.bodies[s.body].mesh;
-            let emb = embed(&surf, mesh, &BoxIndex::over_cells(mesh)).map_err(|e| err(e.to_string()))?;
+            let Some(band) = self.bands[s.body].as_ref() else { continue };
+            let emb = embed(&surf, mesh, &band.index).map_err(|e| err(e.to_string()))?;
             let body = s.body;
             self.surfaces[*i].vertices = v.clone();
             self.surfaces[*i].embedding = emb;

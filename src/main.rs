@@ -75,6 +75,13 @@ enum Command {
         /// 0.005 mm), real and virtual block surface.
         #[arg(long)]
         hertz: bool,
+        /// Instead: output cost of a many-step run (this many steps of a 19k-DOF fretting
+        /// scene; full fields every 100 steps, without and with a checkpoint every 100).
+        #[arg(long)]
+        output: Option<usize>,
+        /// Instead: re-cut + refit after a surface move in an n x n host (e.g. `--recut -n 450`).
+        #[arg(long)]
+        recut: bool,
     },
 }
 
@@ -93,6 +100,8 @@ fn main() -> ExitCode {
         Command::Check { case } => check(case),
         Command::Plot { result, step, pair, output, xlim } => plot(result, step, pair, output, xlim),
         Command::Bench { hertz: true, repeat, .. } => bench_hertz(repeat),
+        Command::Bench { output: Some(steps), .. } => bench_output(steps),
+        Command::Bench { recut: true, n, repeat, .. } => bench_recut(n, repeat),
         Command::Bench { n, repeat, serial, embed, .. } => match embed {
             Some(segments) => bench_embed(n, segments, repeat),
             None => bench(n, repeat, serial),
@@ -261,8 +270,7 @@ fn run(
                         step_model: &mortex::model::Model|
          -> Result<(), String> {
             total_its += r.iterations;
-            let reactions = step_model.reactions(s);
-            writer.write_step(step_model, r, s, &reactions).map_err(|e| e.to_string())?;
+            writer.write_step(step_model, r, s).map_err(|e| e.to_string())?;
             let cycle = if step_model.cycle.is_some() {
                 format!("cycle {} inc {}, ", r.cycle, r.increment)
             } else {
@@ -421,5 +429,46 @@ fn bench_hertz(repeat: usize) -> Result<(), String> {
             );
         }
     }
+    Ok(())
+}
+
+fn bench_output(steps: usize) -> Result<(), String> {
+    if steps == 0 {
+        return Err("bench --output: give at least 1 step".into());
+    }
+    let dir = std::env::temp_dir().join(format!("mortex-bench-output-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    println!("output benchmark: {steps} steps of a fretting scene (contact series every step)");
+    println!("  fields  checkpoints  DOFs     solve s   output s  output share  h5 MB    csv MB");
+    for (fields, checkpoints) in [(100, 0), (100, 100), (1, 1)] {
+        if fields == 1 && steps > 2000 {
+            continue;
+        }
+        let out = dir.join(format!("bench_{fields}_{checkpoints}.h5"));
+        let r = mortex::bench::run_output_bench(steps, fields, checkpoints, &out)?;
+        println!(
+            "  {fields:<6}  {checkpoints:<11}  {:<7}  {:8.2}  {:8.2}  {:10.1}%  {:7.1}  {:7.1}",
+            r.dofs,
+            r.solve,
+            r.output,
+            100.0 * r.output / (r.solve + r.output),
+            r.h5_bytes as f64 / 1e6,
+            r.csv_bytes as f64 / 1e6
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
+
+fn bench_recut(n: usize, repeat: usize) -> Result<(), String> {
+    if n < 2 || repeat == 0 {
+        return Err("bench --recut: n >= 2 and repeat >= 1".into());
+    }
+    let (cells, band, cut, secs) = mortex::bench::time_recut(n, repeat.max(4))?;
+    println!(
+        "re-cut after a surface move: {cells} host cells, band of {band} cells, {cut} cut cells: {:.1} ms per move \
+         (embed + cut + refit + ghost penalty + DOF map)",
+        1e3 * secs
+    );
     Ok(())
 }

@@ -1056,6 +1056,7 @@ impl ModelBuilder {
                         rules: vec![],
                         points,
                         adjacency: adjacency.clone(),
+                        index: std::sync::Arc::new(BoxIndex::over_cells(&body.mesh)),
                         fixed_embeddings,
                     });
                 }

@@ -481,3 +481,28 @@ max_cutbacks = 2
     let steps: u64 = f.attr("num_steps").unwrap().read_scalar().unwrap();
     assert_eq!(steps, 3);
 }
+
+/// Output selection: with `fields_every = 4` and `checkpoint_every = 5` over 10 steps, step
+/// groups exist only at steps with a snapshot (4, 5, 8, 10: full fields at 4, 8 and the last,
+/// checkpoints at 5 and 10), the per-step series holds all 10 rows, and the XDMF lists the
+/// full-field steps only (4, 8, 10).
+#[test]
+fn output_selection_writes_series_every_step_and_fields_every_k() {
+    let d = tmpdir("select");
+    let case = format!("{GOOD}\n[steps]\nincrements = 10\n[output]\nfields_every = 4\ncheckpoint_every = 5\n");
+    std::fs::write(d.join("sel.toml"), case).unwrap();
+    let (ok, text) = run(&["run", "sel.toml", "--quiet"], &d);
+    assert!(ok, "{text}");
+    let f = hdf5::File::open(d.join("results/sel.h5")).unwrap();
+    let mut groups: Vec<String> = f.group("steps").unwrap().member_names().unwrap();
+    groups.sort();
+    assert_eq!(groups, ["000004", "000005", "000008", "000010"]);
+    let steps: Vec<u64> = f.dataset("series/step").unwrap().read_raw().unwrap();
+    assert_eq!(steps, (1..=10).collect::<Vec<u64>>());
+    assert!(f.group("steps/000005").unwrap().link_exists("checkpoint"));
+    assert!(!f.group("steps/000005").unwrap().link_exists("block"), "step 5 has no full fields");
+    let xdmf = std::fs::read_to_string(d.join("results/sel.xdmf")).unwrap();
+    let listed: Vec<&str> = xdmf.matches("<Grid Name=\"step_").collect();
+    assert_eq!(listed.len(), 3, "{xdmf}");
+    assert!(xdmf.contains("step_4\"") && xdmf.contains("step_8\"") && xdmf.contains("step_10\""));
+}

@@ -6,7 +6,13 @@
 //! * `/mesh/<body>/nodes` `(n, 2)`, `/mesh/<body>/cells` `(c, 4)` i64 node ids (-1 pads a
 //!   triangle), `/mesh/<body>/topology` i64 XDMF mixed topology, `/mesh/points` `(p, 2)`
 //!   integration-point coordinates (all bodies, point order).
-//! * `/steps/NNNNNN/` attributes `time`, `load_factor`, `iterations`, `cutbacks`,
+//! * `/series/` (every output step, one row each, extendable chunked datasets): `step`,
+//!   `cycle`, `increment`, `iterations` (u64), `time`, `load_factor`, `residual`;
+//!   `/series/contacts/<pair>/{pressure, shear, slip, accumulated_slip}` `(steps, l)`, `status`
+//!   u8 `(steps, l)`, `position` `(steps, l, 2)`, `/series/contacts/dissipation`;
+//!   `/series/surfaces/<cut>/vertices` `(steps, v, 2)` of moving surfaces.
+//! * `/steps/NNNNNN/` (snapshot steps only: full fields, or a checkpoint) attributes `time`,
+//!   `load_factor`, `iterations`, `cutbacks`,
 //!   `residual`; per body `displacement` `(n, 3)` (z = 0, for ParaView's warp), `stress` `(n, 4)`
 //!   nodal `[xx, yy, zz, xy]` (lumped L2 projection), `von_mises` `(n)`, `eqps` `(n)`,
 //!   `reaction` `(n, 2)`, `cell_stress` `(c, 4)`, `cell_eqps` `(c)`; `/steps/NNNNNN/points/stress`
@@ -78,6 +84,133 @@ pub struct ResultWriter {
     /// Full fields every this many output steps (and at the last).
     fields_every: usize,
     last_step: usize,
+    last_flush: std::time::Instant,
+    /// Per-step series (every step): extendable datasets, one row per step.
+    series: Series,
+}
+
+/// Extendable per-step datasets under `/series` (one row per output step).
+struct Series {
+    /// `(dataset, row width)`: scalars have width 0.
+    scalars: Vec<hdf5::Dataset>,
+    /// Per contact pair: pressure, shear, slip, accumulated slip `(steps, l)`, status u8
+    /// `(steps, l)`, position `(steps, l, 2)`.
+    contacts: Vec<[hdf5::Dataset; 6]>,
+    dissipation: Option<hdf5::Dataset>,
+    /// Moving surfaces: vertices `(steps, v, 2)`.
+    surfaces: Vec<hdf5::Dataset>,
+    rows: usize,
+}
+
+/// Rows of a series chunk (a chunk holds this many steps).
+const SERIES_CHUNK: usize = 64;
+
+impl Series {
+    fn create(file: &hdf5::File, model: &Model) -> hdf5::Result<Series> {
+        let g = file.create_group("series")?;
+        let mut scalars = vec![];
+        for name in ["step", "cycle", "increment", "iterations"] {
+            scalars.push(g.new_dataset::<u64>().chunk(SERIES_CHUNK * 16).shape(0..).create(name)?);
+        }
+        for name in ["time", "load_factor", "residual"] {
+            scalars.push(g.new_dataset::<f64>().chunk(SERIES_CHUNK * 16).shape(0..).create(name)?);
+        }
+        let mut contacts = vec![];
+        let mut dissipation = None;
+        if !model.contacts.is_empty() {
+            let cg = g.create_group("contacts")?;
+            for c in &model.contacts {
+                let l = c.multipliers.num_nodes.max(1);
+                let pg = cg.create_group(&c.name)?;
+                let f = |name: &str| pg.new_dataset::<f64>().chunk((SERIES_CHUNK, l)).shape((0.., l)).create(name);
+                contacts.push([
+                    f("pressure")?,
+                    f("shear")?,
+                    f("slip")?,
+                    f("accumulated_slip")?,
+                    pg.new_dataset::<u8>().chunk((SERIES_CHUNK, l)).shape((0.., l)).create("status")?,
+                    pg.new_dataset::<f64>().chunk((SERIES_CHUNK, l, 2)).shape((0.., l, 2)).create("position")?,
+                ]);
+            }
+            dissipation = Some(cg.new_dataset::<f64>().chunk(SERIES_CHUNK * 16).shape(0..).create("dissipation")?);
+        }
+        let mut surfaces = vec![];
+        if model.surfaces.iter().any(|s| s.motion.is_some()) {
+            let sg = g.create_group("surfaces")?;
+            for s in model.surfaces.iter().filter(|s| s.motion.is_some()) {
+                let v = s.vertices.len();
+                surfaces.push(
+                    sg.create_group(&s.name)?
+                        .new_dataset::<f64>()
+                        .chunk((SERIES_CHUNK, v, 2))
+                        .shape((0.., v, 2))
+                        .create("vertices")?,
+                );
+            }
+        }
+        Ok(Series { scalars, contacts, dissipation, surfaces, rows: 0 })
+    }
+
+    fn append(
+        &mut self,
+        model: &Model,
+        report: &StepReport,
+        state: &SimState,
+        fields: &[Vec<crate::contact::ContactNodeState>],
+    ) -> hdf5::Result<()> {
+        use ndarray::s;
+        let k = self.rows;
+        let ints = [report.step as u64, report.cycle as u64, report.increment as u64, report.iterations as u64];
+        for (ds, v) in self.scalars.iter().zip(ints) {
+            ds.resize(k + 1)?;
+            ds.write_slice(&[v], s![k..k + 1])?;
+        }
+        for (ds, v) in self.scalars[4..].iter().zip([report.time, report.load_factor, report.residual]) {
+            ds.resize(k + 1)?;
+            ds.write_slice(&[v], s![k..k + 1])?;
+        }
+        for (ds, field) in self.contacts.iter().zip(fields) {
+            let l = field.len();
+            let cols: [Vec<f64>; 4] = [
+                field.iter().map(|n| n.pressure).collect(),
+                field.iter().map(|n| n.shear).collect(),
+                field.iter().map(|n| n.slip).collect(),
+                field.iter().map(|n| n.accumulated_slip).collect(),
+            ];
+            for (d, col) in ds.iter().zip(cols) {
+                d.resize((k + 1, l))?;
+                d.write_slice(
+                    &Array2::from_shape_vec((1, l), col).unwrap_or_else(|_| Array2::zeros((1, l))),
+                    s![k..k + 1, ..],
+                )?;
+            }
+            let status: Vec<u8> = field.iter().map(|n| n.status.code()).collect();
+            ds[4].resize((k + 1, l))?;
+            ds[4].write_slice(
+                &Array2::from_shape_vec((1, l), status).unwrap_or_else(|_| Array2::zeros((1, l))),
+                s![k..k + 1, ..],
+            )?;
+            let xy: Vec<f64> = field.iter().flat_map(|n| [n.position.x, n.position.y]).collect();
+            ds[5].resize((k + 1, l, 2))?;
+            let xy =
+                ndarray::Array3::from_shape_vec((1, l, 2), xy).unwrap_or_else(|_| ndarray::Array3::zeros((1, l, 2)));
+            ds[5].write_slice(&xy, s![k..k + 1, .., ..])?;
+        }
+        if let Some(d) = &self.dissipation {
+            d.resize(k + 1)?;
+            d.write_slice(&[state.dissipation], s![k..k + 1])?;
+        }
+        for (d, surf) in self.surfaces.iter().zip(model.surfaces.iter().filter(|s| s.motion.is_some())) {
+            let v = surf.vertices.len();
+            let xy: Vec<f64> = surf.user_vertices().iter().flat_map(|p| [p.x, p.y]).collect();
+            d.resize((k + 1, v, 2))?;
+            let xy =
+                ndarray::Array3::from_shape_vec((1, v, 2), xy).unwrap_or_else(|_| ndarray::Array3::zeros((1, v, 2)));
+            d.write_slice(&xy, s![k..k + 1, .., ..])?;
+        }
+        self.rows += 1;
+        Ok(())
+    }
 }
 
 /// Datasets at least this long are chunked and compressed.
@@ -91,7 +224,7 @@ fn put<T: hdf5::H5Type, D: ndarray::Dimension>(
     data: &ndarray::Array<T, D>,
 ) -> hdf5::Result<()> {
     if data.len() >= COMPRESS_MIN && hdf5::filters::deflate_available() {
-        g.new_dataset_builder().shuffle().deflate(4).with_data(data).create(name)?;
+        g.new_dataset_builder().shuffle().deflate(1).with_data(data).create(name)?;
     } else {
         g.new_dataset_builder().with_data(data).create(name)?;
     }
@@ -157,6 +290,8 @@ impl ResultWriter {
             checkpoint_every: 1,
             fields_every: 1,
             last_step: model.times.len(),
+            last_flush: std::time::Instant::now(),
+            series: Series { scalars: vec![], contacts: vec![], dissipation: None, surfaces: vec![], rows: 0 },
         };
         let res: hdf5::Result<()> = (|| {
             write_str_attr(&file, "format", "mortex-results")?;
@@ -223,6 +358,7 @@ impl ResultWriter {
             Ok(())
         })();
         res.map_err(h5err(&partial_path, "writing the mesh"))?;
+        w.series = Series::create(&file, model).map_err(h5err(&partial_path, "creating the series"))?;
         w.file = Some(file);
         Ok(w)
     }
@@ -249,18 +385,22 @@ impl ResultWriter {
 
     /// Appends one converged step (and its checkpoint when the step is a multiple of the
     /// checkpoint interval).
-    pub fn write_step(
-        &mut self,
-        model: &Model,
-        report: &StepReport,
-        state: &SimState,
-        reactions: &[f64],
-    ) -> Result<(), OutputError> {
+    pub fn write_step(&mut self, model: &Model, report: &StepReport, state: &SimState) -> Result<(), OutputError> {
         let Some(file) = self.file.as_ref() else {
             return Ok(());
         };
         let full = report.step % self.fields_every == 0 || report.step >= self.last_step;
+        let checkpoint = self.checkpoint_every > 0 && report.step % self.checkpoint_every == 0;
+        let fields: Vec<Vec<crate::contact::ContactNodeState>> =
+            (0..model.contacts.len()).map(|pair| crate::contact::contact_field(model, state, pair)).collect();
+        let series = &mut self.series;
+        let moving_bodies = &self.moving_bodies;
         let res: hdf5::Result<()> = (|| {
+            series.append(model, report, state, &fields)?;
+            // A step group only where there is a snapshot: full fields or a checkpoint.
+            if !(full || checkpoint) {
+                return Ok(());
+            }
             let g = file.group("steps")?.create_group(&format!("{:06}", report.step))?;
             write_attr(&g, "time", &report.time)?;
             write_attr(&g, "load_factor", &report.load_factor)?;
@@ -270,10 +410,10 @@ impl ResultWriter {
             write_attr(&g, "cycle", &(report.cycle as u64))?;
             write_attr(&g, "increment", &(report.increment as u64))?;
             if full {
-                Self::write_fields(&g, model, state, reactions)?;
+                Self::write_fields(&g, model, state, &model.reactions(state))?;
             }
             for (bi, b) in model.bodies.iter().enumerate() {
-                if let (Some(cut), true) = (&model.cuts[bi], self.moving_bodies.contains(&b.name)) {
+                if let (Some(cut), true) = (&model.cuts[bi], moving_bodies.contains(&b.name)) {
                     let bg = match g.group(&b.name) {
                         Ok(bg) => bg,
                         Err(_) => g.create_group(&b.name)?,
@@ -301,8 +441,7 @@ impl ResultWriter {
             }
             if !model.contacts.is_empty() {
                 let cg = g.create_group("contacts")?;
-                for (pair, c) in model.contacts.iter().enumerate() {
-                    let field = crate::contact::contact_field(model, state, pair);
+                for (c, field) in model.contacts.iter().zip(&fields) {
                     let nl = field.len();
                     let col = |f: &dyn Fn(&crate::contact::ContactNodeState) -> f64| -> Array1<f64> {
                         field.iter().map(f).collect()
@@ -324,14 +463,19 @@ impl ResultWriter {
                 }
                 cg.new_dataset_builder().with_data(&Array1::from(vec![state.dissipation])).create("dissipation")?;
             }
-            if self.checkpoint_every > 0 && report.step % self.checkpoint_every == 0 {
+            if checkpoint {
                 checkpoint::write(&g, state)?;
             }
-            file.flush()?;
             Ok(())
         })();
         res.map_err(h5err(&self.partial_path, &format!("writing step {}", report.step)))?;
-        self.append_contact_rows(model, state, report)?;
+        // Flushed to disk with every checkpoint and full-field step (a killed run keeps them),
+        // and at least once a second: flushing every short step would dominate long runs.
+        if checkpoint || full || self.last_flush.elapsed().as_secs_f64() >= 1.0 {
+            file.flush().map_err(h5err(&self.partial_path, &format!("flushing step {}", report.step)))?;
+            self.last_flush = std::time::Instant::now();
+        }
+        self.append_contact_rows(model, &fields, report)?;
         self.steps.push((report.step, report.time, report.load_factor, full));
         Ok(())
     }
@@ -371,11 +515,16 @@ impl ResultWriter {
     }
 
     /// Contact profile rows of one step, appended to the CSV (flushed: a crashed run keeps them).
-    fn append_contact_rows(&mut self, model: &Model, state: &SimState, report: &StepReport) -> Result<(), OutputError> {
+    fn append_contact_rows(
+        &mut self,
+        model: &Model,
+        fields: &[Vec<crate::contact::ContactNodeState>],
+        report: &StepReport,
+    ) -> Result<(), OutputError> {
         let Some((out, partial, _)) = self.contact_csv.as_mut() else { return Ok(()) };
         let mut rows = String::new();
-        for (pair, c) in model.contacts.iter().enumerate() {
-            for n in crate::contact::contact_field(model, state, pair) {
+        for (c, field) in model.contacts.iter().zip(fields) {
+            for n in field {
                 let _ = writeln!(
                     rows,
                     "{},{:e},{},{:e},{:e},{:e},{:e},{:e},{:e},{},{},{}",

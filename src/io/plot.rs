@@ -52,29 +52,40 @@ pub fn read_profile(path: &Path, step: Option<usize>, pair: Option<&str>) -> Res
         None if pairs.len() == 1 => pairs[0].clone(),
         None => return Err(err(format!("several contact pairs, choose one with --pair: {pairs:?}"))),
     };
-    let mut steps: Vec<usize> = file
-        .group("steps")
-        .and_then(|g| g.member_names())
-        .map_err(|e| err(format!("no /steps group: {e}")))?
-        .iter()
-        .filter_map(|s| s.parse().ok())
-        .collect();
-    steps.sort_unstable();
-    let step = match step.or(steps.last().copied()) {
-        Some(s) if steps.contains(&s) => s,
-        Some(s) => return Err(err(format!("no output step {s} (steps {:?}..{:?})", steps.first(), steps.last()))),
-        None => return Err(err("the result holds no step".into())),
+    // Every step's contact series is under /series (one row per step).
+    let series = file.group("series").map_err(|e| err(format!("no /series group: {e}")))?;
+    let steps: Vec<u64> = series.dataset("step").and_then(|d| d.read_raw()).map_err(|e| err(e.to_string()))?;
+    let row = match step {
+        Some(s) => steps.iter().position(|&k| k as usize == s),
+        None => steps.len().checked_sub(1),
     };
+    let Some(row) = row else {
+        return match step {
+            Some(s) => Err(err(format!("no output step {s} (steps {:?}..{:?})", steps.first(), steps.last()))),
+            None => Err(err("the result holds no step".into())),
+        };
+    };
+    let step = steps[row] as usize;
     let pg = pairs_group.group(&pair).map_err(|e| err(e.to_string()))?;
     let points: Vec<f64> = pg.dataset("points").and_then(|d| d.read_raw()).map_err(|e| err(e.to_string()))?;
     let mu = pg.attr("mu").and_then(|a| a.read_scalar::<f64>()).ok();
-    let sg = file.group(&format!("steps/{step:06}")).map_err(|e| err(e.to_string()))?;
-    let time = sg.attr("time").and_then(|a| a.read_scalar::<f64>()).map_err(|e| err(e.to_string()))?;
-    let cg = sg.group(&format!("contacts/{pair}")).map_err(|e| err(format!("step {step}: {e}")))?;
-    let f64s = |name: &str| -> Option<Vec<f64>> { cg.dataset(name).and_then(|d| d.read_raw()).ok() };
+    let times: Vec<f64> = series.dataset("time").and_then(|d| d.read_raw()).map_err(|e| err(e.to_string()))?;
+    let time = times.get(row).copied().ok_or_else(|| err("series/time is shorter than series/step".into()))?;
+    let cg = series.group(&format!("contacts/{pair}")).map_err(|e| err(format!("no series of pair '{pair}': {e}")))?;
+    let row_of = |name: &str| -> Option<Vec<f64>> {
+        let d = cg.dataset(name).ok()?;
+        let a: ndarray::Array2<f64> = d.read_slice(ndarray::s![row..row + 1, ..]).ok()?;
+        Some(a.iter().copied().collect())
+    };
+    let f64s = row_of;
     let pressure = f64s("pressure").ok_or_else(|| err(format!("step {step}: no pressure of pair '{pair}'")))?;
-    // Current positions where the file has them (they move under finite sliding).
-    let points = f64s("position").filter(|p| p.len() == points.len()).unwrap_or(points);
+    // Current positions (they move under finite sliding).
+    let position: Option<Vec<f64>> = cg
+        .dataset("position")
+        .ok()
+        .and_then(|d| d.read_slice::<f64, _, ndarray::Ix3>(ndarray::s![row..row + 1, .., ..]).ok())
+        .map(|a| a.iter().copied().collect());
+    let points = position.filter(|p| p.len() == points.len()).unwrap_or(points);
     let n = pressure.len();
     if points.len() != 2 * n {
         return Err(err(format!("pair '{pair}': {} points for {n} pressures", points.len() / 2)));
@@ -82,17 +93,23 @@ pub fn read_profile(path: &Path, step: Option<usize>, pair: Option<&str>) -> Res
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&a, &b| points[2 * a].total_cmp(&points[2 * b]));
     let sorted = |v: Vec<f64>| -> Vec<f64> { order.iter().map(|&i| v[i]).collect() };
-    let status: Option<Vec<u8>> = cg.dataset("status").and_then(|d| d.read_raw::<u8>()).ok();
+    let status: Option<Vec<u8>> = cg
+        .dataset("status")
+        .ok()
+        .and_then(|d| d.read_slice::<u8, _, ndarray::Ix2>(ndarray::s![row..row + 1, ..]).ok())
+        .map(|a| a.iter().copied().collect());
+    // Frictionless pairs: the shear and slip series are zeros; draw them only with friction.
+    let frictional = mu.is_some_and(|m| m > 0.0);
     Ok(ContactProfile {
         pair,
         step,
         time,
         x: order.iter().map(|&i| points[2 * i]).collect(),
         pressure: sorted(pressure),
-        shear: f64s("shear").map(sorted),
-        slip: f64s("slip").map(sorted),
-        accumulated_slip: f64s("accumulated_slip").map(sorted),
-        status: status.map(|s| order.iter().map(|&i| s[i]).collect()),
+        shear: f64s("shear").filter(|_| frictional).map(sorted),
+        slip: f64s("slip").filter(|_| frictional).map(sorted),
+        accumulated_slip: f64s("accumulated_slip").filter(|_| frictional).map(sorted),
+        status: status.filter(|_| frictional).map(|s| order.iter().map(|&i| s[i]).collect()),
         mu,
     })
 }

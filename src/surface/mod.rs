@@ -47,6 +47,7 @@ pub enum SurfaceError {
 }
 
 /// A bounding-volume hierarchy over axis-aligned boxes (host cells or surface segments).
+#[derive(Debug, Clone)]
 pub struct BoxIndex {
     bvh: Bvh,
 }
