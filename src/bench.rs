@@ -206,13 +206,33 @@ pub fn hertz_model_with(
     virtual_top: bool,
     multipliers: crate::mortar::MultiplierSpace,
 ) -> Result<Model, crate::model::ModelError> {
+    hertz_model_materials(h_core, cylinder_refinement, cylinder_core, virtual_top, multipliers, STEEL, STEEL)
+}
+
+/// Steel: E = 210 GPa, nu = 0.3 (MPa).
+pub const STEEL: (f64, f64) = (210_000.0, 0.3);
+/// Aluminium: E = 70 GPa, nu = 0.33 (MPa).
+pub const ALUMINIUM: (f64, f64) = (70_000.0, 0.33);
+
+/// [`hertz_model_with`] with the cylinder's and the block's `(E, nu)`.
+pub fn hertz_model_materials(
+    h_core: f64,
+    cylinder_refinement: f64,
+    cylinder_core: f64,
+    virtual_top: bool,
+    multipliers: crate::mortar::MultiplierSpace,
+    cylinder_material: (f64, f64),
+    block_material: (f64, f64),
+) -> Result<Model, crate::model::ModelError> {
     use crate::model::ContactOther;
     use nalgebra::{Point2, Vector2};
     const R: f64 = 10.0;
     const CORE: f64 = 0.5;
     let hyp = PlaneHypothesis::PlaneStrain;
     let mut b = ModelBuilder::new(hyp);
-    let mi = b.add_material("steel", Material::Elastic(Elastic { young: 210_000.0, poisson: 0.3, hypothesis: hyp }));
+    let elastic = |(young, poisson): (f64, f64)| Material::Elastic(Elastic { young, poisson, hypothesis: hyp });
+    let mi_cyl = b.add_material("cylinder", elastic(cylinder_material));
+    let mi = b.add_material("block", elastic(block_material));
     let n_core = (2.0 * CORE / h_core).round().max(2.0) as usize;
     let n_depth = (CORE / h_core).round().max(1.0) as usize;
     let top = if virtual_top { 0.013 } else { 0.0 };
@@ -227,7 +247,7 @@ pub fn hertz_model_with(
     let ts = generate::plateau_graded(n_cyl(2.0 * cylinder_core), (2.0 * cylinder_core / R) / std::f64::consts::PI, 20);
     let cyl = generate::half_disc_from_divisions(Point2::new(0.0, R), R, &rs, &ts).map_err(mesh_err)?;
     let bl = b.add_body("block", block, mi, Formulation::Standard, 1.0);
-    let cy = b.add_body("cylinder", cyl, mi, Formulation::Standard, 1.0);
+    let cy = b.add_body("cylinder", cyl, mi_cyl, Formulation::Standard, 1.0);
     b.fix(bl, "bottom", 0, 0.0)?;
     b.fix(bl, "bottom", 1, 0.0)?;
     b.fix(cy, "centre", 0, 0.0)?;

@@ -110,7 +110,8 @@ pub struct ContactSpec {
     /// Coulomb coefficient (default 0: frictionless, no tangential unknowns).
     #[serde(default)]
     pub friction: f64,
-    /// Multiplier space on the mortar surface (default classical for contact).
+    /// Multiplier space on the mortar surface (default coarse-grained: spaced like the other
+    /// side's elements where the mortar side is finer, classical elsewhere).
     pub multipliers: Option<MultiplierSpace>,
     /// "small" (default: pairing from the reference geometry) or "finite" (re-paired every
     /// step, for strokes longer than the contact).
@@ -386,6 +387,11 @@ pub struct Case {
     /// Full-field interval in output steps (>= 1).
     pub fields_every: usize,
 }
+
+/// Contact multipliers when a case does not choose: coarse-grained, never finer than the other
+/// side's elements (equal to the classical space where the mortar side is at most 1.5x finer):
+/// classical multipliers on a finer side oscillate and stop converging under refinement.
+pub const DEFAULT_CONTACT_MULTIPLIERS: MultiplierSpace = MultiplierSpace::CoarseGrained;
 
 /// Largest number of output steps a case may ask for (each is a group in the result file).
 pub const MAX_OUTPUT_STEPS: usize = 10_000_000;
@@ -697,7 +703,7 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         }
         let params = crate::model::ContactParams {
             friction: c.friction,
-            multipliers: c.multipliers.unwrap_or(MultiplierSpace::Classical),
+            multipliers: c.multipliers.unwrap_or(DEFAULT_CONTACT_MULTIPLIERS),
             sliding: c.sliding,
         };
         b.add_contact(&name, mortar, &c.mortar_surface, other_body, other, params).map_err(|e| {

@@ -127,8 +127,11 @@ pub fn build_multipliers_local(side: &MortarSide, spacing: &[f64]) -> Multiplier
         let mut last = arc[0];
         for k in 1..nseg {
             let target = last + spacing[vs[k]];
-            // Keep k when the next vertex would overshoot the target more than k falls short.
-            if arc[k + 1] - target >= target - arc[k] {
+            // Keep k when the next vertex would overshoot the target at least as much as k
+            // falls short. Ties (within 1e-9 of the spacing, e.g. the other side exactly 1.5x
+            // coarser) keep the vertex whatever the round-off: the space equals the classical
+            // one while the other side is at most 1.5x coarser, and is coarser beyond.
+            if arc[k + 1] - target >= target - arc[k] - 1e-9 * spacing[vs[k]] {
                 keep.push(k);
                 last = arc[k];
             }
