@@ -512,6 +512,49 @@ impl Model {
 /// Default ghost-penalty factor (dimensionless, times `E h` per edge).
 pub const DEFAULT_GHOST_PENALTY: f64 = 0.05;
 
+/// The first segment of a closed tie boundary that lies along the host's outer boundary (an
+/// edge of a cell without a neighbour), with its end points: such an edge has host material on
+/// one side only, so tying it couples the patch to nothing and cuts nothing.
+fn edge_on_outer_boundary(host: &Mesh2, side: &MortarSide) -> Option<(usize, Point2<f64>, Point2<f64>)> {
+    if !side.closed {
+        return None;
+    }
+    let adjacency = crate::cut::CellAdjacency::new(host);
+    let mut outer: Vec<(Point2<f64>, Point2<f64>)> = Vec::new();
+    for (c, cell) in host.cells.iter().enumerate() {
+        let ns = cell.nodes();
+        for k in 0..ns.len() {
+            if adjacency.neighbour(c, k).is_none() {
+                outer.push((host.nodes[ns[k]], host.nodes[ns[(k + 1) % ns.len()]]));
+            }
+        }
+    }
+    let index = BoxIndex::new(
+        &outer
+            .iter()
+            .map(|(a, b)| (Point2::new(a.x.min(b.x), a.y.min(b.y)), Point2::new(a.x.max(b.x), a.y.max(b.y))))
+            .collect::<Vec<_>>(),
+    );
+    let mut cand = Vec::new();
+    for i in 0..side.num_segments() {
+        let (p, q) = (side.points[i], side.points[(i + 1) % side.points.len()]);
+        let len = (q - p).norm();
+        let tol = 1e-6 * len;
+        let mid = Point2::from((p.coords + q.coords) * 0.5);
+        index.query(Point2::new(mid.x - tol, mid.y - tol), Point2::new(mid.x + tol, mid.y + tol), &mut cand);
+        for &e in &cand {
+            let (a, b) = outer[e];
+            let d = b - a;
+            let dist = |x: Point2<f64>| ((x - a).x * d.y - (x - a).y * d.x).abs() / d.norm();
+            // The segment's midpoint on the edge and the segment parallel to it.
+            if dist(mid) <= tol && dist(p) <= 10.0 * tol && dist(q) <= 10.0 * tol {
+                return Some((i, p, q));
+            }
+        }
+    }
+    None
+}
+
 /// Factor of builder curve `c` (0: the load path) at `t`.
 fn curve_value(curves: &[LoadPath], load_path: &LoadPath, c: usize, t: f64) -> f64 {
     if c == 0 {
@@ -967,6 +1010,17 @@ impl ModelBuilder {
         let mut cuts: Vec<Option<CutMesh>> = vec![None; self.bodies.len()];
         for t in self.ties.iter().filter(|t| t.other_edges.is_none()) {
             let host = &self.bodies[t.host];
+            if let Some((i, a, b)) = edge_on_outer_boundary(&host.mesh, &t.side) {
+                return Err(ModelError::Tie {
+                    tie: t.name.clone(),
+                    msg: format!(
+                        "patch boundary edge {i} from ({:.6}, {:.6}) to ({:.6}, {:.6}) lies on the host's outer boundary, \
+                         where it couples nothing: list only the patch edges inside the host (an open boundary, e.g. \
+                         [\"left\", \"bottom\", \"right\"])",
+                        a.x, a.y, b.x, b.y
+                    ),
+                });
+            }
             let mut v = t.side.points.clone();
             v.reverse(); // host material outside the patch = on the left of the reversed loop
             let surf = VirtualSurface { vertices: v, closed: t.side.closed };

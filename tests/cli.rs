@@ -506,3 +506,55 @@ fn output_selection_writes_series_every_step_and_fields_every_k() {
     assert_eq!(listed.len(), 3, "{xdmf}");
     assert!(xdmf.contains("step_4\"") && xdmf.contains("step_8\"") && xdmf.contains("step_10\""));
 }
+
+/// A tie whose closed boundary loop has an edge on the host's own boundary (a fine patch over a
+/// contact zone, its top edge on the host's top face) is an error naming the tie and the edge;
+/// the open loop (`["left", "bottom", "right"]`) is the right input and runs.
+#[test]
+fn tie_loop_with_an_edge_on_the_host_boundary_is_an_error() {
+    let d = tmpdir("tieloop");
+    let case = |boundary: &str| {
+        format!(
+            r#"
+[problem]
+hypothesis = "plane_strain"
+[[materials]]
+name = "steel"
+model = "elastic"
+young = 210000.0
+poisson = 0.3
+[[bodies]]
+name = "host"
+material = "steel"
+mesh = {{ type = "rectangle", size = [10.0, 4.0], divisions = [10, 4] }}
+[[bodies]]
+name = "patch"
+material = "steel"
+mesh = {{ type = "rectangle", origin = [3.0, 2.0], size = [4.0, 2.0], divisions = [12, 6] }}
+[[ties]]
+name = "fine_zone"
+host = "host"
+patch = "patch"
+boundary = {boundary}
+[[bcs]]
+body = "host"
+set = "bottom"
+ux = 0.0
+uy = 0.0
+[[loads]]
+body = "patch"
+set = "top"
+pressure = 10.0
+"#
+        )
+    };
+    expect_error(
+        &d,
+        "closed_on_boundary",
+        &case(r#"["bottom", "right", "top", "left"]"#),
+        &["closed_on_boundary.toml", "ties[0]", "fine_zone", "outer boundary", "couples nothing"],
+    );
+    std::fs::write(d.join("open.toml"), case(r#"["left", "bottom", "right"]"#)).unwrap();
+    let (ok, text) = run(&["run", "open.toml", "--quiet"], &d);
+    assert!(ok, "{text}");
+}
