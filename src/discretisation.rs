@@ -11,11 +11,11 @@
 //!
 //! What a re-cut refits (Sudhakar & Wall, CMAME 258 (2013) 39, moment fitting; non-negative
 //! weights by Lawson-Hanson NNLS):
-//! * bodies without history ([`BandPoints::Any`]): every fixed point of a cut band cell may
-//!   carry weight (nothing is stored there; the integrand is the polynomial extension of the
-//!   cell's field). The rule contains the cell's vertices, so areas and first moments are
-//!   matched exactly for every cut, slivers included (patch test exact); second moments
-//!   where a non-negative fit exists (thin slivers fall back to degree 1);
+//! * bodies without history ([`BandPoints::Any`]): nothing is stored at the points, so a cut
+//!   band cell takes the exact sub-triangulation rule of its material in its fixed slots
+//!   (padded with zero weights); only where that rule needs more slots than the cell has, its
+//!   fixed points get moment-fitted weights with every point allowed (the vertices among them
+//!   keep areas and first moments exact, second moments where a non-negative fit exists);
 //! * bodies with history ([`BandPoints::Material`]): only points inside the material carry
 //!   weight; points left in the void get weight zero and keep their last values (the kernel
 //!   skips them). For slivers below about 25 % of a cell, exact first moments are generally not
@@ -29,7 +29,7 @@
 
 use crate::assembly::DofMap;
 use crate::cut::{band_rule, band_weights, cut_mesh, BandPoints, CellAdjacency, CellCut, SMALL_FRACTION};
-use crate::mesh::{CellKind, Mesh2};
+use crate::mesh::Mesh2;
 use crate::model::{Model, ModelError, PairedSide};
 use crate::surface::{cell_polygon, embed, BoxIndex, Embedding, VirtualSurface};
 use nalgebra::{Point2, Vector2};
@@ -198,11 +198,6 @@ pub fn band_cells(
     Ok((0..mesh.num_cells()).filter(|&c| mark[c]).collect())
 }
 
-/// Uncut weights of the band rule of each cell kind.
-fn full_weights(kind: CellKind) -> Vec<f64> {
-    band_rule(kind).weights
-}
-
 impl Model {
     /// Vertices of free surface `i` at time `t` (its reference vertices when it does not move).
     pub fn surface_vertices_at(&self, i: usize, t: f64) -> Vec<Point2<f64>> {
@@ -308,16 +303,14 @@ impl Model {
             }
         }
         for (&c, &r) in band.cells.iter().zip(&band.rules) {
-            let kind = body.mesh.cells[c].kind;
-            let (w, degree) =
-                band_weights(&body.mesh, c, &self.rules[r], &full_weights(kind), &cm.cells[c], band.points);
+            let (rule, degree) = band_cell_rule(&body.mesh, c, &cm.cells[c], band.points);
             if matches!(cm.cells[c], CellCut::Cut { .. }) {
                 match degree {
                     Some(d) if d <= 2 => report.cut_cells_by_degree[d] += 1,
                     _ => report.unfitted_cells += 1,
                 }
             }
-            self.rules[r].weights = w;
+            self.rules[r] = rule;
         }
         self.penalty_parts[b] = if self.ghost_penalty > 0.0 {
             let young = self.materials[body.material].elastic().young;
@@ -365,17 +358,26 @@ pub fn held_dofs(cm: &crate::cut::CutMesh, node_offset: usize, prescribed: &[(us
     v
 }
 
-/// Band weights of a freshly built band cell (used by the model builder: the first
-/// placement is the same computation as every later one).
-pub fn initial_band_weights(
+/// The rule of a band cell in its current cut state, on the cell's fixed slots (see
+/// [`BandPoints`]): the uncut band rule for a material cell, zero weights for a void one; a cut
+/// cell of a body without history takes its exact sub-triangulation rule when it fits the slots,
+/// otherwise (and for bodies with history) the fixed points with moment-fitted weights. Returns
+/// the rule and the moment degree it integrates exactly (2 for the exact rule, `usize::MAX`
+/// for an uncut cell). The model builder and every re-cut use this one function.
+pub fn band_cell_rule(
     mesh: &Mesh2,
     c: usize,
     state: &CellCut,
     which: BandPoints,
-) -> crate::fem::quadrature::QuadratureRule {
-    let kind = mesh.cells[c].kind;
-    let mut rule = band_rule(kind);
+) -> (crate::fem::quadrature::QuadratureRule, Option<usize>) {
+    let mut rule = band_rule(mesh.cells[c].kind);
+    if which == BandPoints::Any {
+        if let Some(exact) = crate::cut::band_exact_rule(mesh, c, rule.len(), state) {
+            return (exact, Some(2));
+        }
+    }
     let full = rule.weights.clone();
-    rule.weights = band_weights(mesh, c, &rule, &full, state, which).0;
-    rule
+    let (w, degree) = band_weights(mesh, c, &rule, &full, state, which);
+    rule.weights = w;
+    (rule, degree)
 }

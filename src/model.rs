@@ -1149,7 +1149,7 @@ impl ModelBuilder {
                 let r = match cut.map(|cm| &cm.cells[ci]) {
                     Some(state) if in_band => {
                         let which = bands[bi].as_ref().map_or(crate::cut::BandPoints::Material, |band| band.points);
-                        rules.push(crate::discretisation::initial_band_weights(&b.mesh, ci, state, which));
+                        rules.push(crate::discretisation::band_cell_rule(&b.mesh, ci, state, which).0);
                         if let Some(band) = bands[bi].as_mut() {
                             band.rules.push(rules.len() - 1);
                         }

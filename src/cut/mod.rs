@@ -522,15 +522,15 @@ pub fn band_rule(kind: CellKind) -> QuadratureRule {
     rule
 }
 
-/// Which fixed points of a band cell may carry weight once it is cut.
+/// How a cut band cell is integrated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BandPoints {
-    /// Only points inside the material (bodies with history: a point in the void keeps its last
-    /// values and weight zero).
+    /// Bodies with history: only the fixed points inside the material carry weight (a point in
+    /// the void keeps its last values and weight zero); weights by moment fitting.
     Material,
-    /// Every point of the cell (bodies without history: the integrand is the polynomial
-    /// extension of the cell's field, nothing is stored at the points, so a point in the void
-    /// may serve as a quadrature point; first moments are then always matched).
+    /// Bodies without history: nothing is stored at the points, so a cut cell takes the exact
+    /// sub-triangulation rule of its material in its fixed slots ([`band_exact_rule`]); where
+    /// that rule needs more slots than the cell has, moment fitting on every point of the cell.
     Any,
 }
 
@@ -549,18 +549,62 @@ pub fn band_weights(
     match state {
         CellCut::Material => (full_weights.to_vec(), Some(usize::MAX)),
         CellCut::Void => (vec![0.0; rule.len()], Some(usize::MAX)),
+        CellCut::Cut { .. } => {
+            let (w, degree) = band_fit(mesh, c, rule, state, which);
+            (w, degree)
+        }
+    }
+}
+
+/// Where a band cell of a body without history is cut: the exact sub-triangulation rule of its
+/// material, in the cell's fixed slots (padded with zero weights), when it fits them. Nothing
+/// is stored at such points, so moving them transfers nothing; the integral is then exact to
+/// degree 2 on every cut, slivers included. `None` for other cells or a rule that does not fit.
+pub fn band_exact_rule(mesh: &Mesh2, c: usize, slots: usize, state: &CellCut) -> Option<QuadratureRule> {
+    let CellCut::Cut { loops, .. } = state else { return None };
+    let mut rule = subtriangulation_rule(mesh, c, loops);
+    if rule.is_empty() || rule.len() > slots {
+        return None;
+    }
+    let centre = match mesh.cells[c].kind {
+        CellKind::Quad4 => [0.0, 0.0],
+        CellKind::Tri3 => [1.0 / 3.0, 1.0 / 3.0],
+    };
+    while rule.len() < slots {
+        rule.points.push(centre);
+        rule.weights.push(0.0);
+    }
+    Some(rule)
+}
+
+/// Moment-fitted weights of a cut band cell on its fixed points.
+fn band_fit(
+    mesh: &Mesh2,
+    c: usize,
+    rule: &QuadratureRule,
+    state: &CellCut,
+    which: BandPoints,
+) -> (Vec<f64>, Option<usize>) {
+    match state {
+        CellCut::Material | CellCut::Void => (vec![0.0; rule.len()], None),
         CellCut::Cut { loops, .. } => {
             let mapped = MappedElement::new(mesh.cells[c].kind, mesh.cell_coords(c));
             let x: Vec<Point2<f64>> = rule.points.iter().map(|xi| mapped.map(*xi)).collect();
             let h = cell_size(&cell_polygon(mesh, c));
-            let inside: Vec<bool> = match which {
-                BandPoints::Any => vec![true; x.len()],
-                BandPoints::Material => x
-                    .iter()
-                    .map(|p| loops.iter().any(|l| point_in_loop(l, *p) || point_on_loop_boundary(l, *p, 1e-12 * h)))
-                    .collect(),
-            };
-            let (w, degree) = fit_weights(&x, &inside, loops);
+            let material: Vec<bool> = x
+                .iter()
+                .map(|p| loops.iter().any(|l| point_in_loop(l, *p) || point_on_loop_boundary(l, *p, 1e-12 * h)))
+                .collect();
+            let (mut w, mut degree) = fit_weights(&x, &material, loops);
+            // Bodies without history: where the material points cannot carry second moments,
+            // every point of the cell may (a higher degree wins; at equal degree the local fit
+            // on the material points is kept).
+            if which == BandPoints::Any && degree.is_none_or(|d| d < 2) {
+                let (w_any, d_any) = fit_weights(&x, &vec![true; x.len()], loops);
+                if d_any.unwrap_or(0) > degree.unwrap_or(0) || (degree.is_none() && d_any.is_some()) {
+                    (w, degree) = (w_any, d_any);
+                }
+            }
             let w_ref = w.iter().zip(&rule.points).map(|(w, xi)| w / mapped.jacobian(*xi).determinant()).collect();
             (w_ref, degree)
         }
