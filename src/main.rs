@@ -85,6 +85,13 @@ enum Command {
     },
 }
 
+// mimalloc keeps freed pages for reuse: the large short-lived buffers of set-up (Delassus
+// columns, factor workspaces) no longer fault in fresh pages from the system each time (the
+// Hertz benchmark at 174k DOFs: 568k page faults and 2.8 s of system time with the system
+// allocator; whole process 25% faster).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let level = match cli.verbose {

@@ -172,6 +172,11 @@ impl Condensed {
         // one block run on one core); each returns its columns of D over all set rows.
         let starts: Vec<usize> = (old..nl).step_by(RHS_BLOCK).collect();
         let rows_free = &self.rows_free;
+        // The blocks already use the threads: faer's own parallelism inside each block's
+        // triangular solves only adds synchronisation (futex/yield storms), so it is switched
+        // off for the duration.
+        let par = faer::get_global_parallelism();
+        faer::set_global_parallelism(faer::Par::Seq);
         let cols: Vec<Result<Vec<Vec<f64>>, LinearSolverError>> = starts
             .par_iter()
             .map(|&start| {
@@ -191,6 +196,7 @@ impl Condensed {
                     .collect())
             })
             .collect();
+        faer::set_global_parallelism(par);
         for (&start, block) in starts.iter().zip(cols) {
             for (b, col) in block?.into_iter().enumerate() {
                 for (a, v) in col.into_iter().enumerate() {

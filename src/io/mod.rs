@@ -16,7 +16,8 @@
 //!   `residual`; per body `displacement` `(n, 3)` (z = 0, for ParaView's warp), `stress` `(n, 4)`
 //!   nodal `[xx, yy, zz, xy]` (lumped L2 projection), `von_mises` `(n)`, `eqps` `(n)`,
 //!   `reaction` `(n, 2)`, `cell_stress` `(c, 4)`, `cell_eqps` `(c)`; `/steps/NNNNNN/points/stress`
-//!   `(p, 4)` and `eqps` `(p)` at the integration points.
+//!   `(p, 4)` and `eqps` `(p)` at the integration points (with moving surfaces also their
+//!   `coordinates` `(p, 2)`: cut band cells of bodies without history take exact rules).
 //! * `/time`, `/load_factor` `(steps)`: written when the file is closed.
 //! * Cut host bodies: `/mesh/<body>/material_fraction` `(c)`. Ties: `/mesh/ties/<tie>/points`,
 //!   `normals` `(l, 2)` of the multiplier nodes (outward normal of the patch) and per step
@@ -507,6 +508,11 @@ impl ResultWriter {
         let np = state.stress.len();
         let s: Vec<f64> = state.stress.iter().flat_map(|s| [s[0], s[1], s[2], s[3]]).collect();
         put(&pg, "stress", &array2(np, 4, s))?;
+        if model.bands.iter().any(|b| b.is_some()) {
+            // Cut band cells of bodies without history take exact rules: their points move.
+            let xy: Vec<f64> = model.point_coords().iter().flat_map(|p| [p.x, p.y]).collect();
+            put(&pg, "coordinates", &array2(np, 2, xy))?;
+        }
         let el = &model.elements;
         let mut eqps = vec![0.0; np];
         for e in 0..el.len() {
