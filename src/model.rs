@@ -9,7 +9,7 @@
 
 use crate::assembly::{DofMap, ElementTable};
 use crate::cut::{cut_mesh, subtriangulation_rule, CellCut, CutMesh};
-use crate::discretisation::{held_dofs, Band, FreeSurface, SurfaceMotion};
+use crate::discretisation::{band_cell_rule, held_dofs, Band, FreeSurface, RecutReport, SurfaceMotion};
 use crate::fem::element::ReferenceElement;
 use crate::fem::element::Seg2;
 use crate::fem::kernel::Formulation;
@@ -1390,3 +1390,148 @@ impl ModelBuilder {
         })
     }
 }
+
+/// Moving surfaces (see [`crate::discretisation`]): the model re-cut on its fixed band points.
+impl Model {
+    /// Vertices of free surface `i` at time `t` (its reference vertices when it does not move).
+    pub fn surface_vertices_at(&self, i: usize, t: f64) -> Vec<Point2<f64>> {
+        let s = &self.surfaces[i];
+        match &s.motion {
+            // A motion is a process over the whole run: its curve is read at the absolute time,
+            // never wrapped into the load cycle.
+            Some(m) => m.place(&s.base, self.curve_factor_absolute(m.curve(), t)),
+            None => s.base.vertices.clone(),
+        }
+    }
+
+    /// Whether any surface of the model moves during the run.
+    pub fn has_moving_surfaces(&self) -> bool {
+        self.surfaces.iter().any(|s| s.motion.is_some())
+    }
+
+    /// Moves every moving surface to its position at time `t` and re-cuts (see the module
+    /// documentation). The state layout does not change.
+    pub fn place_surfaces(&mut self, t: f64) -> Result<RecutReport, ModelError> {
+        let positions: Vec<(usize, Vec<Point2<f64>>)> = (0..self.surfaces.len())
+            .filter(|&i| self.surfaces[i].motion.is_some())
+            .map(|i| (i, self.surface_vertices_at(i, t)))
+            .collect();
+        self.move_surfaces(&positions)
+    }
+
+    /// Moves free surfaces to new vertex positions (`(surface index, vertices)`, same vertex
+    /// count) and re-cuts their hosts on the fixed band points.
+    pub fn move_surfaces(&mut self, positions: &[(usize, Vec<Point2<f64>>)]) -> Result<RecutReport, ModelError> {
+        let mut report = RecutReport::default();
+        let mut bodies: Vec<usize> = Vec::new();
+        let mut moved: Vec<usize> = Vec::new();
+        for (i, v) in positions {
+            let s = &self.surfaces[*i];
+            let err = |msg: String| ModelError::Tie { tie: s.name.clone(), msg };
+            if v.len() != s.base.vertices.len() {
+                return Err(err(format!(
+                    "a move gave {} vertices, the surface has {}",
+                    v.len(),
+                    s.base.vertices.len()
+                )));
+            }
+            if *v == s.vertices {
+                continue;
+            }
+            if self.bands[s.body].is_none() {
+                return Err(err("the surface was not declared moving: its host has no band of fixed points".into()));
+            }
+            if v.iter().any(|p| !p.x.is_finite() || !p.y.is_finite()) {
+                return Err(err("a move gave a non-finite vertex".into()));
+            }
+            let surf = VirtualSurface { vertices: v.clone(), closed: s.base.closed };
+            surf.validate().map_err(|e| err(e.to_string()))?;
+            let mesh = &self.bodies[s.body].mesh;
+            let Some(band) = self.bands[s.body].as_ref() else { continue };
+            let emb = embed(&surf, mesh, &band.index).map_err(|e| err(e.to_string()))?;
+            let body = s.body;
+            self.surfaces[*i].vertices = v.clone();
+            self.surfaces[*i].embedding = emb;
+            moved.push(*i);
+            if !bodies.contains(&body) {
+                bodies.push(body);
+            }
+        }
+        report.moved = moved.len();
+        for &b in &bodies {
+            self.recut_body(b, &mut report)?;
+        }
+        if !moved.is_empty() {
+            self.refresh_contact_rows(&moved);
+            self.penalty = self.penalty_parts.iter().flatten().copied().collect();
+            let mut constrained: Vec<usize> = self.prescribed.iter().map(|p| p.0).collect();
+            constrained.extend(self.held.iter().flatten().copied());
+            self.dofs = DofMap::new(self.coords.len(), &constrained);
+            if self.dofs.num_free == 0 {
+                return Err(ModelError::NoFreeDofs);
+            }
+        }
+        report.held_dofs = self.held.iter().map(|h| h.len()).sum();
+        self.deactivated_dofs = report.held_dofs;
+        Ok(report)
+    }
+
+    /// Re-cuts body `b` with its current surfaces: cut state, band weights, ghost penalty and
+    /// switched-off nodes.
+    fn recut_body(&mut self, b: usize, report: &mut RecutReport) -> Result<(), ModelError> {
+        let Some(band) = self.bands[b].as_ref() else { return Ok(()) };
+        let body = &self.bodies[b];
+        let mut embs: Vec<&Embedding> = band.fixed_embeddings.iter().collect();
+        embs.extend(self.surfaces.iter().filter(|s| s.body == b).map(|s| &s.embedding));
+        let first_surface = self.surfaces.iter().find(|s| s.body == b).map(|s| s.name.clone()).unwrap_or_default();
+        let tie_err = |msg: String| ModelError::Tie { tie: first_surface.clone(), msg };
+        let cm = cut_mesh(&body.mesh, &band.adjacency, &embs).map_err(|e| tie_err(e.to_string()))?;
+        // Outside the band nothing may change: its cells have fixed rules.
+        if let Some(old) = &self.cuts[b] {
+            for c in 0..body.mesh.num_cells() {
+                if cm.cells[c] != old.cells[c] && band.cells.binary_search(&c).is_err() {
+                    return Err(tie_err(format!(
+                        "the surface reached host cell {c}, outside the band of fixed points prepared for its motion"
+                    )));
+                }
+            }
+        }
+        for (&c, &r) in band.cells.iter().zip(&band.rules) {
+            let (rule, degree) = band_cell_rule(&body.mesh, c, &cm.cells[c], band.points);
+            if matches!(cm.cells[c], CellCut::Cut { .. }) {
+                match degree {
+                    Some(d) if d <= 2 => report.cut_cells_by_degree[d] += 1,
+                    _ => report.unfitted_cells += 1,
+                }
+            }
+            self.rules[r] = rule;
+        }
+        self.penalty_parts[b] = if self.ghost_penalty > 0.0 {
+            let young = self.materials[body.material].elastic().young;
+            crate::cut::ghost_penalty(&body.mesh, &band.adjacency, &cm, body.node_offset, young, self.ghost_penalty)
+        } else {
+            vec![]
+        };
+        self.held[b] = held_dofs(&cm, body.node_offset, &self.prescribed);
+        self.cuts[b] = Some(cm);
+        Ok(())
+    }
+
+    /// Rebuilds the weighted-gap rows of contact pairs whose other side is a moved surface
+    /// (small sliding: from the reference geometry; finite sliding re-pairs every step anyway).
+    fn refresh_contact_rows(&mut self, moved: &[usize]) {
+        for pair in 0..self.contacts.len() {
+            let Some(si) = self.contacts[pair].other_surface else { continue };
+            if !moved.contains(&si) {
+                continue;
+            }
+            let s = &self.surfaces[si];
+            self.contacts[pair].other = PairedSide::Embedded { host: s.body, embedding: s.embedding.clone() };
+            let coords = &self.coords;
+            let rows = crate::contact::pair_rows(&self.bodies, &self.contacts[pair], &|n| coords[n]);
+            let zero = vec![0.0; self.dofs.num_dofs];
+            crate::contact::install_rows(self, pair, rows, &zero);
+        }
+    }
+}
+
