@@ -93,7 +93,7 @@ fn check_small_sliding(
     step: usize,
     t: f64,
 ) -> Result<(), AnalysisError> {
-    match slide_from_pairing(m, u, status) {
+    match slide_from_pairing(&m.contact, u, status) {
         Some((slide, width)) if slide > width => {
             Err(AnalysisError::SlidingBeyondPairing { step, time: t, slide, width })
         }
@@ -162,7 +162,7 @@ impl<'m> StaticAnalysis<'m> {
             &scaled,
             &model.penalty,
             model.constraints.len(),
-            &friction_couplings(model),
+            &friction_couplings(&model.contact),
         );
         let solver = SparseSolver::new(&pattern.symbolic, model.linear_solver)?;
         let nnz = pattern.nnz();
@@ -233,9 +233,9 @@ impl<'m> StaticAnalysis<'m> {
             stress: vec![Stress4::zeros(); m.elements.num_points()],
             f_int: vec![0.0; m.dofs.num_dofs],
             multipliers: vec![0.0; m.num_multipliers()],
-            friction_status: vec![0; m.friction_rows.len()],
-            slip_increment: vec![0.0; m.friction_rows.len()],
-            accumulated_slip: vec![0.0; m.friction_rows.len()],
+            friction_status: vec![0; m.contact.friction_rows.len()],
+            slip_increment: vec![0.0; m.contact.friction_rows.len()],
+            accumulated_slip: vec![0.0; m.contact.friction_rows.len()],
             dissipation: 0.0,
             interface_log: vec![],
         }
@@ -332,8 +332,8 @@ impl<'m> StaticAnalysis<'m> {
         let linear = m.is_linear();
         let nf = m.dofs.num_free;
         let nt = m.constraints.len();
-        let nc = m.contact_rows.len();
-        let nfr = m.friction_rows.len();
+        let nc = m.contact.rows.len();
+        let nfr = m.contact.friction_rows.len();
         let nm = nt + nc + nfr;
         let mut mu = state.multipliers.clone();
         // Coulomb friction: slip is the increment of the weighted tangential relative
@@ -354,12 +354,12 @@ impl<'m> StaticAnalysis<'m> {
         for it in 0..=p.max_iterations {
             let need_tangent = !linear || !self.factored;
             for k in 0..nc {
-                gaps[k] = m.contact_g0[k] + m.contact_rows[k].iter().map(|&(d, c)| c * u[d]).sum::<f64>();
+                gaps[k] = m.contact.g0[k] + m.contact.rows[k].iter().map(|&(d, c)| c * u[d]).sum::<f64>();
             }
             for j in 0..nfr {
-                slip[j] = m.friction_rows[j].iter().map(|&(d, c)| c * (u[d] - state.u[d])).sum();
+                slip[j] = m.contact.friction_rows[j].iter().map(|&(d, c)| c * (u[d] - state.u[d])).sum();
             }
-            update_sets(m, &mu, &gaps, &slip, it == 0, &mut active, &mut status);
+            update_sets(&m.contact, &mu, &gaps, &slip, it == 0, &mut active, &mut status);
             self.last_active = active.iter().filter(|&&a| a).count();
             let set_changed = prev_active.as_ref().map(|pa| pa != &active).unwrap_or(nc > 0) || prev_status != status;
             prev_status.clone_from(&status);
@@ -391,17 +391,17 @@ impl<'m> StaticAnalysis<'m> {
             // Contact and friction rows, each by its law for the current sets (src/contact):
             // constraint -> gap g_k = 0 (normal) or slip ds = 0 (stick); free -> lambda = 0;
             // slip -> lambda_t - coef lambda_n = 0.
-            let laws = row_laws(m, &active, &status);
+            let laws = row_laws(&m.contact, &active, &status);
             let mut slip_res = 0.0f64;
             for i in nt..nm {
-                let row = if i < nt + nc { &m.contact_rows[i - nt] } else { &m.friction_rows[i - nt - nc] };
+                let row = if i < nt + nc { &m.contact.rows[i - nt] } else { &m.contact.friction_rows[i - nt - nc] };
                 for &(d, c) in row {
                     ct_mu[d] += c * mu[i];
                 }
                 r[nf + i] = match laws[i] {
                     RowLaw::Constraint => {
                         let (value, offset) = if i < nt + nc {
-                            (gaps[i - nt], m.contact_g0[i - nt].abs())
+                            (gaps[i - nt], m.contact.g0[i - nt].abs())
                         } else {
                             (slip[i - nt - nc], 0.0)
                         };
@@ -454,7 +454,7 @@ impl<'m> StaticAnalysis<'m> {
             let gn = gap_rows.map(|k| r[nf + k] * r[nf + k]).sum::<f64>().sqrt() / self.alpha;
             // Multiplier scale: the largest contact multiplier or the force scale spread over the
             // paired contact length.
-            let contact_len: f64 = m.contact_phi.iter().sum();
+            let contact_len: f64 = m.contact.phi.iter().sum();
             let mu_ref = mu[nt..].iter().fold(0.0f64, |a, v| a.max(v.abs())).max(if contact_len > 0.0 {
                 scale / contact_len
             } else {
@@ -512,7 +512,7 @@ impl<'m> StaticAnalysis<'m> {
                 mu[k] += self.alpha * r[nf + k];
             }
             // The open-node equation lambda = 0 is linear: its Newton step is exact.
-            zero_open_multipliers(m, &mut mu, &active, &status);
+            zero_open_multipliers(&m.contact, &mut mu, &active, &status);
         }
         if let Some(slipping) = gross_sliding(&status) {
             return Err(AnalysisError::GrossSliding { step, time: t, slipping });
@@ -531,7 +531,7 @@ impl<'m> StaticAnalysis<'m> {
         slip: &[f64],
     ) {
         let m = self.model;
-        let first_t = m.constraints.len() + m.contact_rows.len();
+        let first_t = m.constraints.len() + m.contact.rows.len();
         for (j, st) in status.iter().enumerate() {
             state.friction_status[j] = match st {
                 FrictionStatus::Open => 0,
@@ -616,7 +616,7 @@ impl<'m> StaticAnalysis<'m> {
     ) -> Result<Result<(usize, f64), (usize, f64)>, AnalysisError> {
         let m = self.model;
         let p = m.newton;
-        let (nt, nc, nfr) = (m.constraints.len(), m.contact_rows.len(), m.friction_rows.len());
+        let (nt, nc, nfr) = (m.constraints.len(), m.contact.rows.len(), m.contact.friction_rows.len());
         let nf = m.dofs.num_free;
         let all: Vec<&Vec<(usize, f64)>> = m.multiplier_rows().collect();
         let mut u = state.u.clone();
@@ -642,13 +642,14 @@ impl<'m> StaticAnalysis<'m> {
             let mut z: Vec<f64> = m.dofs.free.iter().map(|&g| f_ext[g] - self.trial_f_int[g] - ct[g]).collect();
             let solve_err = |iteration: usize| move |source| NewtonError::Linear { step, iteration, source };
             self.solver.solve(&mut z).map_err(solve_err(0))?;
-            let slip0: Vec<f64> =
-                (0..nfr).map(|j| m.friction_rows[j].iter().map(|&(d, c)| c * (u[d] - state.u[d])).sum()).collect();
+            let slip0: Vec<f64> = (0..nfr)
+                .map(|j| m.contact.friction_rows[j].iter().map(|&(d, c)| c * (u[d] - state.u[d])).sum())
+                .collect();
             let u_start = u.clone();
             let (mut active, mut status) = (vec![false; nc], vec![FrictionStatus::Open; nfr]);
             let mut slip = vec![0.0; nfr];
             // Weighted gaps minus g0 of every contact row at the start of the step.
-            let w_start: Vec<f64> = m.contact_rows.iter().map(|r| r.iter().map(|&(d, c)| c * u[d]).sum()).collect();
+            let w_start: Vec<f64> = m.contact.rows.iter().map(|r| r.iter().map(|&(d, c)| c * u[d]).sum()).collect();
             let mut mu = loop {
                 let nl = cd.live.len();
                 let cz: Vec<f64> = cd.rows_free.iter().map(|r| r.iter().map(|&(e, c)| c * z[e]).sum()).collect();
@@ -661,7 +662,7 @@ impl<'m> StaticAnalysis<'m> {
                 let mut mult = lam0.clone();
                 for it in 0..=p.max_iterations {
                     for k in 0..nc {
-                        gaps[k] = m.contact_g0[k] + cd.live_of[nt + k].map_or(w_start[k], |a| w0[a] + dw[a]);
+                        gaps[k] = m.contact.g0[k] + cd.live_of[nt + k].map_or(w_start[k], |a| w0[a] + dw[a]);
                     }
                     for j in 0..nfr {
                         slip[j] = slip0[j] + cd.live_of[nt + nc + j].map_or(0.0, |a| dw[a]);
@@ -669,7 +670,7 @@ impl<'m> StaticAnalysis<'m> {
                     for (a, &i) in cd.live.iter().enumerate() {
                         mult[i] = lam0[i] + dlam[a];
                     }
-                    update_sets(m, &mult, &gaps, &slip, it == 0, &mut active, &mut status);
+                    update_sets(&m.contact, &mult, &gaps, &slip, it == 0, &mut active, &mut status);
                     self.last_active = active.iter().filter(|&&a| a).count();
                     // Rows outside the set stay open (checked after the solve).
                     for k in (0..nc).filter(|&k| cd.live_of[nt + k].is_none()) {
@@ -698,7 +699,7 @@ impl<'m> StaticAnalysis<'m> {
                         Fixed(f64),
                         Slip { normal: usize, s: f64, rest: f64 },
                     }
-                    let row_law = row_laws(m, &active, &status);
+                    let row_law = row_laws(&m.contact, &active, &status);
                     let laws: Vec<Law> = cd
                         .live
                         .iter()
@@ -706,7 +707,7 @@ impl<'m> StaticAnalysis<'m> {
                         .map(|(a, &i)| match row_law[i] {
                             // The row's value at the start of the step is known; its target is 0.
                             RowLaw::Constraint if i < nt => Law::Gap(-w0[a]),
-                            RowLaw::Constraint if i < nt + nc => Law::Gap(-(m.contact_g0[i - nt] + w0[a])),
+                            RowLaw::Constraint if i < nt + nc => Law::Gap(-(m.contact.g0[i - nt] + w0[a])),
                             RowLaw::Constraint => Law::Gap(-slip0[i - nt - nc]),
                             RowLaw::Free => Law::Fixed(-lam0[i]),
                             RowLaw::Slip { normal, coef } => Law::Slip {
@@ -789,10 +790,10 @@ impl<'m> StaticAnalysis<'m> {
                 // A row outside the set that would penetrate joins it (with its neighbours within
                 // the candidate margin), and the step's interface problem is solved again.
                 let gaps_u: Vec<f64> = (0..nc)
-                    .map(|k| m.contact_g0[k] + m.contact_rows[k].iter().map(|&(d, c)| c * u[d]).sum::<f64>())
+                    .map(|k| m.contact.g0[k] + m.contact.rows[k].iter().map(|&(d, c)| c * u[d]).sum::<f64>())
                     .collect();
                 let penetrates =
-                    (0..nc).any(|k| cd.live_of[nt + k].is_none() && m.contact_phi[k] > 0.0 && gaps_u[k] < 0.0);
+                    (0..nc).any(|k| cd.live_of[nt + k].is_none() && m.contact.phi[k] > 0.0 && gaps_u[k] < 0.0);
                 if !penetrates {
                     break mu;
                 }
@@ -806,7 +807,7 @@ impl<'m> StaticAnalysis<'m> {
                 cd.log.push(batch);
             };
             // Exact zeros where the law says so (open nodes).
-            zero_open_multipliers(m, &mut mu, &active, &status);
+            zero_open_multipliers(&m.contact, &mut mu, &active, &status);
             // Check: the equilibrium residual of the recovered state.
             self.internal_force(&u, &history);
             constraint_forces(m, &mu, &mut ct);

@@ -203,7 +203,7 @@ fn check(path: PathBuf) -> Result<(), String> {
     for s in m.surfaces.iter().filter(|s| s.motion.is_some()) {
         println!("  moving surface '{}' in body '{}': {:?}", s.name, m.bodies[s.body].name, s.motion);
     }
-    for ci in &m.contacts {
+    for ci in &m.contact.pairs {
         println!(
             "  contact '{}': mortar '{}', {:?} multipliers ({} nodes), mu = {}, {:?} sliding",
             ci.name, m.bodies[ci.mortar].name, ci.space, ci.multipliers.num_nodes, ci.mu, ci.sliding

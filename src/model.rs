@@ -8,6 +8,7 @@
 //! cyclic tangential load: fretting).
 
 use crate::assembly::{DofMap, ElementTable};
+pub use crate::contact::{ContactInfo, ContactSet, PairedSide, Sliding};
 use crate::cut::{cut_mesh, subtriangulation_rule, CellCut, CutMesh};
 use crate::discretisation::{band_cell_rule, held_dofs, Band, FreeSurface, RecutReport, SurfaceMotion};
 use crate::fem::element::ReferenceElement;
@@ -130,23 +131,8 @@ pub struct Model {
     pub deactivated_dofs: usize,
     /// Constant extra stiffness `(dof_i, dof_j, value)`: ghost penalty on cut bodies.
     pub penalty: Vec<(usize, usize, f64)>,
-    /// Contact (small sliding): weighted-gap rows `g_k = g0_k + row . u`, the integral of each
-    /// multiplier hat over its paired part, the augmentation `eps_n` (also used as `eps_t`)
-    /// and the Coulomb coefficient of the node's pair.
-    pub contact_rows: Vec<ConstraintRow>,
-    pub contact_g0: Vec<f64>,
-    pub contact_phi: Vec<f64>,
-    pub contact_eps: Vec<f64>,
-    pub contact_mu: Vec<f64>,
-    /// Tangential rows (weighted relative tangential displacement `s_j = s0 + row . u`), one
-    /// per paired contact node with `mu > 0` (frictionless pairs carry none), and the normal row
-    /// each belongs to. Multipliers: ties, then contact normals, then these.
-    pub friction_rows: Vec<ConstraintRow>,
-    pub friction_normal: Vec<usize>,
-    /// `friction_rows[j] . u` at the pairing (0 for the reference pairing): slides are measured
-    /// from it.
-    pub friction_s0: Vec<f64>,
-    pub contacts: Vec<ContactInfo>,
+    /// Mortar contact: pairs, their weighted-gap and slip rows (multipliers after the ties).
+    pub contact: ContactSet,
     /// Free virtual surfaces (cuts), where they are now.
     pub surfaces: Vec<FreeSurface>,
     /// Per body: the band of fixed points of its moving surfaces (`None`: nothing moves in it).
@@ -216,52 +202,6 @@ impl Cycle {
     }
 }
 
-/// A mortar contact pair; multipliers (contact pressure `p = -lambda_n`, shear `lambda_t` along
-/// `t = n` turned +90 degrees, `n` the mortar body's outward normal) on the mortar surface.
-#[derive(Debug, Clone)]
-pub struct ContactInfo {
-    pub name: String,
-    pub mortar: usize,
-    /// Coulomb coefficient (0: frictionless, no tangential unknowns).
-    pub mu: f64,
-    pub space: MultiplierSpace,
-    /// Index of the pair's first row in `Model::contact_rows`.
-    pub first_row: usize,
-    /// Per multiplier node, its row in `Model::friction_rows` (none when frictionless, or
-    /// unpaired under small sliding; every node has one under finite sliding).
-    pub friction_row: Vec<Option<usize>>,
-    pub multipliers: Multipliers,
-    pub sliding: Sliding,
-    /// The pair's geometry, kept for re-pairing: mortar surface (reference), other side,
-    /// pairing reach.
-    pub side: MortarSide,
-    pub other: PairedSide,
-    pub max_gap: f64,
-    /// The free surface (index into `Model::surfaces`) that is the other side, if virtual.
-    pub other_surface: Option<usize>,
-}
-
-impl ContactInfo {
-    /// Global node of each multiplier node (multiplier nodes sit on mortar vertices).
-    pub fn multiplier_nodes(&self) -> Vec<usize> {
-        let n = self.side.nodes.len();
-        self.multipliers
-            .chains
-            .iter()
-            .flat_map(|ch| ch.lm_at.iter().map(|&k| self.side.nodes[ch.vertices[k] % n]))
-            .collect()
-    }
-}
-
-/// The other side of a contact pair as the model keeps it.
-#[derive(Debug, Clone)]
-pub enum PairedSide {
-    /// Real edges (global node ids).
-    Edges(Vec<[usize; 2]>),
-    /// A virtual surface embedded in host body `host`.
-    Embedded { host: usize, embedding: Embedding },
-}
-
 /// The other surface of a contact pair.
 #[derive(Debug, Clone)]
 pub enum ContactOther {
@@ -292,19 +232,6 @@ pub struct ContactParams {
     /// Small sliding: mortar pairing once, from the reference geometry. Finite: re-paired from
     /// the converged configuration at the start of every step (see [`Model::repaired`]).
     pub sliding: Sliding,
-}
-
-/// How far the surfaces of a contact pair may slide along each other.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Sliding {
-    /// Pairing from the reference geometry (fretting, partial slip: slides well below the
-    /// contact width; beyond it a typed `SlidingBeyondPairing` error).
-    #[default]
-    Small,
-    /// Pairing refreshed from the converged configuration at every step (sliding strokes
-    /// longer than the contact).
-    Finite,
 }
 
 impl Default for ContactParams {
@@ -383,7 +310,7 @@ fn edge_chain(edges: &[[usize; 2]]) -> Result<(Vec<usize>, bool), String> {
 impl Model {
     /// Whether any contact pair is re-paired every step (finite sliding).
     pub fn has_finite_sliding(&self) -> bool {
-        self.contacts.iter().any(|c| c.sliding == Sliding::Finite)
+        self.contact.pairs.iter().any(|c| c.sliding == Sliding::Finite)
     }
 
     /// This model with the finite-sliding contact pairs re-paired in the configuration
@@ -397,16 +324,22 @@ impl Model {
     pub fn repaired(&self, u: &[f64]) -> Model {
         let mut m = self.clone();
         let x = |n: usize| self.coords[n] + Vector2::new(u[2 * n], u[2 * n + 1]);
-        for (pair, c) in self.contacts.iter().enumerate().filter(|(_, c)| c.sliding == Sliding::Finite) {
-            let rows = crate::contact::pair_rows(&self.bodies, c, &x);
-            crate::contact::install_rows(&mut m, pair, rows, u);
+        let hosts = self.hosts();
+        for (pair, c) in self.contact.pairs.iter().enumerate().filter(|(_, c)| c.sliding == Sliding::Finite) {
+            let rows = crate::contact::pair_rows(&hosts, c, &x);
+            crate::contact::install_rows(&mut m.contact, pair, rows, u);
         }
         m
     }
 
+    /// Each body's mesh and node offset (the hosts of virtual surfaces, for contact pairing).
+    pub fn hosts(&self) -> Vec<(&Mesh2, usize)> {
+        self.bodies.iter().map(|b| (&b.mesh, b.node_offset)).collect()
+    }
+
     /// True when every material is linear: the stiffness is then factored once for the whole run.
     pub fn is_linear(&self) -> bool {
-        self.materials.iter().all(|m| !m.has_state()) && self.contact_rows.is_empty()
+        self.materials.iter().all(|m| !m.has_state()) && self.contact.rows.is_empty()
     }
     pub fn num_nodes(&self) -> usize {
         self.coords.len()
@@ -497,10 +430,10 @@ impl Model {
 
     /// Every multiplier's row over the DOFs, in multiplier order: ties, contact normals, friction.
     pub fn multiplier_rows(&self) -> impl Iterator<Item = &ConstraintRow> {
-        self.constraints.iter().chain(self.contact_rows.iter()).chain(self.friction_rows.iter())
+        self.constraints.iter().chain(self.contact.rows.iter()).chain(self.contact.friction_rows.iter())
     }
     pub fn num_multipliers(&self) -> usize {
-        self.constraints.len() + self.contact_rows.len() + self.friction_rows.len()
+        self.constraints.len() + self.contact.rows.len() + self.contact.friction_rows.len()
     }
 
     /// Body index of a global element.
@@ -1304,7 +1237,8 @@ impl ModelBuilder {
                 other_surface,
             };
             // The reference pairing, by the same routine as every re-pairing.
-            let rows = crate::contact::pair_rows(&self.bodies, &info, &|n| coords_of(&self.bodies, n));
+            let hosts: Vec<(&Mesh2, usize)> = self.bodies.iter().map(|b| (&b.mesh, b.node_offset)).collect();
+            let rows = crate::contact::pair_rows(&hosts, &info, &|n| coords_of(&self.bodies, n));
             for r in rows {
                 // Every node of a frictional pair gets a friction row, paired or not (pairings
                 // come and go under finite sliding and moving surfaces): the multiplier layout
@@ -1345,6 +1279,7 @@ impl ModelBuilder {
             })
             .collect();
         let penalty = penalty_parts.iter().flatten().copied().collect();
+        let n_constraints = constraints.len();
         Ok(Model {
             hypothesis: self.hypothesis,
             bodies: self.bodies,
@@ -1372,15 +1307,18 @@ impl ModelBuilder {
             cuts,
             deactivated_dofs,
             penalty,
-            contact_rows,
-            contact_g0,
-            contact_phi,
-            contact_eps,
-            contact_mu,
-            friction_rows,
-            friction_normal,
-            friction_s0,
-            contacts,
+            contact: ContactSet {
+                first_multiplier: n_constraints,
+                rows: contact_rows,
+                g0: contact_g0,
+                phi: contact_phi,
+                eps: contact_eps,
+                mu: contact_mu,
+                friction_rows,
+                friction_normal,
+                friction_s0,
+                pairs: contacts,
+            },
             surfaces,
             bands,
             penalty_parts,
@@ -1520,18 +1458,17 @@ impl Model {
     /// Rebuilds the weighted-gap rows of contact pairs whose other side is a moved surface
     /// (small sliding: from the reference geometry; finite sliding re-pairs every step anyway).
     fn refresh_contact_rows(&mut self, moved: &[usize]) {
-        for pair in 0..self.contacts.len() {
-            let Some(si) = self.contacts[pair].other_surface else { continue };
+        for pair in 0..self.contact.pairs.len() {
+            let Some(si) = self.contact.pairs[pair].other_surface else { continue };
             if !moved.contains(&si) {
                 continue;
             }
             let s = &self.surfaces[si];
-            self.contacts[pair].other = PairedSide::Embedded { host: s.body, embedding: s.embedding.clone() };
+            self.contact.pairs[pair].other = PairedSide::Embedded { host: s.body, embedding: s.embedding.clone() };
             let coords = &self.coords;
-            let rows = crate::contact::pair_rows(&self.bodies, &self.contacts[pair], &|n| coords[n]);
+            let rows = crate::contact::pair_rows(&self.hosts(), &self.contact.pairs[pair], &|n| coords[n]);
             let zero = vec![0.0; self.dofs.num_dofs];
-            crate::contact::install_rows(self, pair, rows, &zero);
+            crate::contact::install_rows(&mut self.contact, pair, rows, &zero);
         }
     }
 }
-

@@ -81,7 +81,7 @@ fn hertz_on(gx: &[f64], gy: &[f64], rs: &[f64], ts: &[f64], virtual_top: bool) -
         )
         .unwrap();
     let s = solve(&model);
-    let c = &model.contacts[0];
+    let c = &model.contact.pairs[0];
     let nt0 = model.constraints.len();
     let pts: Vec<(f64, f64)> = (0..c.multipliers.num_nodes)
         .map(|l| (c.multipliers.points[l].x, -s.multipliers[nt0 + c.first_row + l]))
@@ -231,7 +231,7 @@ fn density_deviation(
         .map(|n| (n.pressure - p0 * (1.0 - n.x.x * n.x.x / (a * a)).max(0.0).sqrt()).abs())
         .fold(0.0, f64::max)
         / p0;
-    (dev, model.contacts[0].multipliers.num_nodes)
+    (dev, model.contact.pairs[0].multipliers.num_nodes)
 }
 
 /// Issue 4, curved-surface density contrast: a finely meshed cylinder (8x finer than the

@@ -72,15 +72,15 @@ fn cattaneo_mindlin(n_fine: usize, core: f64, virtual_lower: bool, ratio: f64) -
     let c_num = stick_half_width(&v);
     let q_l2 = l2_error(&q, |x| cm_exact(x, a, c, p0), -a, a);
     if std::env::var("CM_PHI").is_ok() {
-        let ci = &model.contacts[0];
+        let ci = &model.contact.pairs[0];
         for l in 0..ci.multipliers.num_nodes {
             let x = ci.multipliers.points[l].x;
             if x > 0.055 && x < 0.08 {
                 let k = ci.first_row + l;
                 eprintln!(
                     "x {x:.5} phi {:.3e} g0/phi {:.3e}",
-                    model.contact_phi[k],
-                    model.contact_g0[k] / model.contact_phi[k].max(1e-30)
+                    model.contact.phi[k],
+                    model.contact.g0[k] / model.contact.phi[k].max(1e-30)
                 );
             }
         }

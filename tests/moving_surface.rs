@@ -359,7 +359,7 @@ fn contact_patch_test_on_a_moving_surface() {
                     assert!(d < 1e-8 * P, "{sliding:?} step {}: element {e} point {q}: stress {stq:?}", r.step);
                 }
             }
-            let c = &m.contacts[0];
+            let c = &m.contact.pairs[0];
             let nt = m.constraints.len();
             // Finite sliding integrates on the deformed surfaces: its multiplier is a force per
             // deformed length, stretched by the lateral strain eps_xx = nu (1 + nu) p / E of

@@ -132,7 +132,7 @@ fn drag(virtual_lower: bool, increments: usize) -> f64 {
             if (q / (MU * P) - 1.0).abs() > 1e-3 {
                 return Err(format!("t {}: tangential force {q} vs mu P {}", r.time, MU * P));
             }
-            let c = &model.contacts[0];
+            let c = &model.contact.pairs[0];
             let nt = model.constraints.len();
             let pressures: Vec<f64> =
                 (0..c.multipliers.num_nodes).map(|l| -st.multipliers[nt + c.first_row + l]).collect();
@@ -141,7 +141,7 @@ fn drag(virtual_lower: bool, increments: usize) -> f64 {
             }
             // Every node carrying pressure slips, with |lambda_t| = mu p (Coulomb, in the pairing
             // frame: exact to the Newton tolerance, 1e-9 of mu p0 here).
-            let nc = model.contact_rows.len();
+            let nc = model.contact.rows.len();
             let p_max = pressures.iter().cloned().fold(0.0, f64::max);
             for (l, &p) in pressures.iter().enumerate() {
                 if p > 1e-6 * P {
@@ -171,14 +171,14 @@ fn drag(virtual_lower: bool, increments: usize) -> f64 {
         // step, checked by the caller) and the block's footprint x in [2.5, 3.5].
         let current = model.repaired(&s.u);
         let mut deepest: f64 = 0.0;
-        for k in 0..current.contact_rows.len() {
-            let g = current.contact_g0[k] + current.contact_rows[k].iter().map(|&(d, c)| c * s.u[d]).sum::<f64>();
-            if current.contact_phi[k] > 0.0 {
-                deepest = deepest.max(-g / current.contact_phi[k]);
+        for k in 0..current.contact.rows.len() {
+            let g = current.contact.g0[k] + current.contact.rows[k].iter().map(|&(d, c)| c * s.u[d]).sum::<f64>();
+            if current.contact.phi[k] > 0.0 {
+                deepest = deepest.max(-g / current.contact.phi[k]);
             }
         }
         let footprint: Vec<f64> =
-            current.contacts[0].multipliers.points.iter().map(|p| p.x + s.u[2 * master]).collect();
+            current.contact.pairs[0].multipliers.points.iter().map(|p| p.x + s.u[2 * master]).collect();
         assert!(footprint.iter().all(|&x| (2.5 - 1e-9..=3.5 + 1e-9).contains(&x)), "{footprint:?}");
         eprintln!("virtual {virtual_lower}, {increments} increments: deepest re-paired penetration {deepest:.2e} mm");
         deepest

@@ -47,22 +47,22 @@ pub(super) struct Condensed {
 
 /// Whether a model is solved by condensation: contact present and every body linear elastic.
 pub(super) fn applies(m: &Model) -> bool {
-    !m.contact_rows.is_empty() && m.materials.iter().all(|mat| !mat.has_state())
+    !m.contact.rows.is_empty() && m.materials.iter().all(|mat| !mat.has_state())
 }
 
 /// Paired contact rows (normal `k`) whose weighted gap `g / int Phi` is within `margin` times
 /// their own `int Phi` (about the local segment length) of the smallest: contact candidates.
 pub(super) fn near_rows(m: &Model, gaps: &[f64], margin: f64, g_min: f64) -> Vec<usize> {
-    (0..m.contact_rows.len())
-        .filter(|&k| m.contact_phi[k] > 0.0 && gaps[k] / m.contact_phi[k] <= g_min + margin * m.contact_phi[k])
+    (0..m.contact.rows.len())
+        .filter(|&k| m.contact.phi[k] > 0.0 && gaps[k] / m.contact.phi[k] <= g_min + margin * m.contact.phi[k])
         .collect()
 }
 
 /// Multipliers of normal rows `ks` and of their friction rows (model order).
 pub(super) fn with_friction(m: &Model, ks: &[usize]) -> Vec<usize> {
-    let (nt, nc) = (m.constraints.len(), m.contact_rows.len());
+    let (nt, nc) = (m.constraints.len(), m.contact.rows.len());
     let mut v: Vec<usize> = ks.iter().map(|&k| nt + k).collect();
-    v.extend(m.friction_normal.iter().enumerate().filter(|(_, k)| ks.contains(k)).map(|(j, _)| nt + nc + j));
+    v.extend(m.contact.friction_normal.iter().enumerate().filter(|(_, k)| ks.contains(k)).map(|(j, _)| nt + nc + j));
     v
 }
 
@@ -77,10 +77,10 @@ pub(super) fn setup(
 ) -> Result<(Assembler, SparseSolver, Vec<f64>, Condensed), LinearSolverError> {
     let nt = m.constraints.len();
     let all: Vec<&Vec<(usize, f64)>> = m.multiplier_rows().collect();
-    let g0: Vec<f64> = m.contact_g0.clone();
+    let g0: Vec<f64> = m.contact.g0.clone();
     let g_min = (0..g0.len())
-        .filter(|&k| m.contact_phi[k] > 0.0)
-        .map(|k| g0[k] / m.contact_phi[k])
+        .filter(|&k| m.contact.phi[k] > 0.0)
+        .map(|k| g0[k] / m.contact.phi[k])
         .fold(f64::INFINITY, f64::min);
     let mut initial: Vec<usize> = (0..nt).collect();
     initial.extend(with_friction(m, &near_rows(m, &g0, CANDIDATE_MARGIN, g_min)));

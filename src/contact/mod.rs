@@ -12,10 +12,92 @@
 //! row imposes one [`RowLaw`]: its constraint (`g = 0`, `ds = 0`, tie rows), a free multiplier
 //! (`lambda = 0`: open), or the Coulomb slip relation.
 
-use crate::model::{Body, ContactInfo, Model, PairedSide};
-use crate::mortar::{weighted_gaps, ContactRow, OtherSide};
+use crate::mesh::Mesh2;
+use crate::mortar::{weighted_gaps, ConstraintRow, ContactRow, MortarSide, MultiplierSpace, Multipliers, OtherSide};
 use crate::state::SimState;
+use crate::surface::Embedding;
 use nalgebra::{Point2, Vector2};
+
+/// A mortar contact pair; multipliers (contact pressure `p = -lambda_n`, shear `lambda_t` along
+/// `t = n` turned +90 degrees, `n` the mortar body's outward normal) on the mortar surface.
+#[derive(Debug, Clone)]
+pub struct ContactInfo {
+    pub name: String,
+    pub mortar: usize,
+    /// Coulomb coefficient (0: frictionless, no tangential unknowns).
+    pub mu: f64,
+    pub space: MultiplierSpace,
+    /// Index of the pair's first row in `ContactSet::rows`.
+    pub first_row: usize,
+    /// Per multiplier node, its row in `ContactSet::friction_rows` (none when frictionless, or
+    /// unpaired under small sliding; every node has one under finite sliding).
+    pub friction_row: Vec<Option<usize>>,
+    pub multipliers: Multipliers,
+    pub sliding: Sliding,
+    /// The pair's geometry, kept for re-pairing: mortar surface (reference), other side,
+    /// pairing reach.
+    pub side: MortarSide,
+    pub other: PairedSide,
+    pub max_gap: f64,
+    /// The free surface (index into the model's surfaces) that is the other side, if virtual.
+    pub other_surface: Option<usize>,
+}
+
+impl ContactInfo {
+    /// Global node of each multiplier node (multiplier nodes sit on mortar vertices).
+    pub fn multiplier_nodes(&self) -> Vec<usize> {
+        let n = self.side.nodes.len();
+        self.multipliers
+            .chains
+            .iter()
+            .flat_map(|ch| ch.lm_at.iter().map(|&k| self.side.nodes[ch.vertices[k] % n]))
+            .collect()
+    }
+}
+
+/// The other side of a contact pair as the model keeps it.
+#[derive(Debug, Clone)]
+pub enum PairedSide {
+    /// Real edges (global node ids).
+    Edges(Vec<[usize; 2]>),
+    /// A virtual surface embedded in host body `host`.
+    Embedded { host: usize, embedding: Embedding },
+}
+
+/// How far the surfaces of a contact pair may slide along each other.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Sliding {
+    /// Pairing from the reference geometry (fretting, partial slip: slides well below the
+    /// contact width; beyond it a typed `SlidingBeyondPairing` error).
+    #[default]
+    Small,
+    /// Pairing refreshed from the converged configuration at every step (sliding strokes
+    /// longer than the contact).
+    Finite,
+}
+
+/// Every contact pair of a model and its rows: normal rows `g_k = g0_k + rows[k] . u` (one per
+/// multiplier node, in pair order), the integral `phi` of each multiplier hat over its paired
+/// part, the augmentation `eps` (`eps_n = eps_t`) and Coulomb coefficient `mu` of the node's
+/// pair; tangential rows (weighted relative tangential displacement `s_j = s0_j + row . u`),
+/// one per node of a frictional pair, and the normal row each belongs to. Multipliers: the
+/// model's first `first_multiplier` (ties, rigid sets), then the normals, then the tangents.
+#[derive(Debug, Clone, Default)]
+pub struct ContactSet {
+    pub first_multiplier: usize,
+    pub rows: Vec<ConstraintRow>,
+    pub g0: Vec<f64>,
+    pub phi: Vec<f64>,
+    pub eps: Vec<f64>,
+    pub mu: Vec<f64>,
+    pub friction_rows: Vec<ConstraintRow>,
+    pub friction_normal: Vec<usize>,
+    /// `friction_rows[j] . u` at the pairing (0 for the reference pairing): slides are measured
+    /// from it.
+    pub friction_s0: Vec<f64>,
+    pub pairs: Vec<ContactInfo>,
+}
 
 /// Coulomb status of a tangential multiplier in one iteration.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -52,8 +134,8 @@ pub enum RowLaw {
 }
 
 /// Multiplier rows of the model, in order: ties (and rigid sets), contact normals, friction.
-pub fn row_laws(m: &Model, active: &[bool], status: &[FrictionStatus]) -> Vec<RowLaw> {
-    let nt = m.constraints.len();
+pub fn row_laws(m: &ContactSet, active: &[bool], status: &[FrictionStatus]) -> Vec<RowLaw> {
+    let nt = m.first_multiplier;
     let mut v = vec![RowLaw::Constraint; nt];
     v.extend(active.iter().map(|&a| if a { RowLaw::Constraint } else { RowLaw::Free }));
     v.extend(status.iter().enumerate().map(|(j, s)| match s {
@@ -61,15 +143,15 @@ pub fn row_laws(m: &Model, active: &[bool], status: &[FrictionStatus]) -> Vec<Ro
         FrictionStatus::Open => RowLaw::Free,
         FrictionStatus::Slip(pos) => {
             let k = m.friction_normal[j];
-            RowLaw::Slip { normal: nt + k, coef: -m.contact_mu[k] * if *pos { 1.0 } else { -1.0 } }
+            RowLaw::Slip { normal: nt + k, coef: -m.mu[k] * if *pos { 1.0 } else { -1.0 } }
         }
     }));
     v
 }
 
 /// Multiplier-block entries of the Coulomb slip rows: (tangential row, its normal row).
-pub fn friction_couplings(m: &Model) -> Vec<(usize, usize)> {
-    let (nt, nc) = (m.constraints.len(), m.contact_rows.len());
+pub fn friction_couplings(m: &ContactSet) -> Vec<(usize, usize)> {
+    let (nt, nc) = (m.first_multiplier, m.rows.len());
     m.friction_normal.iter().enumerate().map(|(j, &k)| (nt + nc + j, nt + k)).collect()
 }
 
@@ -85,17 +167,17 @@ pub fn gross_sliding(status: &[FrictionStatus]) -> Option<usize> {
 /// Largest slide of a node in contact from its pairing, and the contact width (the sum of
 /// `int Phi` over the nodes in contact). Small sliding pairs from the reference geometry: a
 /// converged state whose nodes slid further than the contact is wide has left its range.
-pub fn slide_from_pairing(m: &Model, u: &[f64], status: &[FrictionStatus]) -> Option<(f64, f64)> {
+pub fn slide_from_pairing(m: &ContactSet, u: &[f64], status: &[FrictionStatus]) -> Option<(f64, f64)> {
     let in_contact: Vec<usize> = (0..status.len()).filter(|&j| status[j] != FrictionStatus::Open).collect();
     if in_contact.is_empty() {
         return None;
     }
-    let width: f64 = in_contact.iter().map(|&j| m.contact_phi[m.friction_normal[j]]).sum();
+    let width: f64 = in_contact.iter().map(|&j| m.phi[m.friction_normal[j]]).sum();
     let slide = in_contact
         .iter()
         .map(|&j| {
             let s: f64 = m.friction_rows[j].iter().map(|&(d, c)| c * u[d]).sum::<f64>() - m.friction_s0[j];
-            (s / m.contact_phi[m.friction_normal[j]]).abs()
+            (s / m.phi[m.friction_normal[j]]).abs()
         })
         .fold(0.0, f64::max);
     Some((slide, width))
@@ -106,7 +188,7 @@ pub fn slide_from_pairing(m: &Model, u: &[f64], status: &[FrictionStatus]) -> Op
 /// step, `mult` all multipliers. In the first iteration of a step with nothing active, the
 /// closest paired nodes start active so that no body floats.
 pub fn update_sets(
-    m: &Model,
+    m: &ContactSet,
     mult: &[f64],
     gaps: &[f64],
     slip: &[f64],
@@ -114,14 +196,14 @@ pub fn update_sets(
     active: &mut [bool],
     status: &mut [FrictionStatus],
 ) {
-    let (nt, nc) = (m.constraints.len(), m.contact_rows.len());
+    let (nt, nc) = (m.first_multiplier, m.rows.len());
     for k in 0..nc {
-        let phi = m.contact_phi[k];
-        active[k] = phi > 0.0 && mult[nt + k] + m.contact_eps[k] * gaps[k] / phi <= 0.0;
+        let phi = m.phi[k];
+        active[k] = phi > 0.0 && mult[nt + k] + m.eps[k] * gaps[k] / phi <= 0.0;
     }
     if first_iteration && nc > 0 && !active.iter().any(|&a| a) {
-        let gt = |k: usize| gaps[k] / m.contact_phi[k];
-        let paired = (0..nc).filter(|&k| m.contact_phi[k] > 0.0);
+        let gt = |k: usize| gaps[k] / m.phi[k];
+        let paired = (0..nc).filter(|&k| m.phi[k] > 0.0);
         if let Some(gmin) = paired.clone().map(gt).min_by(f64::total_cmp) {
             for k in paired {
                 active[k] = gt(k) <= gmin + 1e-6 * gmin.abs() + f64::MIN_POSITIVE;
@@ -133,10 +215,10 @@ pub fn update_sets(
         *st = if !active[k] {
             FrictionStatus::Open
         } else {
-            let (phi, eps) = (m.contact_phi[k], m.contact_eps[k]);
+            let (phi, eps) = (m.phi[k], m.eps[k]);
             let lt_hat = mult[nt + nc + j] + eps * slip[j] / phi;
             let ln_hat = mult[nt + k] + eps * gaps[k] / phi;
-            if lt_hat.abs() <= m.contact_mu[k] * (-ln_hat).max(0.0) {
+            if lt_hat.abs() <= m.mu[k] * (-ln_hat).max(0.0) {
                 FrictionStatus::Stick
             } else {
                 FrictionStatus::Slip(lt_hat > 0.0)
@@ -146,8 +228,8 @@ pub fn update_sets(
 }
 
 /// Sets the multipliers of open contact nodes (normal and tangential) to exactly zero.
-pub fn zero_open_multipliers(m: &Model, mult: &mut [f64], active: &[bool], status: &[FrictionStatus]) {
-    let (nt, nc) = (m.constraints.len(), m.contact_rows.len());
+pub fn zero_open_multipliers(m: &ContactSet, mult: &mut [f64], active: &[bool], status: &[FrictionStatus]) {
+    let (nt, nc) = (m.first_multiplier, m.rows.len());
     for (k, _) in active.iter().enumerate().filter(|(_, a)| !**a) {
         mult[nt + k] = 0.0;
     }
@@ -160,7 +242,8 @@ pub fn zero_open_multipliers(m: &Model, mult: &mut [f64], active: &[bool], statu
 /// a global node to where the pair is paired (reference coordinates for small sliding, the
 /// converged configuration for finite sliding). The one routine for the first pairing, the
 /// re-pairing of finite sliding and the rows of a surface that moved.
-pub fn pair_rows(bodies: &[Body], c: &ContactInfo, x: &dyn Fn(usize) -> Point2<f64>) -> Vec<ContactRow> {
+/// `hosts[b]` is body `b`'s mesh and node offset (the host of a virtual other side).
+pub fn pair_rows(hosts: &[(&Mesh2, usize)], c: &ContactInfo, x: &dyn Fn(usize) -> Point2<f64>) -> Vec<ContactRow> {
     let side = crate::mortar::MortarSide {
         nodes: c.side.nodes.clone(),
         points: c.side.nodes.iter().map(|&n| x(n)).collect(),
@@ -172,10 +255,10 @@ pub fn pair_rows(bodies: &[Body], c: &ContactInfo, x: &dyn Fn(usize) -> Point2<f
             weighted_gaps(&side, &c.multipliers, &OtherSide::Edges { nodes: edges, points: &pts }, c.max_gap)
         }
         PairedSide::Embedded { host, embedding } => {
-            let b = &bodies[*host];
-            let mut mesh = b.mesh.clone();
+            let (host_mesh, node_offset) = hosts[*host];
+            let mut mesh = host_mesh.clone();
             for (i, p) in mesh.nodes.iter_mut().enumerate() {
-                *p = x(b.node_offset + i);
+                *p = x(node_offset + i);
             }
             // A virtual surface moves with its host through its host reference coordinates.
             let mut e = embedding.clone();
@@ -188,7 +271,7 @@ pub fn pair_rows(bodies: &[Body], c: &ContactInfo, x: &dyn Fn(usize) -> Point2<f
             weighted_gaps(
                 &side,
                 &c.multipliers,
-                &OtherSide::Embedded { host: &mesh, host_offset: b.node_offset, embedding: &e },
+                &OtherSide::Embedded { host: &mesh, host_offset: node_offset, embedding: &e },
                 c.max_gap,
             )
         }
@@ -198,14 +281,14 @@ pub fn pair_rows(bodies: &[Body], c: &ContactInfo, x: &dyn Fn(usize) -> Point2<f
 /// Writes a pair's rows into the model: `g0 = g_x - C_x u` and `s0 = T_x u` keep the rows
 /// linear in the total displacement `u` when they were paired in a displaced configuration
 /// (zero `u`: the reference pairing).
-pub fn install_rows(m: &mut Model, pair: usize, rows: Vec<ContactRow>, u: &[f64]) {
-    let (first, friction_row) = (m.contacts[pair].first_row, m.contacts[pair].friction_row.clone());
+pub fn install_rows(m: &mut ContactSet, pair: usize, rows: Vec<ContactRow>, u: &[f64]) {
+    let (first, friction_row) = (m.pairs[pair].first_row, m.pairs[pair].friction_row.clone());
     for (l, r) in rows.into_iter().enumerate() {
         let k = first + l;
         let cu: f64 = r.normal.iter().map(|&(d, v)| v * u[d]).sum();
-        m.contact_g0[k] = r.g0 - cu;
-        m.contact_phi[k] = r.phi;
-        m.contact_rows[k] = r.normal;
+        m.g0[k] = r.g0 - cu;
+        m.phi[k] = r.phi;
+        m.rows[k] = r.normal;
         if let Some(j) = friction_row[l] {
             m.friction_s0[j] = r.tangent.iter().map(|&(d, v)| v * u[d]).sum();
             m.friction_rows[j] = r.tangent;
@@ -242,9 +325,9 @@ pub struct ContactNodeState {
 }
 
 /// The per-node contact field of pair `pair` in `state`, in multiplier order.
-pub fn contact_field(m: &Model, state: &SimState, pair: usize) -> Vec<ContactNodeState> {
-    let c = &m.contacts[pair];
-    let (nt, nn) = (m.constraints.len(), m.contact_rows.len());
+pub fn contact_field(m: &ContactSet, state: &SimState, pair: usize) -> Vec<ContactNodeState> {
+    let c = &m.pairs[pair];
+    let (nt, nn) = (m.first_multiplier, m.rows.len());
     let nodes = c.multiplier_nodes();
     (0..c.multipliers.num_nodes)
         .map(|l| {
@@ -252,10 +335,10 @@ pub fn contact_field(m: &Model, state: &SimState, pair: usize) -> Vec<ContactNod
             let n = nodes[l];
             let reference = c.multipliers.points[l];
             let position = reference + Vector2::new(state.u[2 * n], state.u[2 * n + 1]);
-            let phi = m.contact_phi[k];
+            let phi = m.phi[k];
             let per_length = |v: f64| if phi > 0.0 { v / phi } else { 0.0 };
             let gap = if phi > 0.0 {
-                (m.contact_g0[k] + m.contact_rows[k].iter().map(|&(d, v)| v * state.u[d]).sum::<f64>()) / phi
+                (m.g0[k] + m.rows[k].iter().map(|&(d, v)| v * state.u[d]).sum::<f64>()) / phi
             } else {
                 f64::INFINITY
             };

@@ -137,7 +137,7 @@ pub fn read(path: &Path, step: Option<usize>, model: &Model) -> Result<SimState,
     size("f_int", f_int.len(), model.dofs.num_dofs)?;
     let multipliers = vec_f64("multipliers")?;
     size("multipliers", multipliers.len(), model.num_multipliers())?;
-    let nfr = model.friction_rows.len();
+    let nfr = model.contact.friction_rows.len();
     let slip_increment = vec_f64("slip_increment")?;
     size("slip_increment", slip_increment.len(), nfr)?;
     let accumulated_slip = vec_f64("accumulated_slip")?;

@@ -118,9 +118,9 @@ impl Series {
         }
         let mut contacts = vec![];
         let mut dissipation = None;
-        if !model.contacts.is_empty() {
+        if !model.contact.pairs.is_empty() {
             let cg = g.create_group("contacts")?;
-            for c in &model.contacts {
+            for c in &model.contact.pairs {
                 let l = c.multipliers.num_nodes.max(1);
                 let pg = cg.create_group(&c.name)?;
                 let f = |name: &str| pg.new_dataset::<f64>().chunk((SERIES_CHUNK, l)).shape((0.., l)).create(name);
@@ -269,7 +269,7 @@ impl ResultWriter {
         let partial_path = PathBuf::from(format!("{}.partial", path.display()));
         let xdmf_path = path.with_extension("xdmf");
         let file = hdf5::File::create(&partial_path).map_err(h5err(&partial_path, "creating the file"))?;
-        let contact_csv = if model.contacts.is_empty() {
+        let contact_csv = if model.contact.pairs.is_empty() {
             None
         } else {
             let stem = path.with_extension("");
@@ -335,9 +335,9 @@ impl ResultWriter {
                     }
                 }
             }
-            if !model.contacts.is_empty() {
+            if !model.contact.pairs.is_empty() {
                 let cg = mesh.create_group("contacts")?;
-                for c in &model.contacts {
+                for c in &model.contact.pairs {
                     let m = &c.multipliers;
                     let xy: Vec<f64> = m.points.iter().flat_map(|p| [p.x, p.y]).collect();
                     let pg = cg.create_group(&c.name)?;
@@ -397,8 +397,9 @@ impl ResultWriter {
         };
         let full = report.step % self.fields_every == 0 || report.step >= self.last_step;
         let checkpoint = self.checkpoint_every > 0 && report.step % self.checkpoint_every == 0;
-        let fields: Vec<Vec<crate::contact::ContactNodeState>> =
-            (0..model.contacts.len()).map(|pair| crate::contact::contact_field(model, state, pair)).collect();
+        let fields: Vec<Vec<crate::contact::ContactNodeState>> = (0..model.contact.pairs.len())
+            .map(|pair| crate::contact::contact_field(&model.contact, state, pair))
+            .collect();
         let series = &mut self.series;
         let moving_bodies = &self.moving_bodies;
         let res: hdf5::Result<()> = (|| {
@@ -445,9 +446,9 @@ impl ResultWriter {
                     put(&tg.create_group(&t.name)?, "traction", &array2(nl, 2, tr))?;
                 }
             }
-            if !model.contacts.is_empty() {
+            if !model.contact.pairs.is_empty() {
                 let cg = g.create_group("contacts")?;
-                for (c, field) in model.contacts.iter().zip(&fields) {
+                for (c, field) in model.contact.pairs.iter().zip(&fields) {
                     let nl = field.len();
                     let col = |f: &dyn Fn(&crate::contact::ContactNodeState) -> f64| -> Array1<f64> {
                         field.iter().map(f).collect()
@@ -534,7 +535,7 @@ impl ResultWriter {
     ) -> Result<(), OutputError> {
         let Some((out, partial, _)) = self.contact_csv.as_mut() else { return Ok(()) };
         let mut rows = String::new();
-        for (c, field) in model.contacts.iter().zip(fields) {
+        for (c, field) in model.contact.pairs.iter().zip(fields) {
             for n in field {
                 let _ = writeln!(
                     rows,
