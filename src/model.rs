@@ -954,11 +954,13 @@ impl ModelBuilder {
                     ),
                 });
             }
+            let terr = |e: crate::surface::SurfaceError| ModelError::Tie { tie: t.name.clone(), msg: e.to_string() };
+            // Validated in the patch boundary's own order, so that segment numbers in errors
+            // follow the patch's edges (the embedded loop is its reverse).
+            VirtualSurface { vertices: t.side.points.clone(), closed: t.side.closed }.validate().map_err(terr)?;
             let mut v = t.side.points.clone();
             v.reverse(); // host material outside the patch = on the left of the reversed loop
             let surf = VirtualSurface { vertices: v, closed: t.side.closed };
-            let terr = |e: crate::surface::SurfaceError| ModelError::Tie { tie: t.name.clone(), msg: e.to_string() };
-            surf.validate().map_err(terr)?;
             let index = BoxIndex::over_cells(&host.mesh);
             embeddings.push((t.host, embed(&surf, &host.mesh, &index).map_err(terr)?));
         }
