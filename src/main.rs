@@ -71,7 +71,7 @@ enum Command {
         /// n x n host (e.g. `--embed 10000 -n 450`: 10k segments, 202,500 cells).
         #[arg(long)]
         embed: Option<usize>,
-        /// Instead: the Hertz contact benchmark of issue 4 (block core elements 0.02, 0.01,
+        /// Instead: the Hertz contact benchmark (block core elements 0.02, 0.01,
         /// 0.005 mm), real and virtual block surface.
         #[arg(long)]
         hertz: bool,
