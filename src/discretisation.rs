@@ -20,7 +20,9 @@
 //!   weight; points left in the void get weight zero and keep their last values (the kernel
 //!   skips them). For slivers below about 25 % of a cell, exact first moments are generally not
 //!   reachable with non-negative weights on the points inside; the fit then falls back to
-//!   degree 0 (area), and the ghost penalty keeps such cells stable.
+//!   degree 0 (the area, spread over the material points in proportion to their uncut weights
+//!   rather than on the one or two points NNLS would pick), and the ghost penalty keeps such
+//!   cells stable.
 //!
 //! Host nodes whose support keeps less than [`SMALL_FRACTION`] of its area are switched off:
 //! their DOFs leave the unknowns and keep their last value (held, not prescribed), and come

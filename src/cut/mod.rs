@@ -605,7 +605,29 @@ fn band_fit(
                     (w, degree) = (w_any, d_any);
                 }
             }
-            let w_ref = w.iter().zip(&rule.points).map(|(w, xi)| w / mapped.jacobian(*xi).determinant()).collect();
+            let mut w_ref: Vec<f64> =
+                w.iter().zip(&rule.points).map(|(w, xi)| w / mapped.jacobian(*xi).determinant()).collect();
+            // Only the area could be matched (a sliver): NNLS would put it on one or two points,
+            // a rank-deficient rule. Spread it over every material point in proportion to its
+            // uncut weight instead (the truncated Gauss rule, scaled to the exact area).
+            if degree == Some(0) {
+                let area = loop_moments(loops, 0, loops[0][0], 1.0)[0];
+                let base: Vec<f64> = rule
+                    .weights
+                    .iter()
+                    .zip(&rule.points)
+                    .zip(&material)
+                    .map(|((w, xi), &m)| if m { w * mapped.jacobian(*xi).determinant() } else { 0.0 })
+                    .collect();
+                let total: f64 = base.iter().sum();
+                if total > 0.0 {
+                    w_ref = base
+                        .iter()
+                        .zip(&rule.points)
+                        .map(|(b, xi)| area * b / total / mapped.jacobian(*xi).determinant())
+                        .collect();
+                }
+            }
             (w_ref, degree)
         }
     }
