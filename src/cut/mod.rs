@@ -12,13 +12,14 @@
 //! * a cell cut when the model is built gets points from the sub-triangulation of its material
 //!   (degree-2 rule per triangle: exact for the `Quad4` stiffness on parallelograms); no state
 //!   exists yet, so creating points then transfers nothing;
-//! * when a surface later moves (wear), the points stay; points left outside the material are
-//!   switched off and the others get new non-negative weights by moment fitting
-//!   ([`fit_weights`], Lawson-Hanson NNLS on the monomials up to degree 2, falling back to
-//!   degree 1 and 0 when the points cannot carry more). Cells of a declared wear band carry the
-//!   richer [`band_rule`] from the start.
+//! * cells a moving surface may visit (its band) carry the richer [`band_rule`] from the start;
+//!   when the surface moves, points of bodies with history stay and get new non-negative
+//!   weights by moment fitting ([`fit_weights`], Lawson-Hanson NNLS on the monomials up to
+//!   degree 2, falling back to degree 1 and 0), points left outside the material get weight
+//!   zero; bodies without history take the exact sub-triangulation rule in the cell's slots
+//!   ([`band_exact_rule`]). See `crate::discretisation`.
 //! * Small cut fractions: a node whose support keeps less than [`SMALL_FRACTION`] of its area
-//!   has its DOFs deactivated (fixed to zero) by the model builder; void cells get no points.
+//!   has its DOFs switched off (held at their value) by the model; void cells get no points.
 
 use crate::fem::element::MappedElement;
 use crate::fem::quadrature::{collapsed_triangle_rule, gauss_legendre, quad_gauss, triangle_rule, QuadratureRule};
