@@ -42,6 +42,40 @@ set = "right"
 traction = [0.0, -1.0]
 "#;
 
+/// A perfectly plastic thick cylinder pressed beyond its limit load (Hill: p_L = 2 sigma_y /
+/// sqrt(3) ln(b/a) = 200.1 MPa): steps 1-3 (p <= 195 MPa) converge, step 4 (260 MPa) cannot.
+const BEYOND_LIMIT: &str = r#"
+[problem]
+hypothesis = "plane_strain"
+[[materials]]
+name = "steel"
+model = "j2_plastic"
+young = 210000.0
+poisson = 0.3
+yield_stress = 250.0
+[[bodies]]
+name = "cyl"
+material = "steel"
+mesh = { type = "annulus_sector", inner_radius = 1.0, outer_radius = 2.0, angles = [0.0, 90.0], divisions = [8, 4] }
+[[bcs]]
+body = "cyl"
+set = "start"
+uy = 0.0
+[[bcs]]
+body = "cyl"
+set = "end"
+ux = 0.0
+[[loads]]
+body = "cyl"
+set = "inner"
+pressure = 1.0
+[steps]
+path = [[0.0, 0.0], [1.0, 260.0]]
+increments = 4
+[solver.newton]
+max_cutbacks = 4
+"#;
+
 /// Runs `mortex <args>` and returns (exit success, stderr + stdout).
 fn run(args: &[&str], dir: &Path) -> (bool, String) {
     let out = bin().args(args).current_dir(dir).output().unwrap();
@@ -196,37 +230,7 @@ fn a_failed_run_never_damages_an_earlier_result() {
 #[test]
 fn newton_failure_beyond_limit_load_is_reported() {
     let d = tmpdir("limit");
-    let case = r#"
-[problem]
-hypothesis = "plane_strain"
-[[materials]]
-name = "steel"
-model = "j2_plastic"
-young = 210000.0
-poisson = 0.3
-yield_stress = 250.0
-[[bodies]]
-name = "cyl"
-material = "steel"
-mesh = { type = "annulus_sector", inner_radius = 1.0, outer_radius = 2.0, angles = [0.0, 90.0], divisions = [8, 4] }
-[[bcs]]
-body = "cyl"
-set = "start"
-uy = 0.0
-[[bcs]]
-body = "cyl"
-set = "end"
-ux = 0.0
-[[loads]]
-body = "cyl"
-set = "inner"
-pressure = 1.0
-[steps]
-path = [[0.0, 0.0], [1.0, 260.0]]
-increments = 4
-[solver.newton]
-max_cutbacks = 4
-"#;
+    let case = BEYOND_LIMIT;
     std::fs::write(d.join("limit.toml"), case).unwrap();
     let (ok, text) = run(&["run", "limit.toml", "--quiet"], &d);
     assert!(!ok, "{text}");
@@ -440,38 +444,8 @@ fn a_failed_run_keeps_its_steps_beside_an_earlier_result() {
     assert!(ok);
     let before = std::fs::read(d.join("out.h5")).unwrap();
     let xdmf_before = std::fs::read(d.join("out.xdmf")).unwrap();
-    // Two Newton iterations allowed on a plastic cylinder beyond its limit load.
-    let case = r#"
-[problem]
-hypothesis = "plane_strain"
-[[materials]]
-name = "steel"
-model = "j2_plastic"
-young = 210000.0
-poisson = 0.3
-yield_stress = 250.0
-[[bodies]]
-name = "cyl"
-material = "steel"
-mesh = { type = "annulus_sector", inner_radius = 1.0, outer_radius = 2.0, angles = [0.0, 90.0], divisions = [8, 4] }
-[[bcs]]
-body = "cyl"
-set = "start"
-uy = 0.0
-[[bcs]]
-body = "cyl"
-set = "end"
-ux = 0.0
-[[loads]]
-body = "cyl"
-set = "inner"
-pressure = 1.0
-[steps]
-path = [[0.0, 0.0], [1.0, 260.0]]
-increments = 4
-[solver.newton]
-max_cutbacks = 2
-"#;
+    // A plastic cylinder beyond its limit load, two cut-backs allowed.
+    let case = BEYOND_LIMIT.replace("max_cutbacks = 4", "max_cutbacks = 2");
     std::fs::write(d.join("limit.toml"), case).unwrap();
     let (ok, text) = run(&["run", "limit.toml", "--quiet", "-o", "out.h5"], &d);
     assert!(!ok && text.contains("out.h5.partial"), "{text}");
