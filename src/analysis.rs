@@ -62,6 +62,8 @@ pub enum AnalysisError {
     SlidingBeyondPairing { step: usize, time: f64, slide: f64, width: f64 },
     #[error("step {step} (time {time}): moving the virtual surfaces: {source}")]
     Surface { step: usize, time: f64, source: crate::model::ModelError },
+    #[error("cycle {cycle}: wear of '{surface}': {msg}")]
+    Wear { cycle: u64, surface: String, msg: String },
 }
 
 pub struct StaticAnalysis<'m> {
@@ -238,6 +240,7 @@ impl<'m> StaticAnalysis<'m> {
             accumulated_slip: vec![0.0; m.contact.friction_rows.len()],
             dissipation: 0.0,
             interface_log: vec![],
+            wear: m.initial_wear_state(),
         }
     }
 

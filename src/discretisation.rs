@@ -238,3 +238,44 @@ pub fn band_cell_rule(
     rule.weights = w;
     (rule, degree)
 }
+
+/// The polyline with a vertex added wherever it enters or leaves a host cell (the piece ends
+/// of its embedding): a wearing surface wears at its own vertices, so they resolve the host.
+pub fn refined_at_crossings(surf: &VirtualSurface, emb: &Embedding) -> VirtualSurface {
+    let nseg = if surf.closed { surf.vertices.len() } else { surf.vertices.len() - 1 };
+    let mut ends: Vec<Vec<f64>> = vec![vec![]; nseg];
+    for p in &emb.pieces {
+        for t in [p.t0, p.t1] {
+            if t > 1e-9 && t < 1.0 - 1e-9 {
+                ends[p.segment].push(t);
+            }
+        }
+    }
+    let n = surf.vertices.len();
+    let mut v = Vec::new();
+    for (s, ts) in ends.iter_mut().enumerate() {
+        ts.sort_by(f64::total_cmp);
+        // A crossing between two cells ends one piece and starts the next; where the polyline
+        // enters or leaves the host a piece ends alone (no vertex there: every segment must
+        // keep a part inside the host).
+        let mut inner = Vec::new();
+        let mut k = 0;
+        while k < ts.len() {
+            let mut m = k + 1;
+            while m < ts.len() && ts[m] - ts[k] < 1e-9 {
+                m += 1;
+            }
+            if m - k >= 2 {
+                inner.push(ts[k]);
+            }
+            k = m;
+        }
+        let (a, b) = (surf.vertices[s], surf.vertices[(s + 1) % n]);
+        v.push(a);
+        v.extend(inner.iter().map(|&t| a + (b - a) * t));
+    }
+    if !surf.closed {
+        v.push(surf.vertices[n - 1]);
+    }
+    VirtualSurface { vertices: v, closed: surf.closed }
+}

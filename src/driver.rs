@@ -39,6 +39,9 @@ pub fn run<F>(model: &Model, state: &mut SimState, options: RunOptions, mut obse
 where
     F: FnMut(&StepReport, &SimState, &Model) -> Result<(), String>,
 {
+    if !model.wear.is_empty() {
+        return run_wear(model, state, options, observer);
+    }
     if !model.has_moving_surfaces() && !model.has_finite_sliding() {
         let mut analysis = StaticAnalysis::new(model)?;
         analysis.set_parallel(options.parallel);
@@ -65,6 +68,207 @@ where
         // The interface log of a per-step operator means nothing to the next step.
         state.interface_log.clear();
         observer(&report, state, step_model).map_err(|msg| AnalysisError::Observer { step, msg })?;
+    }
+    Ok(())
+}
+
+/// The wear loop (see [`crate::wear`]):
+///
+/// ```text
+/// ramp steps (before the cycle window): as any run
+/// while cycles done < cycles:
+///     place the worn surfaces (re-cut on fixed points, re-pair)
+///     for each increment of the cycle:
+///         solve the step; add its wear volumes and work on every wearing surface
+///     jump dN = controller(wear rates); depth += dN * rate; move vertices inward; cycles += dN
+/// ```
+///
+/// Within a computed cycle the surfaces hold still, so an elastic scene keeps one condensed
+/// solver for the whole cycle (a resume mid-cycle replays its interface log). A jump moves the
+/// state to the end of the jumped cycle: the load history is periodic, the state is the one
+/// the computed cycle ended with.
+fn run_wear<F>(model: &Model, state: &mut SimState, options: RunOptions, mut observer: F) -> Result<(), AnalysisError>
+where
+    F: FnMut(&StepReport, &SimState, &Model) -> Result<(), String>,
+{
+    let Some(cycle) = model.cycle else {
+        let surface = model.wear.surfaces[0].name.clone();
+        return Err(AnalysisError::Wear { cycle: 0, surface, msg: "wear needs a cyclic load ([steps] cycle)".into() });
+    };
+    let ramp_steps = model.times.len() - cycle.count * cycle.increments;
+    let mut current = model.clone();
+    // Surfaces where the state has them, re-cut and re-paired (small sliding: in the reference
+    // geometry, with the pairing reach extended by the wear depth allowed).
+    let place = |m: &mut Model, state: &SimState| {
+        m.place_worn_surfaces(&state.wear).map(|_| ()).map_err(|source| AnalysisError::Surface {
+            step: state.step,
+            time: state.time,
+            source,
+        })
+    };
+    place(&mut current, state)?;
+    if state.step < ramp_steps {
+        let mut analysis = StaticAnalysis::new(&current)?;
+        analysis.set_parallel(options.parallel);
+        analysis.resume(state)?;
+        for k in state.step..ramp_steps {
+            let u_prev = state.u.clone();
+            let report = analysis.advance_to(state, k + 1, model.times[k])?;
+            accumulate_step_wear(&current, state, &u_prev);
+            if k + 1 == ramp_steps {
+                // The ramp's wear (sliding under the rising load) counts, applied once.
+                apply_wear(&current, state, cycle.count as u64, false)?;
+                state.interface_log.clear();
+            }
+            observer(&report, state, &current).map_err(|msg| AnalysisError::Observer { step: k + 1, msg })?;
+        }
+        place(&mut current, state)?;
+    }
+    while state.wear.cycle < cycle.count as u64 {
+        let n = state.wear.cycle;
+        let step_time = |i: usize| cycle.start + cycle.period * (n as f64 + (i + 1) as f64 / cycle.increments as f64);
+        if current.has_finite_sliding() {
+            for i in state.wear.increment..cycle.increments {
+                let repaired = current.repaired(&state.u);
+                let mut analysis = StaticAnalysis::new(&repaired)?;
+                analysis.set_parallel(options.parallel);
+                let report = wear_step(&repaired, &mut analysis, state, i, step_time(i), n, cycle.increments)?;
+                state.interface_log.clear();
+                observer(&report, state, &repaired).map_err(|msg| AnalysisError::Observer { step: report.step, msg })?;
+            }
+        } else {
+            let mut analysis = StaticAnalysis::new(&current)?;
+            analysis.set_parallel(options.parallel);
+            analysis.resume(state)?;
+            for i in state.wear.increment..cycle.increments {
+                let report = wear_step(&current, &mut analysis, state, i, step_time(i), n, cycle.increments)?;
+                if i + 1 == cycle.increments {
+                    state.interface_log.clear();
+                }
+                observer(&report, state, &current).map_err(|msg| AnalysisError::Observer { step: report.step, msg })?;
+            }
+        }
+        place(&mut current, state)?;
+    }
+    Ok(())
+}
+
+/// Increment `i` of computed cycle `n` (0-based): solve, add the step's wear, and at the
+/// cycle's last increment apply the cycle's wear with its jump.
+fn wear_step(
+    m: &Model,
+    analysis: &mut StaticAnalysis,
+    state: &mut SimState,
+    i: usize,
+    t: f64,
+    n: u64,
+    increments: usize,
+) -> Result<StepReport, AnalysisError> {
+    let u_prev = state.u.clone();
+    let mut report = analysis.advance_to(state, state.step + 1, t)?;
+    report.cycle = n as usize + 1;
+    report.increment = i + 1;
+    accumulate_step_wear(m, state, &u_prev);
+    state.wear.increment = i + 1;
+    if i + 1 == increments {
+        let count = m.cycle.map_or(1, |c| c.count as u64);
+        apply_wear(m, state, count, true)?;
+        if let Some(c) = m.cycle {
+            state.time = c.start + c.period * state.wear.cycle as f64;
+        }
+    }
+    Ok(report)
+}
+
+/// Adds the wear of the step that just converged (from `u_prev` to `state.u`) to the cycle's
+/// volumes and work.
+fn accumulate_step_wear(m: &Model, state: &mut SimState, u_prev: &[f64]) {
+    let hosts = m.hosts();
+    for (w, ws) in m.wear.surfaces.iter().enumerate() {
+        // Where the pair is paired for the step (its rows' configuration).
+        let finite = m.contact.pairs[ws.contact].sliding == crate::contact::Sliding::Finite;
+        let x = |node: usize| {
+            let p = m.coords[node];
+            if finite {
+                nalgebra::Point2::new(p.x + u_prev[2 * node], p.y + u_prev[2 * node + 1])
+            } else {
+                p
+            }
+        };
+        let (vol, work) = crate::wear::step_wear(
+            &m.contact,
+            &hosts,
+            ws,
+            &m.surfaces[ws.surface],
+            u_prev,
+            &state.u,
+            &state.multipliers,
+            &x,
+        );
+        for (a, v) in state.wear.cycle_volume[w].iter_mut().zip(&vol) {
+            *a += v;
+        }
+        state.wear.cycle_work[w] += work;
+    }
+}
+
+/// Applies the current cycle's wear: the jump `dN` (the controller's, or 1 for the ramp when
+/// `jump` is false), depths, vertices, sums and counters.
+fn apply_wear(m: &Model, state: &mut SimState, count: u64, jump: bool) -> Result<(), AnalysisError> {
+    let w = &mut state.wear;
+    let measures: Vec<Vec<f64>> = m.wear.surfaces.iter().map(|ws| crate::wear::vertex_measure(&m.surfaces[ws.surface])).collect();
+    let rates: Vec<Vec<f64>> = w
+        .cycle_volume
+        .iter()
+        .zip(&measures)
+        .map(|(vol, mea)| vol.iter().zip(mea).map(|(v, a)| if *a > 0.0 { v / a } else { 0.0 }).collect())
+        .collect();
+    let dn = if jump {
+        let resolution = m
+            .wear
+            .surfaces
+            .iter()
+            .zip(&rates)
+            .map(|(ws, r)| crate::wear::wearing_resolution(&m.surfaces[ws.surface].vertices, r))
+            .fold(f64::INFINITY, f64::min);
+        let flat: Vec<f64> = rates.iter().flatten().copied().collect();
+        let remaining = count.saturating_sub(w.cycle);
+        crate::wear::next_jump(m.wear.jump, &mut w.controller, &flat, resolution, remaining)
+    } else {
+        1
+    };
+    for (k, ws) in m.wear.surfaces.iter().enumerate() {
+        let inc = crate::wear::depth_increment(&rates[k], &measures[k], dn);
+        let verts: Vec<nalgebra::Point2<f64>> = w.vertices[k].iter().map(|p| nalgebra::Point2::new(p[0], p[1])).collect();
+        let moved = crate::wear::worn_vertices(&verts, m.surfaces[ws.surface].base.closed, &inc);
+        for (d, (i, a)) in w.depth[k].iter_mut().zip(inc.iter().zip(&measures[k])) {
+            if *a > 0.0 {
+                *d += i;
+            }
+        }
+        let deepest = w.depth[k].iter().fold(0.0_f64, |a, &b| a.max(b));
+        if !deepest.is_finite() || deepest > ws.max_depth {
+            return Err(AnalysisError::Wear {
+                cycle: w.cycle + dn,
+                surface: ws.name.clone(),
+                msg: format!(
+                    "wear depth {deepest:.6e} passes max_depth = {} (the band of fixed points prepared for it): \
+                     raise [[wear]] max_depth",
+                    ws.max_depth
+                ),
+            });
+        }
+        w.vertices[k] = moved.iter().map(|p| [p.x, p.y]).collect();
+        w.worn_area[k] += dn as f64 * w.cycle_volume[k].iter().sum::<f64>();
+        w.work[k] += dn as f64 * w.cycle_work[k];
+        w.cycle_volume[k].iter_mut().for_each(|v| *v = 0.0);
+        w.cycle_work[k] = 0.0;
+    }
+    if jump {
+        w.cycle += dn;
+        w.computed_cycles += 1;
+        w.jump = dn;
+        w.increment = 0;
     }
     Ok(())
 }

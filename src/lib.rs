@@ -26,3 +26,4 @@ pub mod post;
 pub mod solver;
 pub mod state;
 pub mod surface;
+pub mod wear;

@@ -42,6 +42,8 @@ pub enum ModelError {
     Tie { tie: String, msg: String },
     /// A contact pair's definition; `key` names the case key (`friction`, `mortar_surface`,
     /// `other_cut`).
+    #[error("wear of '{surface}': {msg}")]
+    Wear { surface: String, key: &'static str, msg: String },
     #[error("contact '{contact}': {msg}")]
     Contact { contact: String, key: &'static str, msg: String },
 }
@@ -144,6 +146,8 @@ pub struct Model {
     pub held: Vec<Vec<usize>>,
     /// The repeated window of the load history, if the case is cyclic.
     pub cycle: Option<Cycle>,
+    /// Wearing surfaces and the cycle-jump policy (empty: no wear).
+    pub wear: crate::wear::WearModel,
 }
 
 /// A load history declared as one cycle repeated: every curve is evaluated at
@@ -528,6 +532,9 @@ pub struct ModelBuilder {
     /// Per free cut: the polyline was reversed to keep the material on its left.
     reversed_cuts: Vec<bool>,
     cycle: Option<Cycle>,
+    /// Wearing cuts: (name, law, coefficient, deepest wear), and the cycle-jump policy.
+    wear_cuts: Vec<(String, crate::wear::WearLaw, f64, f64)>,
+    wear_jump: crate::wear::JumpPolicy,
     ghost_penalty: f64,
     contacts: Vec<ContactSpec>,
     /// Multi-point constraints `u(node) - u(master) = 0` (rigid sets), global DOFs.
@@ -552,6 +559,8 @@ impl ModelBuilder {
             rigid_rows: vec![],
             reversed_cuts: vec![],
             cycle: None,
+            wear_cuts: vec![],
+            wear_jump: crate::wear::JumpPolicy::default(),
         }
     }
 
@@ -559,6 +568,41 @@ impl ModelBuilder {
     /// [`Self::build`] should be [`Cycle::times`].
     pub fn set_cycle(&mut self, cycle: Cycle) {
         self.cycle = Some(cycle);
+    }
+
+    /// Makes a free cut wear (see [`crate::wear`]): it must be the other side of a contact
+    /// pair; its host gets fixed points down to `max_depth` below it. Its polyline gets a
+    /// vertex wherever it crosses a host cell edge (its wear resolution).
+    pub fn set_cut_wear(
+        &mut self,
+        name: &str,
+        law: crate::wear::WearLaw,
+        coefficient: f64,
+        max_depth: f64,
+    ) -> Result<(), ModelError> {
+        let err = |key: &'static str, msg: String| ModelError::Wear { surface: name.to_string(), key, msg };
+        if !(coefficient.is_finite() && coefficient >= 0.0) {
+            return Err(err("coefficient", format!("must be finite and >= 0, got {coefficient}")));
+        }
+        if !(max_depth.is_finite() && max_depth > 0.0) {
+            return Err(err("max_depth", format!("must be finite and > 0, got {max_depth}")));
+        }
+        let Some(f) = self.free_cuts.iter().find(|f| f.0 == name) else {
+            return Err(err("cut", format!("no cut named '{name}'")));
+        };
+        if f.3.is_some() {
+            return Err(err("cut", "a cut with a prescribed motion cannot also wear".into()));
+        }
+        if self.wear_cuts.iter().any(|w| w.0 == name) {
+            return Err(err("cut", "wear is given twice for this cut".into()));
+        }
+        self.wear_cuts.push((name.to_string(), law, coefficient, max_depth));
+        Ok(())
+    }
+
+    /// Cycle-jump policy of wear runs.
+    pub fn set_wear_jump(&mut self, policy: crate::wear::JumpPolicy) {
+        self.wear_jump = policy;
     }
 
     /// Makes a free cut move during the run (re-cut on fixed points, see
@@ -981,6 +1025,16 @@ impl ModelBuilder {
         }
         let mut cut_embeddings: Vec<(usize, Embedding)> = Vec::new();
         let t_start = load_path.points[0].0;
+        // A wearing polyline wears at its own vertices: give it one at every host edge crossing.
+        for (name, body, surf, _) in self.free_cuts.iter_mut() {
+            if !self.wear_cuts.iter().any(|w| &w.0 == name) {
+                continue;
+            }
+            let index = BoxIndex::over_cells(&self.bodies[*body].mesh);
+            let emb = embed(surf, &self.bodies[*body].mesh, &index)
+                .map_err(|e| ModelError::Tie { tie: name.clone(), msg: e.to_string() })?;
+            *surf = crate::discretisation::refined_at_crossings(surf, &emb);
+        }
         for (name, body, surf, motion) in &self.free_cuts {
             let index = BoxIndex::over_cells(&self.bodies[*body].mesh);
             // A moving surface starts where its motion puts it at the start of the load path.
@@ -1028,6 +1082,16 @@ impl ModelBuilder {
                     let (Some(motion), true) = (motion, *cb == b) else { continue };
                     let range = curve_range(&self.curves, &load_path, motion.curve());
                     let cells = crate::discretisation::band_cells(&body.mesh, &adjacency, surf, motion, range)
+                        .map_err(|e| ModelError::Tie { tie: name.clone(), msg: e.to_string() })?;
+                    band_cells_b.extend(cells);
+                }
+                for (name, cb, surf, _) in self.free_cuts.iter() {
+                    let Some(w) = self.wear_cuts.iter().find(|w| &w.0 == name) else { continue };
+                    if *cb != b {
+                        continue;
+                    }
+                    let reach = SurfaceMotion::NormalOffset { distance: w.3, curve: 0 };
+                    let cells = crate::discretisation::band_cells(&body.mesh, &adjacency, surf, &reach, (0.0, 1.0))
                         .map_err(|e| ModelError::Tie { tie: name.clone(), msg: e.to_string() })?;
                     band_cells_b.extend(cells);
                 }
@@ -1185,14 +1249,19 @@ impl ModelBuilder {
         // Contact pairs: weighted-gap rows from the reference geometry.
         let (mut contact_rows, mut contact_g0, mut contact_phi, mut contact_eps, mut contact_mu, mut contacts) =
             (vec![], vec![], vec![], vec![], vec![], vec![]);
-        let (mut friction_rows, mut friction_normal) = (vec![], vec![]);
+        let (mut friction_rows, mut friction_normal, mut tangents) = (vec![], vec![], vec![]);
         for c in &self.contacts {
             let nseg = c.side.num_segments();
             let h = (0..nseg)
                 .map(|i| (c.side.points[(i + 1) % c.side.points.len()] - c.side.points[i]).norm())
                 .sum::<f64>()
                 / nseg as f64;
-            let max_gap = 2.0 * h;
+            // A wearing other side sinks by up to its max_depth: it stays within reach.
+            let wear_reach = match &c.other {
+                ContactOther::Cut(cut) => self.wear_cuts.iter().find(|w| &w.0 == cut).map_or(0.0, |w| w.3),
+                _ => 0.0,
+            };
+            let max_gap = 2.0 * h + wear_reach;
             let pts: Vec<[Point2<f64>; 2]>;
             let mut other_surface = None;
             let (other, paired) = match &c.other {
@@ -1242,6 +1311,7 @@ impl ModelBuilder {
             let hosts: Vec<(&Mesh2, usize)> = self.bodies.iter().map(|b| (&b.mesh, b.node_offset)).collect();
             let rows = crate::contact::pair_rows(&hosts, &info, &|n| coords_of(&self.bodies, n));
             for r in rows {
+                tangents.push(r.tangent.clone());
                 // Every node of a frictional pair gets a friction row, paired or not (pairings
                 // come and go under finite sliding and moving surfaces): the multiplier layout
                 // is fixed for the run.
@@ -1282,6 +1352,26 @@ impl ModelBuilder {
             .collect();
         let penalty = penalty_parts.iter().flatten().copied().collect();
         let n_constraints = constraints.len();
+        let mut wear = crate::wear::WearModel { surfaces: vec![], jump: self.wear_jump };
+        for (name, law, coefficient, max_depth) in &self.wear_cuts {
+            let surface = self.free_cuts.iter().position(|f| &f.0 == name).unwrap_or(usize::MAX);
+            let Some(contact) = self.contacts.iter().position(|c| matches!(&c.other, ContactOther::Cut(n) if n == name))
+            else {
+                return Err(ModelError::Wear {
+                    surface: name.clone(),
+                    key: "cut",
+                    msg: "the surface is not in contact with anything (no contact pair has it as its other side)".into(),
+                });
+            };
+            wear.surfaces.push(crate::wear::WearingSurface {
+                name: name.clone(),
+                surface,
+                contact,
+                coefficient: *coefficient,
+                law: *law,
+                max_depth: *max_depth,
+            });
+        }
         Ok(Model {
             hypothesis: self.hypothesis,
             bodies: self.bodies,
@@ -1318,6 +1408,7 @@ impl ModelBuilder {
                 mu: contact_mu,
                 friction_rows,
                 friction_normal,
+                tangents,
                 friction_s0,
                 pairs: contacts,
             },
@@ -1327,12 +1418,48 @@ impl ModelBuilder {
             ghost_penalty: self.ghost_penalty,
             held,
             cycle: self.cycle,
+            wear,
         })
     }
 }
 
 /// Moving surfaces (see [`crate::discretisation`]): the model re-cut on its fixed band points.
 impl Model {
+    /// The wear state before any wear: surfaces where the model put them, nothing worn.
+    pub fn initial_wear_state(&self) -> crate::state::WearState {
+        let n = self.wear.surfaces.len();
+        if n == 0 {
+            return crate::state::WearState::default();
+        }
+        let verts: Vec<Vec<[f64; 2]>> = self
+            .wear
+            .surfaces
+            .iter()
+            .map(|w| self.surfaces[w.surface].vertices.iter().map(|p| [p.x, p.y]).collect())
+            .collect();
+        crate::state::WearState {
+            depth: verts.iter().map(|v| vec![0.0; v.len()]).collect(),
+            cycle_volume: verts.iter().map(|v| vec![0.0; v.len()]).collect(),
+            vertices: verts,
+            cycle_work: vec![0.0; n],
+            worn_area: vec![0.0; n],
+            work: vec![0.0; n],
+            ..Default::default()
+        }
+    }
+
+    /// Puts the wearing surfaces where `wear` has them (re-cut, re-paired).
+    pub fn place_worn_surfaces(&mut self, wear: &crate::state::WearState) -> Result<RecutReport, ModelError> {
+        let positions: Vec<(usize, Vec<Point2<f64>>)> = self
+            .wear
+            .surfaces
+            .iter()
+            .zip(&wear.vertices)
+            .map(|(w, v)| (w.surface, v.iter().map(|p| Point2::new(p[0], p[1])).collect()))
+            .collect();
+        self.move_surfaces(&positions)
+    }
+
     /// Vertices of free surface `i` at time `t` (its reference vertices when it does not move).
     pub fn surface_vertices_at(&self, i: usize, t: f64) -> Vec<Point2<f64>> {
         let s = &self.surfaces[i];

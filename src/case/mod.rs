@@ -84,6 +84,34 @@ pub struct CaseFile {
     /// Rigid sets (platens): the nodes of the set move as one translation.
     #[serde(default)]
     pub rigid: Vec<RigidSpec>,
+    /// Wearing surfaces (cuts that are the other side of a contact pair).
+    #[serde(default)]
+    pub wear: Vec<WearSpec>,
+    /// Cycle jump of wear runs (default: adaptive).
+    pub cycle_jump: Option<CycleJumpSpec>,
+}
+
+/// A wearing surface: `cut` (a `[[cuts]]` name, the other side of a contact pair), the wear
+/// `coefficient` (Archard `k` or energy `alpha`, 1/pressure), `law` and `max_depth`, the deepest
+/// wear the host is prepared for (its band of fixed points).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WearSpec {
+    pub cut: String,
+    pub coefficient: f64,
+    #[serde(default)]
+    pub law: crate::wear::WearLaw,
+    pub max_depth: f64,
+}
+
+/// `fixed = dN` for a fixed jump, otherwise adaptive with `depth_fraction` (default 0.1) of the
+/// worn surface's resolution per jump and at most `max_jump` cycles per jump.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CycleJumpSpec {
+    pub fixed: Option<u64>,
+    pub depth_fraction: Option<f64>,
+    pub max_jump: Option<u64>,
 }
 
 /// A rigid set: the nodes of a node or edge set move together (no rotation); load it with a
@@ -715,6 +743,47 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         })?;
     }
 
+    for (i, w) in raw.wear.iter().enumerate() {
+        let k = |f: &str| format!("wear[{i}].{f}");
+        if !raw.cuts.iter().enumerate().any(|(j, c)| c.name.clone().unwrap_or_else(|| format!("cut{j}")) == w.cut) {
+            return Err(cx.err(k("cut"), format!("no cut named '{}'", w.cut)));
+        }
+        b.set_cut_wear(&w.cut, w.law, w.coefficient, w.max_depth).map_err(|e| {
+            let key = match &e {
+                ModelError::Wear { key, .. } => k(key),
+                _ => k("cut"),
+            };
+            model_err(&cx, key, e)
+        })?;
+    }
+    if let Some(j) = &raw.cycle_jump {
+        let policy = match (j.fixed, j.depth_fraction, j.max_jump) {
+            (Some(0), _, _) => return Err(cx.err("cycle_jump.fixed", "must be at least 1")),
+            (Some(n), None, None) => crate::wear::JumpPolicy::Fixed(n),
+            (Some(_), _, _) => {
+                return Err(cx.err("cycle_jump", "fixed cannot be combined with depth_fraction or max_jump"))
+            }
+            (None, f, m) => {
+                let depth_fraction = f.unwrap_or(0.1);
+                if !(depth_fraction.is_finite() && depth_fraction > 0.0 && depth_fraction <= 1.0) {
+                    return Err(cx.err("cycle_jump.depth_fraction", format!("must be in (0, 1], got {depth_fraction}")));
+                }
+                let max_jump = m.unwrap_or(1_000_000);
+                if max_jump == 0 {
+                    return Err(cx.err("cycle_jump.max_jump", "must be at least 1"));
+                }
+                crate::wear::JumpPolicy::Adaptive { depth_fraction, max_jump }
+            }
+        };
+        if raw.wear.is_empty() {
+            return Err(cx.err("cycle_jump", "there is no [[wear]] surface to jump cycles for"));
+        }
+        b.set_wear_jump(policy);
+    }
+    if !raw.wear.is_empty() && raw.steps.cycle.is_none() {
+        return Err(cx.err("wear", "wear runs are cyclic: give steps.cycle = [start, end] and steps.cycles = N"));
+    }
+
     if let Some(g) = raw.solver.ghost_penalty {
         if !(g.is_finite() && g >= 0.0) {
             return Err(cx.err("solver.ghost_penalty", format!("must be finite and >= 0, got {g}")));
@@ -831,6 +900,12 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                 .find(|(i, c)| c.name.clone().unwrap_or_else(|| format!("contact{i}")) == *contact)
                 .map(|(i, _)| format!("contacts[{i}].{key}"))
                 .unwrap_or_else(|| "contacts".into()),
+            ModelError::Wear { surface, key, .. } => raw
+                .wear
+                .iter()
+                .position(|w| w.cut == *surface)
+                .map(|i| format!("wear[{i}].{key}"))
+                .unwrap_or_else(|| "wear".into()),
             _ => "bcs".into(),
         };
         model_err(&cx, key, e)

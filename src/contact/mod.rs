@@ -93,6 +93,9 @@ pub struct ContactSet {
     pub mu: Vec<f64>,
     pub friction_rows: Vec<ConstraintRow>,
     pub friction_normal: Vec<usize>,
+    /// The weighted tangential row of every normal row (frictionless pairs too): wear reads the
+    /// weighted slip increment `tangents[k] . du` of a step from it.
+    pub tangents: Vec<ConstraintRow>,
     /// `friction_rows[j] . u` at the pairing (0 for the reference pairing): slides are measured
     /// from it.
     pub friction_s0: Vec<f64>,
@@ -244,6 +247,26 @@ pub fn zero_open_multipliers(m: &ContactSet, mult: &mut [f64], active: &[bool], 
 /// re-pairing of finite sliding and the rows of a surface that moved.
 /// `hosts[b]` is body `b`'s mesh and node offset (the host of a virtual other side).
 pub fn pair_rows(hosts: &[(&Mesh2, usize)], c: &ContactInfo, x: &dyn Fn(usize) -> Point2<f64>) -> Vec<ContactRow> {
+    with_pairing(hosts, c, x, &mut |side, other| weighted_gaps(side, &c.multipliers, other, c.max_gap))
+}
+
+/// The mortar integration points of a pair in the configuration `x` (as [`pair_rows`] pairs
+/// them): where wear is integrated.
+pub fn paired_points(
+    hosts: &[(&Mesh2, usize)],
+    c: &ContactInfo,
+    x: &dyn Fn(usize) -> Point2<f64>,
+) -> Vec<crate::mortar::PairedPoint> {
+    with_pairing(hosts, c, x, &mut |side, other| crate::mortar::paired_points(side, &c.multipliers, other, c.max_gap))
+}
+
+/// Calls `f` with the pair's mortar side and other side placed by `x`.
+fn with_pairing<T>(
+    hosts: &[(&Mesh2, usize)],
+    c: &ContactInfo,
+    x: &dyn Fn(usize) -> Point2<f64>,
+    f: &mut dyn FnMut(&crate::mortar::MortarSide, &OtherSide) -> T,
+) -> T {
     let side = crate::mortar::MortarSide {
         nodes: c.side.nodes.clone(),
         points: c.side.nodes.iter().map(|&n| x(n)).collect(),
@@ -252,7 +275,7 @@ pub fn pair_rows(hosts: &[(&Mesh2, usize)], c: &ContactInfo, x: &dyn Fn(usize) -
     match &c.other {
         PairedSide::Edges(edges) => {
             let pts: Vec<[Point2<f64>; 2]> = edges.iter().map(|e| [x(e[0]), x(e[1])]).collect();
-            weighted_gaps(&side, &c.multipliers, &OtherSide::Edges { nodes: edges, points: &pts }, c.max_gap)
+            f(&side, &OtherSide::Edges { nodes: edges, points: &pts })
         }
         PairedSide::Embedded { host, embedding } => {
             let (host_mesh, node_offset) = hosts[*host];
@@ -268,12 +291,7 @@ pub fn pair_rows(hosts: &[(&Mesh2, usize)], c: &ContactInfo, x: &dyn Fn(usize) -
                 piece.a = mapped.map(piece.xi_a);
                 piece.b = mapped.map(piece.xi_b);
             }
-            weighted_gaps(
-                &side,
-                &c.multipliers,
-                &OtherSide::Embedded { host: &mesh, host_offset: node_offset, embedding: &e },
-                c.max_gap,
-            )
+            f(&side, &OtherSide::Embedded { host: &mesh, host_offset: node_offset, embedding: &e })
         }
     }
 }
@@ -289,6 +307,7 @@ pub fn install_rows(m: &mut ContactSet, pair: usize, rows: Vec<ContactRow>, u: &
         m.g0[k] = r.g0 - cu;
         m.phi[k] = r.phi;
         m.rows[k] = r.normal;
+        m.tangents[k] = r.tangent.clone();
         if let Some(j) = friction_row[l] {
             m.friction_s0[j] = r.tangent.iter().map(|&(d, v)| v * u[d]).sum();
             m.friction_rows[j] = r.tangent;

@@ -67,9 +67,81 @@ pub(super) fn write(g: &hdf5::Group, state: &SimState) -> hdf5::Result<()> {
     let batches: Vec<u64> = state.interface_log.iter().map(|b| b.len() as u64).collect();
     c.new_dataset_builder().with_data(&Array1::from(rows)).create("interface_rows")?;
     c.new_dataset_builder().with_data(&Array1::from(batches)).create("interface_batches")?;
+    if !state.wear.vertices.is_empty() {
+        write_wear(&c, &state.wear)?;
+    }
     // Written last: a checkpoint without it was cut short (a killed run) and is not offered.
     super::write_attr(&c, "complete", &1u8)?;
     Ok(())
+}
+
+/// The wear state under `checkpoint/wear`: counters as attributes, per surface `i` the datasets
+/// `vertices_i` `(n, 2)`, `depth_i`, `cycle_volume_i` `(n)`, per surface `cycle_work`,
+/// `worn_area`, `work`, and the jump controller (`last_rate`, `last_change`, attributes
+/// `last_jump`, `jump_before`, `decay`).
+fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> {
+    let g = c.create_group("wear")?;
+    for (name, v) in [("cycle", w.cycle), ("computed_cycles", w.computed_cycles), ("increment", w.increment as u64), ("jump", w.jump)] {
+        super::write_attr(&g, name, &v)?;
+    }
+    let vec1 = |name: &str, v: &[f64]| g.new_dataset_builder().with_data(&Array1::from(v.to_vec())).create(name);
+    for (i, verts) in w.vertices.iter().enumerate() {
+        let flat: Vec<f64> = verts.iter().flat_map(|p| [p[0], p[1]]).collect();
+        g.new_dataset_builder().with_data(&super::array2(verts.len(), 2, flat)).create(format!("vertices_{i}").as_str())?;
+        vec1(&format!("depth_{i}"), &w.depth[i])?;
+        vec1(&format!("cycle_volume_{i}"), &w.cycle_volume[i])?;
+    }
+    vec1("cycle_work", &w.cycle_work)?;
+    vec1("worn_area", &w.worn_area)?;
+    vec1("work", &w.work)?;
+    vec1("last_rate", &w.controller.last_rate)?;
+    vec1("last_change", &w.controller.last_change)?;
+    super::write_attr(&g, "last_jump", &w.controller.last_jump)?;
+    super::write_attr(&g, "jump_before", &w.controller.jump_before)?;
+    super::write_attr(&g, "decay", &w.controller.decay)?;
+    Ok(())
+}
+
+fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, String> {
+    let g = c.group("wear").map_err(|e| format!("no wear group ({e}): the checkpoint is not of a wear run"))?;
+    let attr_u64 = |name: &str| g.attr(name).and_then(|a| a.read_scalar::<u64>()).map_err(|e| format!("wear attribute {name}: {e}"));
+    let vec_f64 = |name: &str| g.dataset(name).and_then(|d| d.read_raw::<f64>()).map_err(|e| format!("wear dataset {name}: {e}"));
+    let fresh = model.initial_wear_state();
+    let mut w = crate::state::WearState {
+        cycle: attr_u64("cycle")?,
+        computed_cycles: attr_u64("computed_cycles")?,
+        increment: attr_u64("increment")? as usize,
+        jump: attr_u64("jump")?,
+        ..Default::default()
+    };
+    for (i, expected) in fresh.vertices.iter().enumerate() {
+        let flat = vec_f64(&format!("vertices_{i}"))?;
+        let depth = vec_f64(&format!("depth_{i}"))?;
+        let vol = vec_f64(&format!("cycle_volume_{i}"))?;
+        if flat.len() != 2 * expected.len() || depth.len() != expected.len() || vol.len() != expected.len() {
+            return Err(format!("wear surface {i} has {} vertices in the checkpoint, the model {}", flat.len() / 2, expected.len()));
+        }
+        w.vertices.push(flat.chunks_exact(2).map(|p| [p[0], p[1]]).collect());
+        w.depth.push(depth);
+        w.cycle_volume.push(vol);
+    }
+    w.cycle_work = vec_f64("cycle_work")?;
+    w.worn_area = vec_f64("worn_area")?;
+    w.work = vec_f64("work")?;
+    let n = fresh.vertices.len();
+    if w.cycle_work.len() != n || w.worn_area.len() != n || w.work.len() != n {
+        return Err(format!("the checkpoint has wear sums for another number of surfaces than the model's {n}"));
+    }
+    w.controller.last_rate = vec_f64("last_rate")?;
+    w.controller.last_change = vec_f64("last_change")?;
+    w.controller.last_jump = attr_u64("last_jump")?;
+    w.controller.jump_before = attr_u64("jump_before")?;
+    w.controller.decay = g.attr("decay").and_then(|a| a.read_scalar::<f64>()).map_err(|e| format!("wear attribute decay: {e}"))?;
+    let finite = w.vertices.iter().flatten().flatten().chain(w.depth.iter().flatten()).chain(&w.worn_area).all(|v| v.is_finite());
+    if !finite {
+        return Err("non-finite wear state".into());
+    }
+    Ok(w)
 }
 
 /// Steps of `path` that hold a checkpoint, in increasing order.
@@ -123,14 +195,20 @@ pub fn read(path: &Path, step: Option<usize>, model: &Model) -> Result<SimState,
             Err(CheckpointError::SizeMismatch { path: p.clone(), step, what: what.into(), found, expected })
         }
     };
-    if step > model.times.len() {
-        return Err(CheckpointError::BeyondCase { path: p.clone(), step, steps: model.times.len() });
-    }
     let time = attr_f64("time")?;
-    let expected = model.times[step - 1];
-    if time.to_bits() != expected.to_bits() {
-        return Err(CheckpointError::TimeMismatch { path: p.clone(), step, found: time, expected });
-    }
+    // Wear runs jump cycles: their steps are not the case's output times one for one.
+    let wear = if model.wear.is_empty() {
+        if step > model.times.len() {
+            return Err(CheckpointError::BeyondCase { path: p.clone(), step, steps: model.times.len() });
+        }
+        let expected = model.times[step - 1];
+        if time.to_bits() != expected.to_bits() {
+            return Err(CheckpointError::TimeMismatch { path: p.clone(), step, found: time, expected });
+        }
+        crate::state::WearState::default()
+    } else {
+        read_wear(&c, model).map_err(read_err)?
+    };
     let u = vec_f64("u")?;
     size("u", u.len(), model.dofs.num_dofs)?;
     let f_int = vec_f64("f_int")?;
@@ -181,6 +259,7 @@ pub fn read(path: &Path, step: Option<usize>, model: &Model) -> Result<SimState,
         accumulated_slip,
         dissipation: attr_f64("dissipation")?,
         interface_log,
+        wear,
     };
     if !state.u.iter().chain(&state.multipliers).all(|v| v.is_finite()) {
         return Err(read_err("non-finite displacement or multiplier".into()));

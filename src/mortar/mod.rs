@@ -547,6 +547,34 @@ pub fn weighted_gaps(side: &MortarSide, lm: &Multipliers, other: &OtherSide, max
         .collect()
 }
 
+/// One mortar integration point of a contact pair, as wear reads it: weight (mortar-side
+/// measure), multiplier hats, and the partner point on the other side (segment and parameter).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PairedPoint {
+    pub wt: f64,
+    pub hats: [(usize, f64); 2],
+    pub xm: Point2<f64>,
+    pub xo: Point2<f64>,
+    pub other: usize,
+    pub sigma: f64,
+}
+
+/// The integration points [`weighted_gaps`] integrates over (same pairing, same filter), so
+/// that `sum wt * Phi_l` over them is the row's `phi`.
+pub fn paired_points(side: &MortarSide, lm: &Multipliers, other: &OtherSide, max_gap: f64) -> Vec<PairedPoint> {
+    let facing = |pa: Point2<f64>, pb: Point2<f64>, a: Point2<f64>, b: Point2<f64>| {
+        right_normal(pa, pb).dot(&right_normal(a, b)) < 0.0
+    };
+    let mut v = Vec::new();
+    for_each_mortar_point(side, lm, other, max_gap, facing, |p| {
+        if (p.xo - p.xm).dot(&p.n).abs() > max_gap {
+            return;
+        }
+        v.push(PairedPoint { wt: p.wt, hats: p.hats, xm: p.xm, xo: p.xo, other: p.other, sigma: p.sigma });
+    });
+    v
+}
+
 fn nrm_dist(a: Point2<f64>, d: Vector2<f64>, p: Point2<f64>) -> f64 {
     let len = d.norm();
     ((p - a).x * d.y - (p - a).y * d.x).abs() / len
