@@ -1448,6 +1448,18 @@ impl Model {
         }
     }
 
+    /// Area of body `b`'s material (per unit thickness): its cells, times their material
+    /// fraction where the body is cut.
+    pub fn material_area(&self, b: usize) -> f64 {
+        let mesh = &self.bodies[b].mesh;
+        (0..mesh.num_cells())
+            .map(|c| {
+                let a = crate::surface::cell_size(&crate::surface::cell_polygon(mesh, c)).powi(2);
+                self.cuts[b].as_ref().map_or(a, |cm| a * cm.cell_fraction[c])
+            })
+            .sum()
+    }
+
     /// Puts the wearing surfaces where `wear` has them (re-cut, re-paired).
     pub fn place_worn_surfaces(&mut self, wear: &crate::state::WearState) -> Result<RecutReport, ModelError> {
         let positions: Vec<(usize, Vec<Point2<f64>>)> = self
