@@ -253,7 +253,15 @@ fn run(
             (cp, out)
         }
     };
-    if state.step >= model.times.len() {
+    let wear_cycles = match (model.wear.is_empty(), model.cycle) {
+        (false, Some(cy)) => Some(cy.count as u64),
+        _ => None,
+    };
+    let done = match wear_cycles {
+        Some(n) => state.wear.cycle >= n,
+        None => state.step >= model.times.len(),
+    };
+    if done {
         return Err(format!("nothing to run: the checkpoint is at the case's last output step {}", state.step));
     }
     let mut writer = ResultWriter::create(&out, model, &c.name).map_err(|e| e.to_string())?;
@@ -263,12 +271,19 @@ fn run(
         writer.set_restart_origin(file, state.step).map_err(|e| e.to_string())?;
     }
     let first_step = state.step;
-    let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(model.times.len() as u64) };
-    bar.set_position(first_step as u64);
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} step {pos}/{len} {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    // Wear runs count cycles (jumps included), other runs output steps.
+    let bar = match (quiet, wear_cycles) {
+        (true, _) => ProgressBar::hidden(),
+        (false, Some(n)) => ProgressBar::new(n),
+        (false, None) => ProgressBar::new(model.times.len() as u64),
+    };
+    bar.set_position(if wear_cycles.is_some() { state.wear.cycle } else { first_step as u64 });
+    let template = if wear_cycles.is_some() {
+        "{spinner} [{elapsed_precise}] {bar:40} cycle {pos}/{len} (eta {eta}) {msg}"
+    } else {
+        "{spinner} [{elapsed_precise}] {bar:40} step {pos}/{len} {msg}"
+    };
+    bar.set_style(ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_bar()));
     let started = std::time::Instant::now();
     let mut total_its = 0;
     let res = {
@@ -283,11 +298,21 @@ fn run(
             } else {
                 String::new()
             };
-            bar.set_message(format!(
-                "{cycle}t = {:.4}, lambda = {:.4}, {} it, res {:.1e}",
-                r.time, r.load_factor, r.iterations, r.residual
-            ));
-            bar.inc(1);
+            if wear_cycles.is_some() {
+                let w = &s.wear;
+                let deepest = w.depth.iter().flatten().fold(0.0_f64, |a, &b| a.max(b));
+                bar.set_message(format!(
+                    "computed {}, jump {}, inc {}, max wear {:.3e}, {} it",
+                    w.computed_cycles, w.jump, r.increment, deepest, r.iterations
+                ));
+                bar.set_position(w.cycle);
+            } else {
+                bar.set_message(format!(
+                    "{cycle}t = {:.4}, lambda = {:.4}, {} it, res {:.1e}",
+                    r.time, r.load_factor, r.iterations, r.residual
+                ));
+                bar.inc(1);
+            }
             Ok(())
         };
         mortex::driver::run(model, &mut state, mortex::driver::RunOptions { parallel: !c.serial }, observer)
@@ -297,10 +322,22 @@ fn run(
     let file = writer.finish(completed).map_err(|e| e.to_string())?;
     match res {
         Ok(()) => {
+            if wear_cycles.is_some() {
+                let w = &state.wear;
+                let deepest: Vec<String> = w.depth.iter().map(|d| format!("{:.4e}", d.iter().fold(0.0_f64, |a, &b| a.max(b)))).collect();
+                println!(
+                    "{}: {} cycles ({} computed), max wear depth [{}], worn area {:?}",
+                    c.name,
+                    w.cycle,
+                    w.computed_cycles,
+                    deepest.join(", "),
+                    w.worn_area
+                );
+            }
             println!(
                 "{}: {} steps, {} Newton iterations, {:.2} s -> {} (+ {})",
                 c.name,
-                model.times.len() - first_step,
+                state.step - first_step,
                 total_its,
                 started.elapsed().as_secs_f64(),
                 file.display(),

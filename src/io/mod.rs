@@ -101,6 +101,77 @@ struct Series {
     /// Moving surfaces: vertices `(steps, v, 2)`.
     surfaces: Vec<hdf5::Dataset>,
     rows: usize,
+    /// Wear runs: `/wear` rows at cycle boundaries (see [`WearSeries`]).
+    wear: Option<WearSeries>,
+}
+
+/// `/wear`, one row per wear update (each computed cycle's end, and the end of the ramp):
+/// `step`, `cycle` (cycles done, jumps included), `computed_cycles`, `jump` (u64), and per
+/// wearing surface `/wear/<cut>/{vertices (rows, v, 2), depth (rows, v), worn_area, work,
+/// max_depth}` (vertices in the order the case gave them).
+struct WearSeries {
+    scalars: [hdf5::Dataset; 4],
+    surfaces: Vec<[hdf5::Dataset; 5]>,
+    rows: usize,
+}
+
+impl WearSeries {
+    fn create(file: &hdf5::File, model: &Model) -> hdf5::Result<WearSeries> {
+        let g = file.create_group("wear")?;
+        let u = |name: &str| g.new_dataset::<u64>().chunk(SERIES_CHUNK).shape(0..).create(name);
+        let scalars = [u("step")?, u("cycle")?, u("computed_cycles")?, u("jump")?];
+        let mut surfaces = vec![];
+        for w in &model.wear.surfaces {
+            let v = model.surfaces[w.surface].vertices.len();
+            let sg = g.create_group(&w.name)?;
+            let f = |name: &str| sg.new_dataset::<f64>().chunk(SERIES_CHUNK).shape(0..).create(name);
+            surfaces.push([
+                sg.new_dataset::<f64>().chunk((SERIES_CHUNK, v, 2)).shape((0.., v, 2)).create("vertices")?,
+                sg.new_dataset::<f64>().chunk((SERIES_CHUNK, v)).shape((0.., v)).create("depth")?,
+                f("worn_area")?,
+                f("work")?,
+                f("max_depth")?,
+            ]);
+        }
+        Ok(WearSeries { scalars, surfaces, rows: 0 })
+    }
+
+    fn append(&mut self, model: &Model, report: &StepReport, state: &SimState) -> hdf5::Result<()> {
+        use ndarray::s;
+        let k = self.rows;
+        let w = &state.wear;
+        for (ds, v) in self.scalars.iter().zip([report.step as u64, w.cycle, w.computed_cycles, w.jump]) {
+            ds.resize(k + 1)?;
+            ds.write_slice(&[v], s![k..k + 1])?;
+        }
+        for (i, (ds, ws)) in self.surfaces.iter().zip(&model.wear.surfaces).enumerate() {
+            let reversed = model.surfaces[ws.surface].reversed;
+            let mut verts = w.vertices[i].clone();
+            let mut depth = w.depth[i].clone();
+            if reversed {
+                verts.reverse();
+                depth.reverse();
+            }
+            let v = verts.len();
+            let xy: Vec<f64> = verts.iter().flat_map(|p| [p[0], p[1]]).collect();
+            ds[0].resize((k + 1, v, 2))?;
+            let xy =
+                ndarray::Array3::from_shape_vec((1, v, 2), xy).unwrap_or_else(|_| ndarray::Array3::zeros((1, v, 2)));
+            ds[0].write_slice(&xy, s![k..k + 1, .., ..])?;
+            let deepest = depth.iter().fold(0.0_f64, |a, &b| a.max(b));
+            ds[1].resize((k + 1, v))?;
+            ds[1].write_slice(
+                &Array2::from_shape_vec((1, v), depth).unwrap_or_else(|_| Array2::zeros((1, v))),
+                s![k..k + 1, ..],
+            )?;
+            for (d, val) in ds[2..].iter().zip([w.worn_area[i], w.work[i], deepest]) {
+                d.resize(k + 1)?;
+                d.write_slice(&[val], s![k..k + 1])?;
+            }
+        }
+        self.rows += 1;
+        Ok(())
+    }
 }
 
 /// Rows of a series chunk (a chunk holds this many steps).
@@ -149,7 +220,8 @@ impl Series {
                 );
             }
         }
-        Ok(Series { scalars, contacts, dissipation, surfaces, rows: 0 })
+        let wear = if model.wear.is_empty() { None } else { Some(WearSeries::create(file, model)?) };
+        Ok(Series { scalars, contacts, dissipation, surfaces, rows: 0, wear })
     }
 
     fn append(
@@ -208,6 +280,12 @@ impl Series {
             let xy =
                 ndarray::Array3::from_shape_vec((1, v, 2), xy).unwrap_or_else(|_| ndarray::Array3::zeros((1, v, 2)));
             d.write_slice(&xy, s![k..k + 1, .., ..])?;
+        }
+        if let Some(w) = &mut self.wear {
+            // A wear update has just been applied (cycle boundary).
+            if state.wear.increment == 0 {
+                w.append(model, report, state)?;
+            }
         }
         self.rows += 1;
         Ok(())
@@ -297,7 +375,7 @@ impl ResultWriter {
             fields_every: 1,
             last_step: model.times.len(),
             last_flush: std::time::Instant::now(),
-            series: Series { scalars: vec![], contacts: vec![], dissipation: None, surfaces: vec![], rows: 0 },
+            series: Series { scalars: vec![], contacts: vec![], dissipation: None, surfaces: vec![], rows: 0, wear: None },
         };
         let res: hdf5::Result<()> = (|| {
             write_str_attr(&file, "format", "mortex-results")?;
