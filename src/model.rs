@@ -218,7 +218,9 @@ pub enum ContactOther {
 struct ContactSpec {
     name: String,
     mortar: usize,
+    /// The mortar side: real edges, or (when `mortar_cut` names a free cut) filled in at build.
     side: MortarSide,
+    mortar_cut: Option<String>,
     other: ContactOther,
     young: f64,
     params: ContactParams,
@@ -663,7 +665,51 @@ impl ModelBuilder {
             .elastic()
             .young
             .max(self.materials[self.bodies[other_body].material].elastic().young);
-        self.contacts.push(ContactSpec { name: name.to_string(), mortar, side, other, young, params });
+        self.contacts.push(ContactSpec { name: name.to_string(), mortar, side, mortar_cut: None, other, young, params });
+        Ok(())
+    }
+
+    /// Mortar contact whose mortar side is the virtual surface of free cut `mortar_cut` (in its
+    /// host body): the multipliers live on that polyline (see
+    /// [`crate::contact::VirtualMortar`]). A worn real boundary becomes such a cut.
+    pub fn add_contact_on_cut(
+        &mut self,
+        name: &str,
+        mortar_cut: &str,
+        other_body: usize,
+        other: ContactOther,
+        params: ContactParams,
+    ) -> Result<(), ModelError> {
+        let mu = params.friction;
+        if !(mu.is_finite() && mu >= 0.0) {
+            return Err(ModelError::Contact {
+                contact: name.to_string(),
+                key: "friction",
+                msg: format!("the friction coefficient must be finite and >= 0 (got {mu})"),
+            });
+        }
+        let Some(f) = self.free_cuts.iter().find(|f| f.0 == mortar_cut) else {
+            return Err(ModelError::Contact {
+                contact: name.to_string(),
+                key: "mortar_cut",
+                msg: format!("no cut named '{mortar_cut}'"),
+            });
+        };
+        let mortar = f.1;
+        let young = self.materials[self.bodies[mortar].material]
+            .elastic()
+            .young
+            .max(self.materials[self.bodies[other_body].material].elastic().young);
+        let side = MortarSide { nodes: vec![], points: vec![], closed: false };
+        self.contacts.push(ContactSpec {
+            name: name.to_string(),
+            mortar,
+            side,
+            mortar_cut: Some(mortar_cut.to_string()),
+            other,
+            young,
+            params,
+        });
         Ok(())
     }
 
@@ -717,6 +763,35 @@ impl ModelBuilder {
     /// Ghost-penalty factor `gamma` on cut bodies (0 switches it off).
     pub fn set_ghost_penalty(&mut self, gamma: f64) {
         self.ghost_penalty = gamma;
+    }
+
+    /// Turns a real boundary (edge sets of `body`) into a free cut named `name` that coincides
+    /// with it: a boundary that wears moves into its body as a virtual surface. An open
+    /// boundary is extended past its ends along its end segments (a cut starts and ends outside
+    /// its host); the material side comes from the cell along the first edge.
+    pub fn add_boundary_cut(&mut self, name: &str, body: usize, sets: &[String]) -> Result<(), ModelError> {
+        let side = self.mortar_side(name, body, sets, "worn surface")?;
+        let mut pts = side.points.clone();
+        let b = &self.bodies[body];
+        let local: Vec<usize> = side.nodes.iter().map(|&n| n - b.node_offset).collect();
+        // Which side of the first edge the body lies on.
+        let (n0, n1) = (local[0], local[1]);
+        let Some(cell) = b.mesh.cells.iter().find(|c| c.nodes().contains(&n0) && c.nodes().contains(&n1)) else {
+            return Err(ModelError::Tie { tie: name.to_string(), msg: "the first edge belongs to no cell".into() });
+        };
+        let centroid = cell.nodes().iter().fold(Vector2::zeros(), |s, &n| s + b.mesh.nodes[n].coords)
+            / cell.nodes().len() as f64;
+        let (a, e) = (pts[0], pts[1] - pts[0]);
+        let keep_left = e.x * (centroid.y - a.y) - e.y * (centroid.x - a.x) > 0.0;
+        if !side.closed {
+            // The end vertices move out along the end segments (doubling them), so that every
+            // segment keeps a part inside the host.
+            let n = pts.len();
+            let (d0, d1) = (pts[0] - pts[1], pts[n - 1] - pts[n - 2]);
+            pts[0] += d0;
+            pts[n - 1] += d1;
+        }
+        self.add_cut(name, body, pts, side.closed, keep_left)
     }
 
     /// Cuts a body with a free virtual surface (a traction-free boundary inside its mesh): an open
@@ -1251,16 +1326,48 @@ impl ModelBuilder {
             (vec![], vec![], vec![], vec![], vec![], vec![]);
         let (mut friction_rows, mut friction_normal, mut tangents) = (vec![], vec![], vec![]);
         for c in &self.contacts {
-            let nseg = c.side.num_segments();
+            // A virtual mortar side: the cut's polyline, vertices standing in for nodes.
+            let mut virtual_mortar = None;
+            let virtual_side;
+            let side = match &c.mortar_cut {
+                None => &c.side,
+                Some(cut) => {
+                    let si = self.free_cuts.iter().position(|f| &f.0 == cut).unwrap_or(usize::MAX);
+                    let (body, emb) = &cut_embeddings[si];
+                    let surf = &self.free_cuts[si].2;
+                    let base = coords.len();
+                    let host = &self.bodies[*body];
+                    virtual_mortar = Some(crate::contact::VirtualMortar {
+                        surface: si,
+                        host: *body,
+                        base,
+                        interpolation: crate::contact::VirtualMortar::interpolation(
+                            &host.mesh,
+                            host.node_offset,
+                            emb,
+                            &surf.vertices,
+                            surf.closed,
+                        ),
+                    });
+                    virtual_side = MortarSide {
+                        nodes: (base..base + surf.vertices.len()).collect(),
+                        points: surf.vertices.clone(),
+                        closed: surf.closed,
+                    };
+                    &virtual_side
+                }
+            };
+            let nseg = side.num_segments();
             let h = (0..nseg)
-                .map(|i| (c.side.points[(i + 1) % c.side.points.len()] - c.side.points[i]).norm())
+                .map(|i| (side.points[(i + 1) % side.points.len()] - side.points[i]).norm())
                 .sum::<f64>()
                 / nseg as f64;
-            // A wearing other side sinks by up to its max_depth: it stays within reach.
+            // Wearing sides sink by up to their max_depth: they stay within reach.
+            let depth_of = |cut: &String| self.wear_cuts.iter().find(|w| &w.0 == cut).map_or(0.0, |w| w.3);
             let wear_reach = match &c.other {
-                ContactOther::Cut(cut) => self.wear_cuts.iter().find(|w| &w.0 == cut).map_or(0.0, |w| w.3),
+                ContactOther::Cut(cut) => depth_of(cut),
                 _ => 0.0,
-            };
+            } + c.mortar_cut.as_ref().map_or(0.0, depth_of);
             let max_gap = 2.0 * h + wear_reach;
             let pts: Vec<[Point2<f64>; 2]>;
             let mut other_surface = None;
@@ -1288,9 +1395,9 @@ impl ModelBuilder {
                 }
             };
             let lm = match c.params.multipliers {
-                MultiplierSpace::Classical => build_multipliers(&c.side, MultiplierSpace::Classical, 1.0),
+                MultiplierSpace::Classical => build_multipliers(side, MultiplierSpace::Classical, 1.0),
                 MultiplierSpace::CoarseGrained => {
-                    build_multipliers_local(&c.side, &other_side_spacing(&c.side, &other, max_gap))
+                    build_multipliers_local(side, &other_side_spacing(side, &other, max_gap))
                 }
             };
             let mut info = ContactInfo {
@@ -1302,10 +1409,11 @@ impl ModelBuilder {
                 friction_row: vec![],
                 multipliers: lm,
                 sliding: c.params.sliding,
-                side: c.side.clone(),
+                side: side.clone(),
                 other: paired,
                 max_gap,
                 other_surface,
+                virtual_mortar,
             };
             // The reference pairing, by the same routine as every re-pairing.
             let hosts: Vec<(&Mesh2, usize)> = self.bodies.iter().map(|b| (&b.mesh, b.node_offset)).collect();
@@ -1355,18 +1463,20 @@ impl ModelBuilder {
         let mut wear = crate::wear::WearModel { surfaces: vec![], jump: self.wear_jump };
         for (name, law, coefficient, max_depth) in &self.wear_cuts {
             let surface = self.free_cuts.iter().position(|f| &f.0 == name).unwrap_or(usize::MAX);
-            let Some(contact) = self.contacts.iter().position(|c| matches!(&c.other, ContactOther::Cut(n) if n == name))
-            else {
+            let as_other = self.contacts.iter().position(|c| matches!(&c.other, ContactOther::Cut(n) if n == name));
+            let as_mortar = self.contacts.iter().position(|c| c.mortar_cut.as_ref() == Some(name));
+            let Some(contact) = as_other.or(as_mortar) else {
                 return Err(ModelError::Wear {
                     surface: name.clone(),
                     key: "cut",
-                    msg: "the surface is not in contact with anything (no contact pair has it as its other side)".into(),
+                    msg: "the surface is not in contact with anything (no contact pair has it as a side)".into(),
                 });
             };
             wear.surfaces.push(crate::wear::WearingSurface {
                 name: name.clone(),
                 surface,
                 contact,
+                on_mortar_side: as_other.is_none(),
                 coefficient: *coefficient,
                 law: *law,
                 max_depth: *max_depth,
@@ -1596,16 +1706,33 @@ impl Model {
         Ok(())
     }
 
-    /// Rebuilds the weighted-gap rows of contact pairs whose other side is a moved surface
-    /// (small sliding: from the reference geometry; finite sliding re-pairs every step anyway).
+    /// Rebuilds the weighted-gap rows of contact pairs with a side on a moved surface (small
+    /// sliding: from the reference geometry; finite sliding re-pairs every step anyway). A
+    /// virtual mortar side keeps its multiplier layout; its geometry follows the vertices.
     fn refresh_contact_rows(&mut self, moved: &[usize]) {
         for pair in 0..self.contact.pairs.len() {
-            let Some(si) = self.contact.pairs[pair].other_surface else { continue };
-            if !moved.contains(&si) {
+            let other_moved = self.contact.pairs[pair].other_surface.filter(|si| moved.contains(si));
+            let mortar_moved =
+                self.contact.pairs[pair].virtual_mortar.as_ref().map(|v| v.surface).filter(|si| moved.contains(si));
+            if other_moved.is_none() && mortar_moved.is_none() {
                 continue;
             }
-            let s = &self.surfaces[si];
-            self.contact.pairs[pair].other = PairedSide::Embedded { host: s.body, embedding: s.embedding.clone() };
+            if let Some(si) = other_moved {
+                let s = &self.surfaces[si];
+                self.contact.pairs[pair].other = PairedSide::Embedded { host: s.body, embedding: s.embedding.clone() };
+            }
+            if let Some(si) = mortar_moved {
+                let s = &self.surfaces[si];
+                let (mesh, off) = (&self.bodies[s.body].mesh, self.bodies[s.body].node_offset);
+                let interpolation =
+                    crate::contact::VirtualMortar::interpolation(mesh, off, &s.embedding, &s.vertices, s.base.closed);
+                let c = &mut self.contact.pairs[pair];
+                c.side.points = s.vertices.clone();
+                c.multipliers = c.multipliers.with_geometry(&c.side);
+                if let Some(vm) = c.virtual_mortar.as_mut() {
+                    vm.interpolation = interpolation;
+                }
+            }
             let coords = &self.coords;
             let rows = crate::contact::pair_rows(&self.hosts(), &self.contact.pairs[pair], &|n| coords[n]);
             let zero = vec![0.0; self.dofs.num_dofs];

@@ -199,3 +199,89 @@ fn winkler_relaxation_and_jump_stability() {
     assert!(err < 1e-6, "steady state reached: {err}");
     assert!(computed < 500, "computed cycles {computed}");
 }
+
+/// Both bodies wear (exact): the uniform-wear scene with real contact boundaries, each turned
+/// into a virtual surface by the engine (the block's bottom carries the multipliers, so the
+/// mortar side moves too). The two surfaces share the slip: per cycle the host loses
+/// k1 p S = 0.08 mm and the block k2 p S = 0.04 mm, everywhere, to 1e-8 relative; the
+/// stress stays uniform to 1e-8 p; each body's material area lost equals its depth x width to
+/// 1e-10.
+#[test]
+fn both_bodies_wear_their_own_share() {
+    const P: f64 = 50.0;
+    const S: f64 = 0.4;
+    const K: [f64; 2] = [4e-3, 2e-3];
+    let text = std::fs::read_to_string("wear_cases/uniform_wear.toml").unwrap();
+    let start = text.find("[[cuts]]").unwrap();
+    let end = text.find("[[bcs]]").unwrap();
+    let text = format!(
+        "{}{}{}",
+        &text[..start],
+        r#"
+[[contacts]]
+name = "interface"
+mortar = "block"
+mortar_surface = ["bottom"]
+other = "host"
+other_surface = ["top"]
+
+[[wear]]
+body = "host"
+surface = ["top"]
+coefficient = 4e-3
+max_depth = 2.0
+
+[[wear]]
+body = "block"
+surface = ["bottom"]
+coefficient = 2e-3
+max_depth = 0.9
+"#,
+        &text[end..]
+    )
+    .replace("origin = [0.0, 2.75]", "origin = [0.0, 3.0]")
+    .replace("cycles = 20", "cycles = 10");
+    let case = mortex::case::parse(&text, "both_wear", Path::new("."), "both_wear").unwrap();
+    let model = case.model;
+    assert_eq!(model.wear.surfaces.len(), 2);
+    assert!(model.wear.surfaces[1].on_mortar_side && !model.wear.surfaces[0].on_mortar_side);
+    let area0 = [model.material_area(0), model.material_area(1)];
+    let mut state = StaticAnalysis::initial_state_of(&model);
+    let mut updates = 0;
+    run(&model, &mut state, RunOptions::default(), |r, st, m| {
+        let el = &m.elements;
+        for e in 0..el.len() {
+            for (q, &w) in m.rules[el.rule[e]].weights.iter().enumerate() {
+                if w == 0.0 {
+                    continue;
+                }
+                let s = st.stress[el.point_offset[e] + q];
+                let d = [s[0].abs(), (s[1] + P).abs(), s[3].abs()].into_iter().fold(0.0, f64::max);
+                assert!(d < 1e-8 * P, "step {}: element {e} point {q}: stress {s:?}", r.step);
+            }
+        }
+        let w = &st.wear;
+        if r.increment == 1 && w.cycle > 0 {
+            for b in 0..2 {
+                let exact = K[b] * P * S * w.cycle as f64 * 4.0;
+                let lost = area0[b] - m.material_area(b);
+                assert!((lost - exact).abs() < 1e-10 * exact, "body {b}: area lost {lost} vs {exact}");
+            }
+        }
+        if r.increment == 4 && w.increment == 0 {
+            updates += 1;
+            for b in 0..2 {
+                let exact = K[b] * P * S * w.cycle as f64;
+                for (i, d) in w.depth[b].iter().enumerate() {
+                    assert!((d - exact).abs() < 1e-8 * exact, "body {b} cycle {}: vertex {i}: {d} vs {exact}", w.cycle);
+                }
+                assert!((w.worn_area[b] - K[b] * w.work[b]).abs() < 1e-10 * w.worn_area[b]);
+            }
+            // The two surfaces see the same slip: the same work.
+            assert!((w.work[0] - w.work[1]).abs() < 1e-12 * w.work[0]);
+        }
+        Ok(())
+    })
+    .unwrap();
+    assert_eq!(updates, 10);
+}

@@ -97,7 +97,11 @@ pub struct CaseFile {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WearSpec {
-    pub cut: String,
+    /// A cut, or a real boundary (`body` and its edge sets `surface`, turned into a cut
+    /// coinciding with it, named `<body>.<set>`).
+    pub cut: Option<String>,
+    pub body: Option<String>,
+    pub surface: Option<Vec<String>>,
     pub coefficient: f64,
     #[serde(default)]
     pub law: crate::wear::WearLaw,
@@ -131,7 +135,11 @@ pub struct RigidSpec {
 pub struct ContactSpec {
     pub name: Option<String>,
     pub mortar: String,
+    #[serde(default)]
     pub mortar_surface: Vec<String>,
+    /// Instead of `mortar_surface`: a cut of the mortar body (its virtual surface carries the
+    /// multipliers).
+    pub mortar_cut: Option<String>,
     pub other: String,
     pub other_surface: Option<Vec<String>>,
     pub other_cut: Option<String>,
@@ -462,7 +470,7 @@ pub fn load(path: &Path) -> Result<Case, CaseError> {
 /// Parses and validates case text; `path` names the file in errors, relative mesh files are
 /// resolved against `base`.
 pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, CaseError> {
-    let raw: CaseFile =
+    let mut raw: CaseFile =
         toml::from_str(text).map_err(|e| CaseError::Toml { path: path.to_string(), message: e.to_string() })?;
     let cx = Ctx { path };
     let hyp = raw.problem.hypothesis;
@@ -664,6 +672,37 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         .map_err(|e| model_err(&cx, k("boundary"), e))?;
     }
 
+    // Worn real boundaries become cuts that coincide with them; contacts on those boundaries
+    // use the cuts.
+    let mut wear_cuts: Vec<String> = Vec::with_capacity(raw.wear.len());
+    let mut contacts = std::mem::take(&mut raw.contacts);
+    for (i, w) in raw.wear.iter().enumerate() {
+        let k = |f: &str| format!("wear[{i}].{f}");
+        match (&w.cut, &w.body, &w.surface) {
+            (Some(cut), None, None) => wear_cuts.push(cut.clone()),
+            (None, Some(body_name), Some(sets)) => {
+                let bi = b.body_index(body_name).map_err(|_| {
+                    cx.err(k("body"), format!("no body named '{body_name}' (defined: {})", body_names.join(", ")))
+                })?;
+                let name = format!("{body_name}.{}", sets.join("+"));
+                b.add_boundary_cut(&name, bi, sets).map_err(|e| model_err(&cx, k("surface"), e))?;
+                for c in contacts.iter_mut() {
+                    if c.mortar == *body_name && c.mortar_cut.is_none() && c.mortar_surface == *sets {
+                        c.mortar_surface.clear();
+                        c.mortar_cut = Some(name.clone());
+                    }
+                    if c.other == *body_name && c.other_surface.as_ref() == Some(sets) {
+                        c.other_surface = None;
+                        c.other_cut = Some(name.clone());
+                    }
+                }
+                wear_cuts.push(name);
+            }
+            _ => return Err(cx.err(format!("wear[{i}]"), "give either cut, or body and surface")),
+        }
+    }
+    raw.contacts = contacts;
+
     // Free cuts (virtual surfaces without a partner).
     for (i, c) in raw.cuts.iter().enumerate() {
         let k = |f: &str| format!("cuts[{i}].{f}");
@@ -714,9 +753,11 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                     b.global_edges(other_body, sets).map_err(|e| model_err(&cx, k("other_surface"), e))?,
                 ),
                 (None, Some(cut)) => {
-                    if !raw.cuts.iter().enumerate().any(|(j, cs)| {
-                        cs.name.clone().unwrap_or_else(|| format!("cut{j}")) == *cut && cs.body == c.other
-                    }) {
+                    if !wear_cuts.contains(cut)
+                        && !raw.cuts.iter().enumerate().any(|(j, cs)| {
+                            cs.name.clone().unwrap_or_else(|| format!("cut{j}")) == *cut && cs.body == c.other
+                        })
+                    {
                         return Err(cx.err(k("other_cut"), format!("no cut named '{cut}' in body '{}'", c.other)));
                     }
                     ContactOther::Cut(cut.clone())
@@ -734,7 +775,21 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
             multipliers: c.multipliers.unwrap_or(DEFAULT_CONTACT_MULTIPLIERS),
             sliding: c.sliding,
         };
-        b.add_contact(&name, mortar, &c.mortar_surface, other_body, other, params).map_err(|e| {
+        let added = match (&c.mortar_cut, c.mortar_surface.is_empty()) {
+            (None, false) => b.add_contact(&name, mortar, &c.mortar_surface, other_body, other, params),
+            (Some(cut), true) => {
+                let known = wear_cuts.contains(cut)
+                    || raw.cuts.iter().enumerate().any(|(j, cs)| {
+                        cs.name.clone().unwrap_or_else(|| format!("cut{j}")) == *cut && cs.body == c.mortar
+                    });
+                if !known {
+                    return Err(cx.err(k("mortar_cut"), format!("no cut named '{cut}' in body '{}'", c.mortar)));
+                }
+                b.add_contact_on_cut(&name, cut, other_body, other, params)
+            }
+            _ => return Err(cx.err(format!("contacts[{i}]"), "give exactly one of mortar_surface, mortar_cut")),
+        };
+        added.map_err(|e| {
             let key = match &e {
                 ModelError::Contact { key, .. } => k(key),
                 _ => k("mortar_surface"),
@@ -743,12 +798,13 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         })?;
     }
 
-    for (i, w) in raw.wear.iter().enumerate() {
+    for (i, (w, cut)) in raw.wear.iter().zip(&wear_cuts).enumerate() {
         let k = |f: &str| format!("wear[{i}].{f}");
-        if !raw.cuts.iter().enumerate().any(|(j, c)| c.name.clone().unwrap_or_else(|| format!("cut{j}")) == w.cut) {
-            return Err(cx.err(k("cut"), format!("no cut named '{}'", w.cut)));
+        let declared = raw.cuts.iter().enumerate().any(|(j, c)| c.name.clone().unwrap_or_else(|| format!("cut{j}")) == *cut);
+        if w.cut.is_some() && !declared {
+            return Err(cx.err(k("cut"), format!("no cut named '{cut}'")));
         }
-        b.set_cut_wear(&w.cut, w.law, w.coefficient, w.max_depth).map_err(|e| {
+        b.set_cut_wear(cut, w.law, w.coefficient, w.max_depth).map_err(|e| {
             let key = match &e {
                 ModelError::Wear { key, .. } => k(key),
                 _ => k("cut"),
@@ -900,10 +956,9 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                 .find(|(i, c)| c.name.clone().unwrap_or_else(|| format!("contact{i}")) == *contact)
                 .map(|(i, _)| format!("contacts[{i}].{key}"))
                 .unwrap_or_else(|| "contacts".into()),
-            ModelError::Wear { surface, key, .. } => raw
-                .wear
+            ModelError::Wear { surface, key, .. } => wear_cuts
                 .iter()
-                .position(|w| w.cut == *surface)
+                .position(|w| w == surface)
                 .map(|i| format!("wear[{i}].{key}"))
                 .unwrap_or_else(|| "wear".into()),
             _ => "bcs".into(),

@@ -12,6 +12,7 @@
 //! row imposes one [`RowLaw`]: its constraint (`g = 0`, `ds = 0`, tie rows), a free multiplier
 //! (`lambda = 0`: open), or the Coulomb slip relation.
 
+use crate::fem::element::ReferenceElement;
 use crate::mesh::Mesh2;
 use crate::mortar::{weighted_gaps, ConstraintRow, ContactRow, MortarSide, MultiplierSpace, Multipliers, OtherSide};
 use crate::state::SimState;
@@ -41,10 +42,102 @@ pub struct ContactInfo {
     pub max_gap: f64,
     /// The free surface (index into the model's surfaces) that is the other side, if virtual.
     pub other_surface: Option<usize>,
+    /// The mortar side is a virtual surface (a worn real boundary, or any cut): its vertices
+    /// interpolate their host's displacement.
+    pub virtual_mortar: Option<VirtualMortar>,
+}
+
+/// A virtual mortar side: its polyline vertices are the side's vertices (the side's `nodes` are
+/// stand-ins numbered from `base`, the model's node count), each interpolating the host cell
+/// it lies in (or the nearest, outside the host); the surface is linear between vertices.
+#[derive(Debug, Clone)]
+pub struct VirtualMortar {
+    /// Free surface index and host body.
+    pub surface: usize,
+    pub host: usize,
+    pub base: usize,
+    /// Per vertex: (global host node, shape value).
+    pub interpolation: Vec<Vec<(usize, f64)>>,
+}
+
+impl VirtualMortar {
+    /// Interpolation of every vertex of a polyline embedded in `mesh` (body nodes from
+    /// `node_offset`): the cell of a piece starting or ending at the vertex, or for a vertex
+    /// outside the host the cell of the nearest piece of an adjacent segment (extrapolated).
+    pub fn interpolation(
+        mesh: &Mesh2,
+        node_offset: usize,
+        embedding: &Embedding,
+        vertices: &[Point2<f64>],
+        closed: bool,
+    ) -> Vec<Vec<(usize, f64)>> {
+        let nv = vertices.len();
+        let nseg = if closed { nv } else { nv - 1 };
+        (0..nv)
+            .map(|i| {
+                let before = if i > 0 { Some(i - 1) } else if closed { Some(nseg - 1) } else { None };
+                let after = if i < nseg { Some(i) } else { None };
+                // Nearest piece end to the vertex on an adjacent segment.
+                let mut best: Option<(f64, usize)> = None;
+                for (k, p) in embedding.pieces.iter().enumerate() {
+                    let d = if Some(p.segment) == after {
+                        p.t0
+                    } else if Some(p.segment) == before {
+                        1.0 - p.t1
+                    } else {
+                        continue;
+                    };
+                    if best.is_none_or(|b| d < b.0) {
+                        best = Some((d, k));
+                    }
+                }
+                let cell = match best {
+                    Some((_, k)) => embedding.pieces[k].cell,
+                    None => {
+                        // No adjacent piece (a long stretch outside): nearest piece overall.
+                        let Some(p) = embedding.pieces.iter().min_by(|a, b| {
+                            (a.a - vertices[i]).norm().total_cmp(&(b.a - vertices[i]).norm())
+                        }) else {
+                            return vec![];
+                        };
+                        p.cell
+                    }
+                };
+                let mapped =
+                    crate::fem::element::MappedElement::new(mesh.cells[cell].kind, mesh.cell_coords(cell));
+                let xi = mapped.inverse_map(vertices[i]).unwrap_or([0.0, 0.0]);
+                let mut n = [0.0; 4];
+                mesh.cells[cell].kind.shape(xi, &mut n);
+                mesh.cells[cell].nodes().iter().zip(n).map(|(&a, v)| (a + node_offset, v)).collect()
+            })
+            .collect()
+    }
+
+    /// Rewrites a row on stand-in vertex DOFs onto the host's DOFs.
+    pub fn expand(&self, row: ConstraintRow) -> ConstraintRow {
+        let mut m: std::collections::BTreeMap<usize, f64> = std::collections::BTreeMap::new();
+        for (d, v) in row {
+            let n = d / 2;
+            if n >= self.base {
+                for &(g, w) in &self.interpolation[n - self.base] {
+                    *m.entry(2 * g + d % 2).or_insert(0.0) += v * w;
+                }
+            } else {
+                *m.entry(d).or_insert(0.0) += v;
+            }
+        }
+        m.into_iter().filter(|(_, v)| *v != 0.0).collect()
+    }
+
+    /// Displacement of vertex `i` in `u`.
+    pub fn displacement(&self, i: usize, u: &[f64]) -> Vector2<f64> {
+        self.interpolation[i].iter().fold(Vector2::zeros(), |s, &(g, w)| s + Vector2::new(u[2 * g], u[2 * g + 1]) * w)
+    }
 }
 
 impl ContactInfo {
     /// Global node of each multiplier node (multiplier nodes sit on mortar vertices).
+    /// (Stand-in nodes numbered from `VirtualMortar::base` on a virtual mortar side.)
     pub fn multiplier_nodes(&self) -> Vec<usize> {
         let n = self.side.nodes.len();
         self.multipliers
@@ -52,6 +145,14 @@ impl ContactInfo {
             .iter()
             .flat_map(|ch| ch.lm_at.iter().map(|&k| self.side.nodes[ch.vertices[k] % n]))
             .collect()
+    }
+
+    /// Displacement in `u` of a mortar-side node (a mesh node, or a virtual side's stand-in).
+    pub fn node_displacement(&self, node: usize, u: &[f64]) -> Vector2<f64> {
+        match &self.virtual_mortar {
+            Some(vm) if node >= vm.base => vm.displacement(node - vm.base, u),
+            _ => Vector2::new(u[2 * node], u[2 * node + 1]),
+        }
     }
 }
 
@@ -247,7 +348,14 @@ pub fn zero_open_multipliers(m: &ContactSet, mult: &mut [f64], active: &[bool], 
 /// re-pairing of finite sliding and the rows of a surface that moved.
 /// `hosts[b]` is body `b`'s mesh and node offset (the host of a virtual other side).
 pub fn pair_rows(hosts: &[(&Mesh2, usize)], c: &ContactInfo, x: &dyn Fn(usize) -> Point2<f64>) -> Vec<ContactRow> {
-    with_pairing(hosts, c, x, &mut |side, other| weighted_gaps(side, &c.multipliers, other, c.max_gap))
+    let rows = with_pairing(hosts, c, x, &mut |side, other| weighted_gaps(side, &c.multipliers, other, c.max_gap));
+    match &c.virtual_mortar {
+        None => rows,
+        Some(vm) => rows
+            .into_iter()
+            .map(|r| ContactRow { normal: vm.expand(r.normal), tangent: vm.expand(r.tangent), ..r })
+            .collect(),
+    }
 }
 
 /// The mortar integration points of a pair in the configuration `x` (as [`pair_rows`] pairs
@@ -267,9 +375,16 @@ fn with_pairing<T>(
     x: &dyn Fn(usize) -> Point2<f64>,
     f: &mut dyn FnMut(&crate::mortar::MortarSide, &OtherSide) -> T,
 ) -> T {
+    // A virtual side's vertices sit where their host cells put them.
+    let place = |n: usize| match &c.virtual_mortar {
+        Some(vm) if n >= vm.base => {
+            vm.interpolation[n - vm.base].iter().fold(Point2::origin(), |s, &(g, w)| s + x(g).coords * w)
+        }
+        _ => x(n),
+    };
     let side = crate::mortar::MortarSide {
         nodes: c.side.nodes.clone(),
-        points: c.side.nodes.iter().map(|&n| x(n)).collect(),
+        points: c.side.nodes.iter().map(|&n| place(n)).collect(),
         closed: c.side.closed,
     };
     match &c.other {
@@ -353,7 +468,7 @@ pub fn contact_field(m: &ContactSet, state: &SimState, pair: usize) -> Vec<Conta
             let k = c.first_row + l;
             let n = nodes[l];
             let reference = c.multipliers.points[l];
-            let position = reference + Vector2::new(state.u[2 * n], state.u[2 * n + 1]);
+            let position = reference + c.node_displacement(n, &state.u);
             let phi = m.phi[k];
             let per_length = |v: f64| if phi > 0.0 { v / phi } else { 0.0 };
             let gap = if phi > 0.0 {

@@ -225,6 +225,39 @@ fn build_multipliers_with(side: &MortarSide, select: impl Fn(&[usize], &[f64]) -
     Multipliers { chains, num_nodes: next_lm, points, normals }
 }
 
+impl Multipliers {
+    /// The same multiplier layout (chains, nodes) on a side whose vertices moved (a wearing
+    /// virtual mortar side): arc lengths, node positions and normals follow the vertices; the
+    /// number and order of multipliers never change.
+    pub fn with_geometry(&self, side: &MortarSide) -> Multipliers {
+        let mut out = self.clone();
+        out.points.clear();
+        out.normals.clear();
+        for ch in out.chains.iter_mut() {
+            let vs = &ch.vertices;
+            let nseg = vs.len() - 1;
+            for k in 1..vs.len() {
+                ch.arc[k] = ch.arc[k - 1] + (side.points[vs[k]] - side.points[vs[k - 1]]).norm();
+            }
+            for &k in &ch.lm_at {
+                let v = vs[k];
+                out.points.push(side.points[v]);
+                let mut nrm = Vector2::zeros();
+                if k > 0 {
+                    nrm += right_normal(side.points[vs[k - 1]], side.points[v]);
+                } else if ch.periodic {
+                    nrm += right_normal(side.points[vs[nseg - 1]], side.points[v]);
+                }
+                if k < nseg {
+                    nrm += right_normal(side.points[v], side.points[vs[k + 1]]);
+                }
+                out.normals.push(nrm.normalize());
+            }
+        }
+        out
+    }
+}
+
 impl Chain {
     /// Multiplier hats at arc length `s`: `(local lm index, value)` pairs (two at most). Open
     /// chains: linear extrapolation of the first (last) interval between a chain end and the
@@ -551,6 +584,10 @@ pub fn weighted_gaps(side: &MortarSide, lm: &Multipliers, other: &OtherSide, max
 /// measure), multiplier hats, and the partner point on the other side (segment and parameter).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PairedPoint {
+    /// Mortar-side segment (its vertices) and the parameter on it.
+    pub va: usize,
+    pub vb: usize,
+    pub tau: f64,
     pub wt: f64,
     pub hats: [(usize, f64); 2],
     pub xm: Point2<f64>,
@@ -570,7 +607,7 @@ pub fn paired_points(side: &MortarSide, lm: &Multipliers, other: &OtherSide, max
         if (p.xo - p.xm).dot(&p.n).abs() > max_gap {
             return;
         }
-        v.push(PairedPoint { wt: p.wt, hats: p.hats, xm: p.xm, xo: p.xo, other: p.other, sigma: p.sigma });
+        v.push(PairedPoint { va: p.va, vb: p.vb, tau: p.tau, wt: p.wt, hats: p.hats, xm: p.xm, xo: p.xo, other: p.other, sigma: p.sigma });
     });
     v
 }

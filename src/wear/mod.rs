@@ -52,6 +52,8 @@ pub struct WearingSurface {
     pub name: String,
     pub surface: usize,
     pub contact: usize,
+    /// The surface is the pair's (virtual) mortar side, not its other side.
+    pub on_mortar_side: bool,
     pub coefficient: f64,
     pub law: WearLaw,
     /// Deepest wear the host was prepared for (its band of fixed points).
@@ -121,9 +123,13 @@ pub fn step_wear(
     if work.iter().all(|&w| w == 0.0) {
         return (volume, 0.0);
     }
-    let PairedSide::Embedded { embedding, .. } = &c.other else {
-        return (volume, 0.0);
+    let embedding = match &c.other {
+        PairedSide::Embedded { embedding, .. } => Some(embedding),
+        PairedSide::Edges(_) => None,
     };
+    if !ws.on_mortar_side && embedding.is_none() {
+        return (volume, 0.0);
+    }
     let points = crate::contact::paired_points(hosts, c, x);
     // Normalise the hats by the same points (so the density integrates to sum W exactly).
     let mut phi = vec![0.0; n_lm];
@@ -139,9 +145,15 @@ pub fn step_wear(
         if q == 0.0 {
             continue;
         }
-        let piece = &embedding.pieces[p.other];
-        let tau = piece.t0 + p.sigma * (piece.t1 - piece.t0);
-        let (a, b) = (piece.segment, (piece.segment + 1) % nv);
+        // The point on the wearing surface: the mortar point (side vertices are the polyline's
+        // vertices) or its partner on the other side's piece.
+        let (a, b, tau) = match embedding {
+            Some(e) if !ws.on_mortar_side => {
+                let piece = &e.pieces[p.other];
+                (piece.segment, (piece.segment + 1) % nv, piece.t0 + p.sigma * (piece.t1 - piece.t0))
+            }
+            _ => (p.va % nv, p.vb % nv, p.tau),
+        };
         let dv = p.wt * q;
         total += dv;
         volume[a] += ws.coefficient * dv * (1.0 - tau);
