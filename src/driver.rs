@@ -221,7 +221,12 @@ fn apply_wear(m: &Model, state: &mut SimState, count: u64, jump: bool) -> Result
         .cycle_volume
         .iter()
         .zip(&measures)
-        .map(|(vol, mea)| vol.iter().zip(mea).map(|(v, a)| if *a > 0.0 { v / a } else { 0.0 }).collect())
+        .zip(&m.wear.surfaces)
+        .map(|((vol, mea), ws)| {
+            let raw: Vec<f64> = vol.iter().zip(mea).map(|(v, a)| if *a > 0.0 { v / a } else { 0.0 }).collect();
+            let s = &m.surfaces[ws.surface];
+            crate::wear::smooth_rate(&s.vertices, s.base.closed, mea, &raw, m.wear.smoothing)
+        })
         .collect();
     let dn = if jump {
         let resolution = m
@@ -237,6 +242,24 @@ fn apply_wear(m: &Model, state: &mut SimState, count: u64, jump: bool) -> Result
     } else {
         1
     };
+    // Nothing wears if the whole run at the first cycle's rate stays below round-off of the
+    // surface's resolution (a zero stroke leaves slips of order 1e-17).
+    let rmax = rates.iter().flatten().fold(0.0_f64, |a, &b| a.max(b.abs()));
+    let h_min = m
+        .wear
+        .surfaces
+        .iter()
+        .map(|ws| crate::wear::wearing_resolution(&m.surfaces[ws.surface].vertices, &vec![1.0; m.surfaces[ws.surface].vertices.len()]))
+        .fold(f64::INFINITY, f64::min);
+    if jump && w.computed_cycles == 0 && rmax * count as f64 <= 1e-9 * h_min {
+        return Err(AnalysisError::Wear {
+            cycle: 1,
+            surface: m.wear.surfaces.iter().map(|s| s.name.as_str()).collect::<Vec<_>>().join(", "),
+            msg: "no wear in the first cycle: the wearing surfaces never slid under pressure (zero stroke, or not \
+                  in contact); nothing would ever wear"
+                .into(),
+        });
+    }
     for (k, ws) in m.wear.surfaces.iter().enumerate() {
         let inc = crate::wear::depth_increment(&rates[k], &measures[k], dn);
         let verts: Vec<nalgebra::Point2<f64>> = w.vertices[k].iter().map(|p| nalgebra::Point2::new(p[0], p[1])).collect();

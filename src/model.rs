@@ -537,6 +537,7 @@ pub struct ModelBuilder {
     /// Wearing cuts: (name, law, coefficient, deepest wear), and the cycle-jump policy.
     wear_cuts: Vec<(String, crate::wear::WearLaw, f64, f64)>,
     wear_jump: crate::wear::JumpPolicy,
+    wear_smoothing: f64,
     ghost_penalty: f64,
     contacts: Vec<ContactSpec>,
     /// Multi-point constraints `u(node) - u(master) = 0` (rigid sets), global DOFs.
@@ -563,6 +564,7 @@ impl ModelBuilder {
             cycle: None,
             wear_cuts: vec![],
             wear_jump: crate::wear::JumpPolicy::default(),
+            wear_smoothing: crate::wear::DEFAULT_SMOOTHING,
         }
     }
 
@@ -605,6 +607,11 @@ impl ModelBuilder {
     /// Cycle-jump policy of wear runs.
     pub fn set_wear_jump(&mut self, policy: crate::wear::JumpPolicy) {
         self.wear_jump = policy;
+    }
+
+    /// Wear-rate smoothing length in segments (see [`crate::wear::smooth_rate`]; 0: none).
+    pub fn set_wear_smoothing(&mut self, segments: f64) {
+        self.wear_smoothing = segments;
     }
 
     /// Makes a free cut move during the run (re-cut on fixed points, see
@@ -1460,7 +1467,7 @@ impl ModelBuilder {
             .collect();
         let penalty = penalty_parts.iter().flatten().copied().collect();
         let n_constraints = constraints.len();
-        let mut wear = crate::wear::WearModel { surfaces: vec![], jump: self.wear_jump };
+        let mut wear = crate::wear::WearModel { surfaces: vec![], jump: self.wear_jump, smoothing: self.wear_smoothing };
         for (name, law, coefficient, max_depth) in &self.wear_cuts {
             let surface = self.free_cuts.iter().position(|f| &f.0 == name).unwrap_or(usize::MAX);
             let as_other = self.contacts.iter().position(|c| matches!(&c.other, ContactOther::Cut(n) if n == name));

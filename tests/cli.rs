@@ -532,3 +532,52 @@ pressure = 10.0
     let (ok, text) = run(&["run", "open.toml", "--quiet"], &d);
     assert!(ok, "{text}");
 }
+
+/// Wear input errors: negative or NaN coefficient, a wearing cut in contact with nothing, an
+/// unknown cut, zero stroke (nothing ever wears), wear deeper than the prepared band; restarts
+/// from a checkpoint of another case or a damaged file. Each a clear error naming the file and
+/// key (or what is wrong), non-zero exit, no panic, and the earlier result untouched.
+#[test]
+fn wear_bad_inputs_give_clear_errors() {
+    let d = tmpdir("wear_bad");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let good = std::fs::read_to_string(root.join("wear_cases/uniform_wear.toml")).unwrap();
+    let sub = |from: &str, to: &str| {
+        assert!(good.contains(from), "{from}");
+        good.replace(from, to)
+    };
+    expect_error(&d, "neg_k", &sub("coefficient = 4e-3", "coefficient = -4e-3"), &["neg_k.toml", "wear[0].coefficient", ">= 0"]);
+    expect_error(&d, "nan_k", &sub("coefficient = 4e-3", "coefficient = nan"), &["nan_k.toml", "wear[0].coefficient"]);
+    expect_error(&d, "no_cut", &sub("cut = \"surface\"\ncoefficient", "cut = \"nowhere\"\ncoefficient"), &["no_cut.toml", "wear[0].cut", "nowhere"]);
+    let lonely = sub(
+        "[[contacts]]",
+        "[[cuts]]\nname = \"lonely\"\nbody = \"host\"\npoints = [[-1.0, 1.0], [5.0, 1.0]]\nkeep = \"right\"\n\n[[wear]]\ncut = \"lonely\"\ncoefficient = 1e-3\nmax_depth = 0.1\n\n[[contacts]]",
+    );
+    expect_error(&d, "lonely", &lonely, &["lonely.toml", "wear[0].cut", "lonely", "not in contact with anything"]);
+    expect_error(&d, "no_cycle", &sub("cycle = [1.0, 2.0]\ncycles = 20\n", ""), &["no_cycle.toml", "wear", "steps.cycle"]);
+
+    // Failing runs (the case itself is valid): zero stroke, a band too shallow.
+    for (name, text, needle) in [
+        ("zero_stroke", sub("ux = 0.1", "ux = 0.0"), "no wear in the first cycle"),
+        ("shallow", sub("max_depth = 2.0", "max_depth = 0.5"), "raise [[wear]] max_depth"),
+    ] {
+        std::fs::write(d.join(format!("{name}.toml")), text).unwrap();
+        let (ok, text) = run(&["run", &format!("{name}.toml"), "--quiet", "-o", &format!("{name}.h5")], &d);
+        assert!(!ok && text.contains(needle) && !text.contains("panicked"), "{name}:\n{text}");
+    }
+
+    // Restarts: a checkpoint of another case, a damaged file; the earlier result untouched.
+    std::fs::write(d.join("wear.toml"), &good).unwrap();
+    std::fs::write(d.join("good.toml"), GOOD).unwrap();
+    let (ok, text) = run(&["run", "good.toml", "--quiet", "-o", "other.h5"], &d);
+    assert!(ok, "{text}");
+    let (ok, text) = run(&["run", "wear.toml", "--quiet", "-o", "wear.h5"], &d);
+    assert!(ok, "{text}");
+    let bytes = std::fs::read(d.join("wear.h5")).unwrap();
+    std::fs::write(d.join("damaged.h5"), &bytes[..bytes.len() / 3]).unwrap();
+    for (from, needle) in [("other.h5", "other.h5"), ("damaged.h5", "damaged.h5")] {
+        let (ok, text) = run(&["run", "wear.toml", "--quiet", "--restart", from, "-o", "cont.h5"], &d);
+        assert!(!ok && text.contains(needle) && !text.contains("panicked"), "{from}:\n{text}");
+    }
+    assert_eq!(bytes, std::fs::read(d.join("wear.h5")).unwrap(), "the earlier result must be untouched");
+}

@@ -96,3 +96,99 @@ fn kill_minus_nine_then_resume_is_bit_identical() {
     eprintln!("resumed from steps {resumed_from:?} of {k_ref}");
     assert!(resumed_from.len() >= 3, "most kills must land mid-run (resumed from {resumed_from:?})");
 }
+
+/// Every f64 and integer of a checkpoint group (the wear state included), by its bits.
+fn checkpoint_bits(file: &Path, step: usize) -> Vec<u64> {
+    let f = hdf5::File::open(file).unwrap();
+    let c = f.group(&format!("steps/{step:06}/checkpoint")).unwrap();
+    let mut b = vec![];
+    for name in ["u", "f_int", "multipliers", "stress", "slip_increment", "accumulated_slip"] {
+        b.extend(c.dataset(name).unwrap().read_raw::<f64>().unwrap().iter().map(|v| v.to_bits()));
+    }
+    let w = c.group("wear").unwrap();
+    let mut names = w.member_names().unwrap();
+    names.sort();
+    for name in names {
+        let d = w.dataset(&name).unwrap();
+        b.extend(d.read_raw::<f64>().unwrap().iter().map(|v| v.to_bits()));
+    }
+    for a in ["cycle", "computed_cycles", "increment", "jump", "last_jump", "jump_before"] {
+        b.push(w.attr(a).unwrap().read_scalar::<u64>().unwrap());
+    }
+    b.push(w.attr("decay").unwrap().read_scalar::<f64>().unwrap().to_bits());
+    b
+}
+
+/// kill -9 at five moments of a wear run with adaptive cycle jumps (the McColl fretting case
+/// on coarser meshes, 400 cycles, 8 increments per cycle, a checkpoint every step), then
+/// `--restart`: every resume must end in the uninterrupted run's final state, wear state
+/// (surfaces, depths, sums, counters, jump controller) and scar, bit for bit.
+#[test]
+fn kill_minus_nine_during_wear_with_jumps_then_resume_is_bit_identical() {
+    use std::process::{Command, Stdio};
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("wear_cases/mccoll_fretting.toml"))
+        .unwrap()
+        .replace("divisions = [30, 160]", "divisions = [14, 60]")
+        .replace("divisions = [120, 30]", "divisions = [50, 12]")
+        .replace("cycles = 18000", "cycles = 400")
+        .replace("increments = 20", "increments = 8")
+        .replace("checkpoint_every = 200", "checkpoint_every = 1");
+    assert!(text.contains("cycles = 400") && text.contains("divisions = [14, 60]"));
+    let case = tmpfile("kill_wear.toml");
+    std::fs::write(&case, text).unwrap();
+    let exe = env!("CARGO_BIN_EXE_mortex");
+    let run =
+        |args: &[&str]| Command::new(exe).args(args).stdout(Stdio::null()).stderr(Stdio::null()).status().unwrap();
+    let reference = tmpfile("kill_wear_ref.h5");
+    let started = std::time::Instant::now();
+    assert!(run(&["run", case.to_str().unwrap(), "--quiet", "-o", reference.to_str().unwrap()]).success());
+    let wall = started.elapsed();
+    let k_ref = *checkpoint::available_steps(&reference).unwrap().last().unwrap();
+    let bits_ref = checkpoint_bits(&reference, k_ref);
+    let computed = {
+        let f = hdf5::File::open(&reference).unwrap();
+        let jumps = f.dataset("wear/jump").unwrap().read_raw::<u64>().unwrap();
+        assert!(jumps.iter().any(|&j| j > 1), "the run must jump cycles: {jumps:?}");
+        jumps.len()
+    };
+    let mut resumed_from = vec![];
+    for (i, fraction) in [0.15, 0.32, 0.5, 0.67, 0.85].into_iter().enumerate() {
+        let out = tmpfile(&format!("kill_wear_{i}.h5"));
+        let mut child = Command::new(exe)
+            .args(["run", case.to_str().unwrap(), "--quiet", "-o", out.to_str().unwrap()])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(wall.mul_f64(fraction));
+        child.kill().unwrap(); // SIGKILL
+        child.wait().unwrap();
+        let partial = PathBuf::from(format!("{}.partial", out.display()));
+        if out.exists() || !partial.exists() {
+            continue;
+        }
+        let steps = checkpoint::available_steps(&partial).unwrap();
+        let Some(&k) = steps.last() else { continue };
+        let cont = tmpfile(&format!("kill_wear_{i}_resumed.h5"));
+        assert!(run(&[
+            "run",
+            case.to_str().unwrap(),
+            "--quiet",
+            "--restart",
+            partial.to_str().unwrap(),
+            "-o",
+            cont.to_str().unwrap()
+        ])
+        .success());
+        let k_end = *checkpoint::available_steps(&cont).unwrap().last().unwrap();
+        assert_eq!(k_end, k_ref);
+        assert!(
+            checkpoint_bits(&cont, k_end) == bits_ref,
+            "kill {i}: resumed from step {k}: final state differs from the uninterrupted run"
+        );
+        resumed_from.push(k);
+    }
+    eprintln!("wear run ({computed} wear updates, {k_ref} steps): resumed from steps {resumed_from:?}");
+    assert!(resumed_from.len() >= 3, "most kills must land mid-run (resumed from {resumed_from:?})");
+}

@@ -114,6 +114,8 @@ pub struct WearSpec {
 #[serde(deny_unknown_fields)]
 pub struct CycleJumpSpec {
     pub fixed: Option<u64>,
+    /// Wear-rate smoothing length in segments of the worn polyline (default 1; 0: none).
+    pub smoothing: Option<f64>,
     pub depth_fraction: Option<f64>,
     pub max_jump: Option<u64>,
 }
@@ -835,6 +837,12 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
             return Err(cx.err("cycle_jump", "there is no [[wear]] surface to jump cycles for"));
         }
         b.set_wear_jump(policy);
+        if let Some(sm) = j.smoothing {
+            if !(sm.is_finite() && sm >= 0.0) {
+                return Err(cx.err("cycle_jump.smoothing", format!("must be finite and >= 0, got {sm}")));
+            }
+            b.set_wear_smoothing(sm);
+        }
     }
     if !raw.wear.is_empty() && raw.steps.cycle.is_none() {
         return Err(cx.err("wear", "wear runs are cyclic: give steps.cycle = [start, end] and steps.cycles = N"));

@@ -77,10 +77,21 @@ impl Default for JumpPolicy {
 }
 
 /// The wear part of a model.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct WearModel {
     pub surfaces: Vec<WearingSurface>,
     pub jump: JumpPolicy,
+    /// Filter length of the wear-rate smoothing in segments (see [`smooth_rate`]; 0: none).
+    pub smoothing: f64,
+}
+
+/// Default wear-rate smoothing: one segment.
+pub const DEFAULT_SMOOTHING: f64 = 1.0;
+
+impl Default for WearModel {
+    fn default() -> Self {
+        WearModel { surfaces: vec![], jump: JumpPolicy::default(), smoothing: DEFAULT_SMOOTHING }
+    }
 }
 
 impl WearModel {
@@ -219,6 +230,54 @@ pub fn depth_increment(rate: &[f64], measure: &[f64], dn: u64) -> Vec<f64> {
             rate[j] * dn as f64
         })
         .collect()
+}
+
+/// Volume-conserving smoothing of a wear rate along an open polyline (a Helmholtz filter):
+/// `(M + K_s) r_s = M r` with `M = diag(int N_i)` (the vertices' measures inside the host) and
+/// `K_s` the 1D stiffness `(s l)^2 / l` per segment of length `l` (both ends inside the host),
+/// `s` the filter length in units of the local segment length. Constants pass unchanged
+/// (`K_s 1 = 0`) and `sum M r_s = sum M r` exactly (`1^T K_s = 0`): the worn area is kept.
+/// Modes of wavelength `lambda` are damped by `1 / (1 + (2 pi s l / lambda)^2)`: element-scale
+/// roughness (which sets the explicit jump's stability bound through its high contact
+/// stiffness, see the module documentation) is removed, a scar many segments wide is not.
+/// `s = 0`, or a closed polyline: no smoothing.
+pub fn smooth_rate(v: &[Point2<f64>], closed: bool, measure: &[f64], rate: &[f64], s: f64) -> Vec<f64> {
+    let n = rate.len();
+    if s <= 0.0 || closed || n < 3 {
+        return rate.to_vec();
+    }
+    // Tridiagonal system: lower a, diagonal b, upper c.
+    let (mut a, mut b, mut c) = (vec![0.0; n], measure.to_vec(), vec![0.0; n]);
+    let mut d: Vec<f64> = measure.iter().zip(rate).map(|(m, r)| m * r).collect();
+    for i in 0..n - 1 {
+        if measure[i] > 0.0 && measure[i + 1] > 0.0 {
+            let l = (v[i + 1] - v[i]).norm();
+            let k = s * s * l;
+            b[i] += k;
+            b[i + 1] += k;
+            c[i] -= k;
+            a[i + 1] -= k;
+        }
+    }
+    // Vertices outside the host keep their (zero) rate.
+    for i in 0..n {
+        if b[i] == 0.0 {
+            b[i] = 1.0;
+            d[i] = rate[i];
+        }
+    }
+    // Thomas algorithm (the matrix is diagonally dominant: M + a weighted graph Laplacian).
+    for i in 1..n {
+        let w = a[i] / b[i - 1];
+        b[i] -= w * c[i - 1];
+        d[i] -= w * d[i - 1];
+    }
+    let mut x = vec![0.0; n];
+    x[n - 1] = d[n - 1] / b[n - 1];
+    for i in (0..n - 1).rev() {
+        x[i] = (d[i] - c[i] * x[i + 1]) / b[i];
+    }
+    x
 }
 
 /// The polyline moved inward by `depth` at each vertex (along the vertex normals).
