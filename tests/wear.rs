@@ -285,3 +285,67 @@ max_depth = 0.9
     .unwrap();
     assert_eq!(updates, 10);
 }
+
+/// Partial slip (wear_cases/partial_slip_wear.toml, reduced to 40 cycles): the McColl
+/// cylinder on flat under a cyclic tangential force Q = +-0.5 mu P. Multiplier nodes that stick
+/// through the whole run (Mindlin: |x| < c = 0.707 a, a = 36 um) carry no slip, hence no wear
+/// work: every surface vertex farther than one multiplier spacing inside that stick interval
+/// (its hat sees only sticking nodes) keeps a depth of zero to round-off, <= 1e-12 of the
+/// largest depth (no smoothing in this case). (The decay of the wear rate as the slip zones
+/// unload takes thousands of cycles: not in this reduced run.)
+#[test]
+fn partial_slip_stick_zone_never_wears() {
+    let text = std::fs::read_to_string("wear_cases/partial_slip_wear.toml").unwrap().replace("cycles = 2000", "cycles = 40");
+    let case = mortex::case::parse(&text, "partial_slip", Path::new("wear_cases"), "partial_slip").unwrap();
+    let model = case.model;
+    let pair = &model.contact.pairs[0];
+    let n_lm = pair.multipliers.num_nodes;
+    let mut always_stick = vec![true; n_lm];
+    let mut area_rates: Vec<f64> = vec![];
+    let mut last_area = 0.0;
+    let mut state = StaticAnalysis::initial_state_of(&model);
+    run(&model, &mut state, RunOptions::default(), |r, st, m| {
+        if r.cycle >= 1 {
+            for (l, s) in always_stick.iter_mut().enumerate() {
+                let j = m.contact.pairs[0].friction_row[l].unwrap();
+                *s &= st.friction_status[j] == 1;
+            }
+        }
+        if r.cycle >= 1 && st.wear.increment == 0 {
+            let area: f64 = st.wear.worn_area.iter().sum();
+            area_rates.push((area - last_area) / st.wear.jump as f64);
+            last_area = area;
+        }
+        Ok(())
+    })
+    .unwrap();
+    let x: Vec<f64> = pair.multipliers.points.iter().map(|p| p.x).collect();
+    let centre = (0..n_lm).min_by(|&a, &b| x[a].abs().total_cmp(&x[b].abs())).unwrap();
+    assert!(always_stick[centre], "the centre must stick");
+    let (mut lo, mut hi) = (centre, centre);
+    while lo > 0 && always_stick[lo - 1] {
+        lo -= 1;
+    }
+    while hi + 1 < n_lm && always_stick[hi + 1] {
+        hi += 1;
+    }
+    let spacing = (lo..hi).map(|l| (x[l + 1] - x[l]).abs()).fold(0.0, f64::max);
+    let (x0, x1) = (x[lo].min(x[hi]) + spacing, x[lo].max(x[hi]) - spacing);
+    let a_hertz = 0.0359;
+    eprintln!("stick interval [{:.4}, {:.4}] mm (Mindlin c = {:.4}), {} nodes", x[lo].min(x[hi]), x[lo].max(x[hi]), 0.707 * a_hertz, hi - lo + 1);
+    assert!(hi - lo >= 4, "a stick zone of several nodes");
+    let deepest = state.wear.depth.iter().flatten().fold(0.0_f64, |a, &b| a.max(b));
+    assert!(deepest > 0.0);
+    let mut checked = 0;
+    for (verts, depth) in state.wear.vertices.iter().zip(&state.wear.depth) {
+        for (p, d) in verts.iter().zip(depth) {
+            if p[0] > x0 && p[0] < x1 {
+                assert!(d.abs() <= 1e-12 * deepest, "vertex at x = {}: depth {d} (max {deepest})", p[0]);
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked >= 4, "vertices checked in the stick zone: {checked}");
+    eprintln!("worn area per cycle at each update: {area_rates:?}");
+    assert!(area_rates.iter().all(|r| *r > 0.0), "the slip zones wear at every update");
+}
