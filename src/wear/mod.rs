@@ -234,7 +234,8 @@ pub fn depth_increment(rate: &[f64], measure: &[f64], dn: u64) -> Vec<f64> {
 
 /// Volume-conserving smoothing of a wear rate along an open polyline (a Helmholtz filter):
 /// `(M + K_s) r_s = M r` with `M = diag(int N_i)` (the vertices' measures inside the host) and
-/// `K_s` the 1D stiffness `(s l)^2 / l` per segment of length `l` (both ends inside the host),
+/// `K_s` the 1D stiffness `(s l)^2 / l` per segment of length `l` (both ends inside the host
+/// and wearing: the filter acts within the scar and never spreads wear beyond it),
 /// `s` the filter length in units of the local segment length. Constants pass unchanged
 /// (`K_s 1 = 0`) and `sum M r_s = sum M r` exactly (`1^T K_s = 0`): the worn area is kept.
 /// Modes of wavelength `lambda` are damped by `1 / (1 + (2 pi s l / lambda)^2)`: element-scale
@@ -250,7 +251,9 @@ pub fn smooth_rate(v: &[Point2<f64>], closed: bool, measure: &[f64], rate: &[f64
     let (mut a, mut b, mut c) = (vec![0.0; n], measure.to_vec(), vec![0.0; n]);
     let mut d: Vec<f64> = measure.iter().zip(rate).map(|(m, r)| m * r).collect();
     for i in 0..n - 1 {
-        if measure[i] > 0.0 && measure[i + 1] > 0.0 {
+        // Only between vertices that wear: the filter never spreads wear where there is none
+        // (a stick zone, the unworn surface beyond the scar).
+        if measure[i] > 0.0 && measure[i + 1] > 0.0 && rate[i] != 0.0 && rate[i + 1] != 0.0 {
             let l = (v[i + 1] - v[i]).norm();
             let k = s * s * l;
             b[i] += k;
