@@ -32,10 +32,34 @@ impl Default for RunOptions {
     }
 }
 
+/// Where a wear run spent its time (seconds; the observer's time, e.g. output, not included).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RunTimings {
+    /// Solver set-up per computed cycle: assembly, factorisation, interface operator.
+    pub setup: f64,
+    /// Contact solves of the increments.
+    pub solve: f64,
+    /// Wear: step integrals, cycle update with its jump, surface move, re-cut and re-pairing.
+    pub wear: f64,
+}
+
 /// Runs every remaining output step of `model` from `state` (a fresh initial state or a
 /// checkpoint), calling `observer` with each converged step, its state and the model of the
 /// step (current surfaces, pairing and DOF map). An observer error stops the run.
-pub fn run<F>(model: &Model, state: &mut SimState, options: RunOptions, mut observer: F) -> Result<(), AnalysisError>
+pub fn run<F>(model: &Model, state: &mut SimState, options: RunOptions, observer: F) -> Result<(), AnalysisError>
+where
+    F: FnMut(&StepReport, &SimState, &Model) -> Result<(), String>,
+{
+    run_timed(model, state, options, observer).map(|_| ())
+}
+
+/// [`run`], returning where the time went (filled in for wear runs).
+pub fn run_timed<F>(
+    model: &Model,
+    state: &mut SimState,
+    options: RunOptions,
+    mut observer: F,
+) -> Result<RunTimings, AnalysisError>
 where
     F: FnMut(&StepReport, &SimState, &Model) -> Result<(), String>,
 {
@@ -46,7 +70,7 @@ where
         let mut analysis = StaticAnalysis::new(model)?;
         analysis.set_parallel(options.parallel);
         analysis.resume(state)?;
-        return analysis.run(state, |r, s| observer(r, s, model));
+        return analysis.run(state, |r, s| observer(r, s, model)).map(|_| RunTimings::default());
     }
     let mut current = model.clone();
     for (k, &t) in model.times.iter().enumerate().skip(state.step) {
@@ -69,7 +93,7 @@ where
         state.interface_log.clear();
         observer(&report, state, step_model).map_err(|msg| AnalysisError::Observer { step, msg })?;
     }
-    Ok(())
+    Ok(RunTimings::default())
 }
 
 /// The wear loop (see [`crate::wear`]):
@@ -87,10 +111,17 @@ where
 /// solver for the whole cycle (a resume mid-cycle replays its interface log). A jump moves the
 /// state to the end of the jumped cycle: the load history is periodic, the state is the one
 /// the computed cycle ended with.
-fn run_wear<F>(model: &Model, state: &mut SimState, options: RunOptions, mut observer: F) -> Result<(), AnalysisError>
+fn run_wear<F>(
+    model: &Model,
+    state: &mut SimState,
+    options: RunOptions,
+    mut observer: F,
+) -> Result<RunTimings, AnalysisError>
 where
     F: FnMut(&StepReport, &SimState, &Model) -> Result<(), String>,
 {
+    let mut timings = RunTimings::default();
+    let clock = std::time::Instant::now;
     let Some(cycle) = model.cycle else {
         let surface = model.wear.surfaces[0].name.clone();
         return Err(AnalysisError::Wear { cycle: 0, surface, msg: "wear needs a cyclic load ([steps] cycle)".into() });
@@ -106,7 +137,9 @@ where
             source,
         })
     };
+    let t0 = clock();
     place(&mut current, state)?;
+    timings.wear += t0.elapsed().as_secs_f64();
     if state.step < ramp_steps {
         let mut analysis = StaticAnalysis::new(&current)?;
         analysis.set_parallel(options.parallel);
@@ -122,37 +155,46 @@ where
             }
             observer(&report, state, &current).map_err(|msg| AnalysisError::Observer { step: k + 1, msg })?;
         }
+        let t0 = clock();
         place(&mut current, state)?;
+        timings.wear += t0.elapsed().as_secs_f64();
     }
     while state.wear.cycle < cycle.count as u64 {
         let n = state.wear.cycle;
         let step_time = |i: usize| cycle.start + cycle.period * (n as f64 + (i + 1) as f64 / cycle.increments as f64);
         if current.has_finite_sliding() {
             for i in state.wear.increment..cycle.increments {
+                let t0 = clock();
                 let repaired = current.repaired(&state.u);
                 let mut analysis = StaticAnalysis::new(&repaired)?;
                 analysis.set_parallel(options.parallel);
-                let report = wear_step(&repaired, &mut analysis, state, i, step_time(i), n, cycle.increments)?;
+                timings.setup += t0.elapsed().as_secs_f64();
+                let report = wear_step(&repaired, &mut analysis, state, i, step_time(i), n, cycle.increments, &mut timings)?;
                 state.interface_log.clear();
                 observer(&report, state, &repaired).map_err(|msg| AnalysisError::Observer { step: report.step, msg })?;
             }
         } else {
+            let t0 = clock();
             let mut analysis = StaticAnalysis::new(&current)?;
             analysis.set_parallel(options.parallel);
             analysis.resume(state)?;
+            timings.setup += t0.elapsed().as_secs_f64();
             for i in state.wear.increment..cycle.increments {
-                let report = wear_step(&current, &mut analysis, state, i, step_time(i), n, cycle.increments)?;
+                let report = wear_step(&current, &mut analysis, state, i, step_time(i), n, cycle.increments, &mut timings)?;
                 if i + 1 == cycle.increments {
                     state.interface_log.clear();
                 }
                 observer(&report, state, &current).map_err(|msg| AnalysisError::Observer { step: report.step, msg })?;
             }
         }
+        let t0 = clock();
         place(&mut current, state)?;
+        timings.wear += t0.elapsed().as_secs_f64();
     }
-    Ok(())
+    Ok(timings)
 }
 
+#[allow(clippy::too_many_arguments)]
 /// Increment `i` of computed cycle `n` (0-based): solve, add the step's wear, and at the
 /// cycle's last increment apply the cycle's wear with its jump.
 fn wear_step(
@@ -163,9 +205,13 @@ fn wear_step(
     t: f64,
     n: u64,
     increments: usize,
+    timings: &mut RunTimings,
 ) -> Result<StepReport, AnalysisError> {
     let u_prev = state.u.clone();
+    let t0 = std::time::Instant::now();
     let mut report = analysis.advance_to(state, state.step + 1, t)?;
+    let t1 = std::time::Instant::now();
+    timings.solve += (t1 - t0).as_secs_f64();
     report.cycle = n as usize + 1;
     report.increment = i + 1;
     accumulate_step_wear(m, state, &u_prev);
@@ -177,6 +223,7 @@ fn wear_step(
             state.time = c.start + c.period * state.wear.cycle as f64;
         }
     }
+    timings.wear += t1.elapsed().as_secs_f64();
     Ok(report)
 }
 
@@ -185,15 +232,17 @@ fn wear_step(
 fn accumulate_step_wear(m: &Model, state: &mut SimState, u_prev: &[f64]) {
     let hosts = m.hosts();
     for (w, ws) in m.wear.surfaces.iter().enumerate() {
-        // Where the pair is paired for the step (its rows' configuration).
+        // Small sliding keeps the reference pairing (the material points that meet stay paired,
+        // as in its mechanics); finite sliding: where the surfaces meet halfway through the step.
         let finite = m.contact.pairs[ws.contact].sliding == crate::contact::Sliding::Finite;
+        let u = &state.u;
         let x = |node: usize| {
             let p = m.coords[node];
-            if finite {
-                nalgebra::Point2::new(p.x + u_prev[2 * node], p.y + u_prev[2 * node + 1])
-            } else {
-                p
+            if !finite {
+                return p;
             }
+            let (ux, uy) = (0.5 * (u_prev[2 * node] + u[2 * node]), 0.5 * (u_prev[2 * node + 1] + u[2 * node + 1]));
+            nalgebra::Point2::new(p.x + ux, p.y + uy)
         };
         let (vol, work) = crate::wear::step_wear(
             &m.contact,

@@ -53,6 +53,10 @@ enum Command {
         /// x range to draw (default: the contact zone widened by half its width each side).
         #[arg(long, num_args = 2, value_names = ["X_MIN", "X_MAX"], allow_negative_numbers = true)]
         xlim: Option<Vec<f64>>,
+        /// Instead: the wear history of a wear run (scar profiles at six cycles, largest depth
+        /// against cycles); PNG default <result>_wear.png.
+        #[arg(long, conflicts_with_all = ["step", "pair", "xlim"])]
+        wear: bool,
     },
     /// Validate a case without running it and summarise what it defines.
     Check { case: PathBuf },
@@ -82,6 +86,16 @@ enum Command {
         /// Instead: re-cut + refit after a surface move in an n x n host (e.g. `--recut -n 450`).
         #[arg(long)]
         recut: bool,
+        /// Instead: a wear case run to its end (default wear_cases/mccoll_fretting.toml), with
+        /// its scar at chosen cycles and where the time went.
+        #[arg(long)]
+        wear: bool,
+        /// Wear case for `--wear`.
+        #[arg(long, requires = "wear")]
+        case: Option<PathBuf>,
+        /// Cycles at which `--wear` reports the scar.
+        #[arg(long, requires = "wear", value_delimiter = ',', default_value = "1000,5000,10000,18000")]
+        at: Vec<u64>,
     },
 }
 
@@ -105,7 +119,19 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run { case, output, quiet, restart, from_step } => run(case, output, quiet, restart, from_step),
         Command::Check { case } => check(case),
-        Command::Plot { result, step, pair, output, xlim } => plot(result, step, pair, output, xlim),
+        Command::Plot { result, wear: true, output, .. } => {
+            let out = output.unwrap_or_else(|| {
+                let stem = result.file_stem().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+                result.with_file_name(format!("{stem}_wear.png"))
+            });
+            mortex::io::plot::write_wear_png(&result, &out)
+                .map(|n| println!("{} worn surface(s) -> {}", n, out.display()))
+                .map_err(|e| e.to_string())
+        }
+        Command::Plot { result, step, pair, output, xlim, .. } => plot(result, step, pair, output, xlim),
+        Command::Bench { wear: true, case, at, .. } => {
+            bench_wear(case.unwrap_or_else(|| PathBuf::from("wear_cases/mccoll_fretting.toml")), &at)
+        }
         Command::Bench { hertz: true, repeat, .. } => bench_hertz(repeat),
         Command::Bench { output: Some(steps), .. } => bench_output(steps),
         Command::Bench { recut: true, n, repeat, .. } => bench_recut(n, repeat),
@@ -121,6 +147,58 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// `bench --wear`: the case run to its end with its output (fields, checkpoints as the case
+/// says), then per chosen cycle the scar of every wearing surface and the wear balance, and
+/// the time split.
+fn bench_wear(path: PathBuf, at: &[u64]) -> Result<(), String> {
+    let c = case::load(&path).map_err(|e| e.to_string())?;
+    let model = &c.model;
+    let out = std::env::temp_dir().join(format!("mortex-bench-wear-{}.h5", std::process::id()));
+    let started = std::time::Instant::now();
+    let mut writer = ResultWriter::create(&out, model, &c.name).map_err(|e| e.to_string())?;
+    writer.set_checkpoint_every(c.checkpoint_every);
+    writer.set_fields_every(c.fields_every);
+    let mut state = mortex::analysis::StaticAnalysis::initial_state_of(model);
+    let mut output = 0.0;
+    let timings = mortex::driver::run_timed(model, &mut state, mortex::driver::RunOptions { parallel: !c.serial }, |r, s, m| {
+        let t0 = std::time::Instant::now();
+        writer.write_step(m, r, s).map_err(|e| e.to_string())?;
+        output += t0.elapsed().as_secs_f64();
+        Ok(())
+    })
+    .map_err(|e| e.to_string())?;
+    let t0 = std::time::Instant::now();
+    let file = writer.finish(true).map_err(|e| e.to_string())?;
+    output += t0.elapsed().as_secs_f64();
+    let wall = started.elapsed().as_secs_f64();
+    let size = std::fs::metadata(&file).map(|m| m.len()).unwrap_or(0);
+    let table = mortex::io::wear_table(&file, model, at).map_err(|e| e.to_string())?;
+    println!("{}: {} cycles, {} computed, {} steps, {} DOFs", c.name, state.wear.cycle, state.wear.computed_cycles, state.step, model.dofs.num_dofs);
+    println!("{table}");
+    let rest = wall - timings.setup - timings.solve - timings.wear - output;
+    println!(
+        "wall {wall:.1} s: contact solves {:.1} s, solver set-up per cycle {:.1} s, wear update + re-cut {:.1} s, output {:.1} s ({:.1}%), other {:.1} s; result file {:.1} MB",
+        timings.solve,
+        timings.setup,
+        timings.wear,
+        output,
+        100.0 * output / wall,
+        rest,
+        size as f64 / 1e6
+    );
+    println!(
+        "per computed cycle: {:.3} s (contact {:.3}, set-up {:.3}, wear {:.3}, output {:.3})",
+        wall / state.wear.computed_cycles.max(1) as f64,
+        timings.solve / state.wear.computed_cycles.max(1) as f64,
+        timings.setup / state.wear.computed_cycles.max(1) as f64,
+        timings.wear / state.wear.computed_cycles.max(1) as f64,
+        output / state.wear.computed_cycles.max(1) as f64
+    );
+    let _ = std::fs::remove_file(&file);
+    let _ = std::fs::remove_file(file.with_extension("xdmf"));
+    Ok(())
 }
 
 fn check(path: PathBuf) -> Result<(), String> {

@@ -739,3 +739,48 @@ impl ResultWriter {
         x
     }
 }
+
+/// The scar of every wearing surface of a wear run's result file at the first wear update at
+/// or after each of the cycles `at` (a text table): max depth, scar width (where the depth is at
+/// least 1% of its maximum), worn area, and the wear balance `|worn area - k work| / worn area`.
+pub fn wear_table(path: &Path, model: &Model, at: &[u64]) -> Result<String, OutputError> {
+    use std::fmt::Write as _;
+    let err = |e: hdf5::Error| OutputError::Hdf5 { path: path.display().to_string(), what: "reading /wear".into(), msg: e.to_string() };
+    let f = hdf5::File::open(path).map_err(err)?;
+    let cycles = f.dataset("wear/cycle").and_then(|d| d.read_raw::<u64>()).map_err(err)?;
+    let mut t = String::new();
+    let _ = writeln!(t, "| cycle | surface | max depth (um) | scar width (um) | worn area (um^2) | balance |");
+    let _ = writeln!(t, "|---|---|---|---|---|---|");
+    for &n in at {
+        let Some(row) = cycles.iter().position(|&c| c >= n) else { continue };
+        for ws in &model.wear.surfaces {
+            let g = |name: &str| format!("wear/{}/{name}", ws.name);
+            let depth = f.dataset(&g("depth")).and_then(|d| d.read_slice_2d::<f64, _>(ndarray::s![row..row + 1, ..])).map_err(err)?;
+            let verts = f.dataset(&g("vertices")).and_then(|d| d.read_slice::<f64, _, ndarray::Ix3>(ndarray::s![row..row + 1, .., ..])).map_err(err)?;
+            let area = f.dataset(&g("worn_area")).and_then(|d| d.read_raw::<f64>()).map_err(err)?[row];
+            let work = f.dataset(&g("work")).and_then(|d| d.read_raw::<f64>()).map_err(err)?[row];
+            let d: Vec<f64> = depth.iter().copied().collect();
+            let max = d.iter().fold(0.0_f64, |a, &b| a.max(b));
+            // Arc length of the stretch whose depth is at least 1% of the maximum.
+            let mut width = 0.0;
+            for i in 0..d.len().saturating_sub(1) {
+                if d[i] >= 0.01 * max && d[i + 1] >= 0.01 * max {
+                    let (dx, dy) = (verts[[0, i + 1, 0]] - verts[[0, i, 0]], verts[[0, i + 1, 1]] - verts[[0, i, 1]]);
+                    width += (dx * dx + dy * dy).sqrt();
+                }
+            }
+            let balance = if area > 0.0 { (area - ws.coefficient * work).abs() / area } else { 0.0 };
+            let _ = writeln!(
+                t,
+                "| {} | {} | {:.4} | {:.1} | {:.2} | {:.1e} |",
+                cycles[row],
+                ws.name,
+                max * 1e3,
+                width * 1e3,
+                area * 1e6,
+                balance
+            );
+        }
+    }
+    Ok(t)
+}

@@ -288,3 +288,86 @@ pub fn write_png(p: &ContactProfile, xlim: (f64, f64), out: &Path) -> Result<(),
     root.present().map_err(|e| de(&e))?;
     Ok(())
 }
+
+/// The wear history of a wear run's result file: per worn surface its depth profile along x at
+/// up to six recorded cycles (evenly spread over the run), and the largest depth and worn area
+/// of every surface against the cycles. Returns the number of surfaces drawn.
+pub fn write_wear_png(path: &Path, out: &Path) -> Result<usize, PlotError> {
+    register_font()?;
+    let err = |msg: String| PlotError::Input { path: path.display().to_string(), msg };
+    let file = hdf5::File::open(path).map_err(|e| err(format!("cannot open: {e}")))?;
+    let wear = file.group("wear").map_err(|_| err("not a wear run (no /wear group)".into()))?;
+    let cycles: Vec<u64> = wear.dataset("cycle").and_then(|d| d.read_raw()).map_err(|e| err(e.to_string()))?;
+    let mut names: Vec<String> = wear.groups().map_err(|e| err(e.to_string()))?.iter().map(|g| g.name()).collect();
+    names.sort();
+    let names: Vec<String> = names.iter().map(|n| n.rsplit('/').next().unwrap_or(n).to_string()).collect();
+    if cycles.is_empty() || names.is_empty() {
+        return Err(err("the wear series is empty".into()));
+    }
+    let draw_err = |e: String| PlotError::Draw { path: out.display().to_string(), msg: e };
+    let de = |e: &dyn std::fmt::Display| draw_err(e.to_string());
+    let root = BitMapBackend::new(out, (1000, 350 * (names.len() as u32 + 1))).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| de(&e))?;
+    let panels = root.split_evenly((names.len() + 1, 1));
+    let rows: Vec<usize> = {
+        let n = cycles.len();
+        let mut r: Vec<usize> = (1..=6).map(|k| ((n - 1) * k) / 6).collect();
+        r.dedup();
+        r
+    };
+    let palette = [BLUE, RED, GREEN, MAGENTA, CYAN, BLACK];
+    let mut histories = vec![];
+    for (name, panel) in names.iter().zip(panels.iter()) {
+        let g = wear.group(name).map_err(|e| err(e.to_string()))?;
+        let depth: ndarray::Array2<f64> = g.dataset("depth").and_then(|d| d.read_2d()).map_err(|e| err(e.to_string()))?;
+        let verts: ndarray::Array3<f64> = g.dataset("vertices").and_then(|d| d.read()).map_err(|e| err(e.to_string()))?;
+        let max_depth: Vec<f64> = g.dataset("max_depth").and_then(|d| d.read_raw()).map_err(|e| err(e.to_string()))?;
+        histories.push((name.clone(), max_depth));
+        let last = depth.nrows() - 1;
+        let dmax = depth.row(last).iter().fold(0.0_f64, |a, &b| a.max(b)).max(f64::MIN_POSITIVE);
+        // x range: where the last profile is at least 0.1% of its maximum, widened by a quarter.
+        let xs: Vec<f64> =
+            (0..depth.ncols()).filter(|&i| depth[[last, i]] >= 1e-3 * dmax).map(|i| verts[[last, i, 0]]).collect();
+        let (x0, x1) = xs.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+        let pad = 0.25 * (x1 - x0).max(1e-12);
+        let mut ch = ChartBuilder::on(panel)
+            .caption(format!("wear of '{name}'"), ("sans-serif", 20))
+            .margin(12)
+            .x_label_area_size(36)
+            .y_label_area_size(72)
+            .build_cartesian_2d((x0 - pad)..(x1 + pad), 0.0..dmax * 1.1 * 1e3)
+            .map_err(|e| de(&e))?;
+        ch.configure_mesh().x_desc("x (mm, reference)").y_desc("wear depth (um)").draw().map_err(|e| de(&e))?;
+        for (k, &r) in rows.iter().enumerate() {
+            let color = palette[k % palette.len()];
+            let mut pts: Vec<(f64, f64)> = (0..depth.ncols()).map(|i| (verts[[r, i, 0]], depth[[r, i]] * 1e3)).collect();
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            ch.draw_series(LineSeries::new(pts, color.stroke_width(2)))
+                .map_err(|e| de(&e))?
+                .label(format!("cycle {}", cycles[r]))
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+        }
+        legend(&mut ch).map_err(|e| de(&e))?;
+    }
+    // Last panel: largest depth against the cycles.
+    let top = histories.iter().flat_map(|h| h.1.iter().copied()).fold(0.0_f64, f64::max).max(f64::MIN_POSITIVE);
+    let nmax = *cycles.last().unwrap_or(&1) as f64;
+    let mut ch = ChartBuilder::on(&panels[names.len()])
+        .caption("largest wear depth", ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(36)
+        .y_label_area_size(72)
+        .build_cartesian_2d(0.0..nmax.max(1.0), 0.0..top * 1.1 * 1e3)
+        .map_err(|e| de(&e))?;
+    ch.configure_mesh().x_desc("cycles").y_desc("max depth (um)").draw().map_err(|e| de(&e))?;
+    for (k, (name, h)) in histories.iter().enumerate() {
+        let color = palette[k % palette.len()];
+        ch.draw_series(LineSeries::new(cycles.iter().zip(h).map(|(&c, &d)| (c as f64, d * 1e3)), color.stroke_width(2)))
+            .map_err(|e| de(&e))?
+            .label(name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+    }
+    legend(&mut ch).map_err(|e| de(&e))?;
+    root.present().map_err(|e| de(&e))?;
+    Ok(names.len())
+}

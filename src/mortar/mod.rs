@@ -584,10 +584,11 @@ pub fn weighted_gaps(side: &MortarSide, lm: &Multipliers, other: &OtherSide, max
 /// measure), multiplier hats, and the partner point on the other side (segment and parameter).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PairedPoint {
-    /// Mortar-side segment (its vertices) and the parameter on it.
+    /// Mortar-side segment (its vertices), the parameter on it and its length where paired.
     pub va: usize,
     pub vb: usize,
     pub tau: f64,
+    pub segment_length: f64,
     pub wt: f64,
     pub hats: [(usize, f64); 2],
     pub xm: Point2<f64>,
@@ -603,11 +604,13 @@ pub fn paired_points(side: &MortarSide, lm: &Multipliers, other: &OtherSide, max
         right_normal(pa, pb).dot(&right_normal(a, b)) < 0.0
     };
     let mut v = Vec::new();
+    let n = side.points.len();
     for_each_mortar_point(side, lm, other, max_gap, facing, |p| {
         if (p.xo - p.xm).dot(&p.n).abs() > max_gap {
             return;
         }
-        v.push(PairedPoint { va: p.va, vb: p.vb, tau: p.tau, wt: p.wt, hats: p.hats, xm: p.xm, xo: p.xo, other: p.other, sigma: p.sigma });
+        let segment_length = (side.points[p.vb % n] - side.points[p.va % n]).norm();
+        v.push(PairedPoint { va: p.va, vb: p.vb, tau: p.tau, segment_length, wt: p.wt, hats: p.hats, xm: p.xm, xo: p.xo, other: p.other, sigma: p.sigma });
     });
     v
 }

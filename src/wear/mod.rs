@@ -103,7 +103,9 @@ impl WearModel {
 /// Wear of one converged step on one wearing surface: per vertex of the polyline the wear
 /// volume `V_i` (per unit thickness), and the step's wear work `int p |ds|` (or `int |q ds|`).
 /// `u_prev`, `u`: displacements at the start and end of the step; `x` places nodes where the
-/// pair was paired for the step (reference coordinates under small sliding).
+/// pair is paired for the step: the reference geometry under small sliding (the material
+/// points that meet stay paired, as in its mechanics), the configuration halfway through the
+/// step under finite sliding (the wear lands on the material that slid under the point).
 pub fn step_wear(
     set: &ContactSet,
     hosts: &[(&Mesh2, usize)],
@@ -141,7 +143,16 @@ pub fn step_wear(
     if !ws.on_mortar_side && embedding.is_none() {
         return (volume, 0.0);
     }
-    let points = crate::contact::paired_points(hosts, c, x);
+    // Paired where the surfaces meet during the step (the wear lands on the material that is
+    // under the point then), weighted by the reference length (small strain).
+    let mut points = crate::contact::paired_points(hosts, c, x);
+    let ns = c.side.points.len();
+    for p in points.iter_mut() {
+        let reference = (c.side.points[p.vb % ns] - c.side.points[p.va % ns]).norm();
+        if p.segment_length > 0.0 {
+            p.wt *= reference / p.segment_length;
+        }
+    }
     // Normalise the hats by the same points (so the density integrates to sum W exactly).
     let mut phi = vec![0.0; n_lm];
     for p in &points {
