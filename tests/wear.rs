@@ -482,3 +482,68 @@ fn energy_law_equals_archard_over_mu_in_gross_slip() {
         assert!((da - de).abs() < 1e-12 * da, "surface {i}: max depth {da} vs {de}");
     }
 }
+
+/// Internal variables stay on their integration points (uniform-wear scene with a J2 host,
+/// yield stress 35 MPa, hardening modulus 2 GPa, under the 50 MPa contact pressure (von Mises
+/// stress about 44 MPa), so the host yields,
+/// and the host wears 1.6 mm through three element layers). A point the surface passes (its
+/// material worn away) keeps, bit for bit, the plastic history it had when the surface passed
+/// it, at every later step; every wear update (surface moved, host re-cut, band refitted, next
+/// cycle's solver set up) leaves the history of every point as it was.
+#[test]
+fn plastic_history_stays_on_its_points_through_wear() {
+    let text = std::fs::read_to_string("wear_cases/uniform_wear.toml")
+        .unwrap()
+        .replace(
+            "[[bodies]]\nname = \"host\"\nmaterial = \"soft\"",
+            "[[materials]]\nname = \"soft_j2\"\nmodel = \"j2_plastic\"\nyoung = 200.0\npoisson = 0.3\nyield_stress = 35.0\nisotropic_hardening = 2000.0\n\n[[bodies]]\nname = \"host\"\nmaterial = \"soft_j2\"",
+        );
+    assert!(text.contains("soft_j2\"\nmesh"));
+    let case = mortex::case::parse(&text, "j2_wear", Path::new("wear_cases"), "j2_wear").unwrap();
+    let model = case.model;
+    let mut state = StaticAnalysis::initial_state_of(&model);
+    let bits = |h: &mortex::fem::material::PlasticState| -> Vec<u64> {
+        h.eps_p.iter().chain(h.back.iter()).chain(std::iter::once(&h.alpha)).map(|v| v.to_bits()).collect()
+    };
+    // Per stateful point: the history it had when the surface passed it.
+    let mut passed: std::collections::HashMap<usize, Vec<u64>> = std::collections::HashMap::new();
+    let (mut updates_checked, mut max_eqps) = (0, 0.0_f64);
+    run(&model, &mut state, RunOptions::default(), |r, st, m| {
+        // Where the host's surface was for the step (the lowest vertex: points above it lie in
+        // the worn-away material).
+        let y_surface = m.surfaces[m.wear.surfaces[0].surface].vertices.iter().fold(f64::INFINITY, |a, v| a.min(v.y));
+        let xs = m.point_coords();
+        let el = &m.elements;
+        for e in 0..el.len() {
+            let (s0, s1) = (el.state_offset[e], el.state_offset[e + 1]);
+            for q in 0..s1 - s0 {
+                let (k, h) = (s0 + q, &st.history[s0 + q]);
+                max_eqps = max_eqps.max(h.alpha);
+                match passed.get(&k) {
+                    Some(b) => assert_eq!(b, &bits(h), "step {}: a point the surface passed changed its history: element {e} point {q} at {:?}, weight {}, surface {y_surface}", r.step, xs[el.point_offset[e] + q], m.rules[el.rule[e]].weights[q]),
+                    None if xs[el.point_offset[e] + q].y > y_surface + 1e-12 => {
+                        passed.insert(k, bits(h));
+                    }
+                    None => {}
+                }
+            }
+        }
+        if r.increment == 4 && st.wear.increment == 0 {
+            let before: Vec<u64> = st.history.iter().flat_map(bits).collect();
+            let mut next = m.clone();
+            next.place_worn_surfaces(&st.wear).unwrap();
+            let s2 = st.clone();
+            let mut analysis = StaticAnalysis::new(&next).unwrap();
+            analysis.resume(&s2).unwrap();
+            let after: Vec<u64> = s2.history.iter().flat_map(bits).collect();
+            assert!(before == after, "cycle {}: the wear update changed the history", st.wear.cycle);
+            updates_checked += 1;
+        }
+        Ok(())
+    })
+    .unwrap();
+    eprintln!("J2 wear: {} points passed by the surface, max equivalent plastic strain {max_eqps:.2e}, {updates_checked} updates", passed.len());
+    assert!(max_eqps > 1e-3, "the host must yield: {max_eqps}");
+    assert!(passed.len() >= 48, "the surface must pass the points of three element layers: {}", passed.len());
+    assert_eq!(updates_checked, 20);
+}
