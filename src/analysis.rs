@@ -84,6 +84,9 @@ pub struct StaticAnalysis<'m> {
     condensed: Option<condensed::Condensed>,
     /// Active contact nodes in the last Newton iteration (reported when a step fails).
     last_active: usize,
+    /// Gross sliding (every node in contact slipping one way) seen by the last failed Newton
+    /// solve: reported if the cut-backs run out.
+    last_gross_sliding: Option<usize>,
 }
 
 /// Small sliding pairs from the reference geometry: a converged state whose nodes in contact
@@ -146,6 +149,7 @@ impl<'m> StaticAnalysis<'m> {
                 trial_f_int: vec![0.0; model.dofs.num_dofs],
                 condensed: Some(cd),
                 last_active: 0,
+                last_gross_sliding: None,
             });
         }
         // Constraint rows are scaled by `alpha ~ E / |C|` in the matrix so that both blocks of the
@@ -187,6 +191,7 @@ impl<'m> StaticAnalysis<'m> {
             trial_f_int: vec![0.0; model.dofs.num_dofs],
             condensed: None,
             last_active: 0,
+            last_gross_sliding: None,
         })
     }
 
@@ -289,6 +294,9 @@ impl<'m> StaticAnalysis<'m> {
                     report.iterations += its;
                     report.cutbacks += 1;
                     if report.cutbacks > params.max_cutbacks {
+                        if let Some(slipping) = self.last_gross_sliding {
+                            return Err(AnalysisError::GrossSliding { step, time: t_try, slipping });
+                        }
                         return Err(NewtonError::NotConverged {
                             step,
                             time: t_try,
@@ -478,8 +486,10 @@ impl<'m> StaticAnalysis<'m> {
             }
             tracing::debug!(step, t, it, residual = res, "Newton iteration");
             // A diverging iteration cuts the increment back (also when every node slips one way:
-            // under a prescribed stroke that is ordinary gross slip, not a missing equilibrium).
+            // under a prescribed stroke that is ordinary gross slip, not a missing equilibrium;
+            // if the cut-backs run out so, it is reported as gross sliding).
             if !res.is_finite() || (it > 0 && res > p.divergence_factor * first_res.max(p.rtol)) {
+                self.last_gross_sliding = gross_sliding(&status);
                 return Ok(Err((it, res)));
             }
             if !set_changed && (res <= p.rtol || (rn == 0.0 && gn == 0.0 && free_mu == 0.0)) {
@@ -498,6 +508,7 @@ impl<'m> StaticAnalysis<'m> {
                     // never changes, so there the failure is final (insufficient supports).
                     Err(e) if !linear => {
                         tracing::warn!(step, t, it, error = %e, "tangent factorisation failed");
+                        self.last_gross_sliding = gross_sliding(&status);
                         return Ok(Err((it, res)));
                     }
                     Err(source) => return Err(NewtonError::Linear { step, iteration: it, source }.into()),
@@ -513,6 +524,7 @@ impl<'m> StaticAnalysis<'m> {
             // The open-node equation lambda = 0 is linear: its Newton step is exact.
             zero_open_multipliers(&m.contact, &mut mu, &active, &status);
         }
+        self.last_gross_sliding = gross_sliding(&status);
         Ok(Err((p.max_iterations, res)))
     }
 

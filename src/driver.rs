@@ -169,9 +169,11 @@ where
                 let mut analysis = StaticAnalysis::new(&repaired)?;
                 analysis.set_parallel(options.parallel);
                 timings.setup += t0.elapsed().as_secs_f64();
-                let report = wear_step(&repaired, &mut analysis, state, i, step_time(i), n, cycle.increments, &mut timings)?;
+                let report =
+                    wear_step(&repaired, &mut analysis, state, i, step_time(i), n, cycle.increments, &mut timings)?;
                 state.interface_log.clear();
-                observer(&report, state, &repaired).map_err(|msg| AnalysisError::Observer { step: report.step, msg })?;
+                observer(&report, state, &repaired)
+                    .map_err(|msg| AnalysisError::Observer { step: report.step, msg })?;
             }
         } else {
             let t0 = clock();
@@ -180,7 +182,8 @@ where
             analysis.resume(state)?;
             timings.setup += t0.elapsed().as_secs_f64();
             for i in state.wear.increment..cycle.increments {
-                let report = wear_step(&current, &mut analysis, state, i, step_time(i), n, cycle.increments, &mut timings)?;
+                let report =
+                    wear_step(&current, &mut analysis, state, i, step_time(i), n, cycle.increments, &mut timings)?;
                 if i + 1 == cycle.increments {
                     state.interface_log.clear();
                 }
@@ -265,7 +268,8 @@ fn accumulate_step_wear(m: &Model, state: &mut SimState, u_prev: &[f64]) {
 /// `jump` is false), depths, vertices, sums and counters.
 fn apply_wear(m: &Model, state: &mut SimState, count: u64, jump: bool) -> Result<(), AnalysisError> {
     let w = &mut state.wear;
-    let measures: Vec<Vec<f64>> = m.wear.surfaces.iter().map(|ws| crate::wear::vertex_measure(&m.surfaces[ws.surface])).collect();
+    let measures: Vec<Vec<f64>> =
+        m.wear.surfaces.iter().map(|ws| crate::wear::vertex_measure(&m.surfaces[ws.surface])).collect();
     let rates: Vec<Vec<f64>> = w
         .cycle_volume
         .iter()
@@ -298,7 +302,12 @@ fn apply_wear(m: &Model, state: &mut SimState, count: u64, jump: bool) -> Result
         .wear
         .surfaces
         .iter()
-        .map(|ws| crate::wear::wearing_resolution(&m.surfaces[ws.surface].vertices, &vec![1.0; m.surfaces[ws.surface].vertices.len()]))
+        .map(|ws| {
+            crate::wear::wearing_resolution(
+                &m.surfaces[ws.surface].vertices,
+                &vec![1.0; m.surfaces[ws.surface].vertices.len()],
+            )
+        })
         .fold(f64::INFINITY, f64::min);
     if jump && w.computed_cycles == 0 && rmax * count as f64 <= 1e-9 * h_min {
         return Err(AnalysisError::Wear {
@@ -311,7 +320,8 @@ fn apply_wear(m: &Model, state: &mut SimState, count: u64, jump: bool) -> Result
     }
     for (k, ws) in m.wear.surfaces.iter().enumerate() {
         let inc = crate::wear::depth_increment(&rates[k], &measures[k], dn);
-        let verts: Vec<nalgebra::Point2<f64>> = w.vertices[k].iter().map(|p| nalgebra::Point2::new(p[0], p[1])).collect();
+        let verts: Vec<nalgebra::Point2<f64>> =
+            w.vertices[k].iter().map(|p| nalgebra::Point2::new(p[0], p[1])).collect();
         let moved = crate::wear::worn_vertices(&verts, m.surfaces[ws.surface].base.closed, &inc);
         for (d, (i, a)) in w.depth[k].iter_mut().zip(inc.iter().zip(&measures[k])) {
             if *a > 0.0 {

@@ -162,20 +162,24 @@ fn bench_wear(path: PathBuf, at: &[u64]) -> Result<(), String> {
     writer.set_fields_every(c.fields_every);
     let mut state = mortex::analysis::StaticAnalysis::initial_state_of(model);
     let mut output = 0.0;
-    let timings = mortex::driver::run_timed(model, &mut state, mortex::driver::RunOptions { parallel: !c.serial }, |r, s, m| {
-        let t0 = std::time::Instant::now();
-        writer.write_step(m, r, s).map_err(|e| e.to_string())?;
-        output += t0.elapsed().as_secs_f64();
-        Ok(())
-    })
-    .map_err(|e| e.to_string())?;
+    let timings =
+        mortex::driver::run_timed(model, &mut state, mortex::driver::RunOptions { parallel: !c.serial }, |r, s, m| {
+            let t0 = std::time::Instant::now();
+            writer.write_step(m, r, s).map_err(|e| e.to_string())?;
+            output += t0.elapsed().as_secs_f64();
+            Ok(())
+        })
+        .map_err(|e| e.to_string())?;
     let t0 = std::time::Instant::now();
     let file = writer.finish(true).map_err(|e| e.to_string())?;
     output += t0.elapsed().as_secs_f64();
     let wall = started.elapsed().as_secs_f64();
     let size = std::fs::metadata(&file).map(|m| m.len()).unwrap_or(0);
     let table = mortex::io::wear_table(&file, model, at).map_err(|e| e.to_string())?;
-    println!("{}: {} cycles, {} computed, {} steps, {} DOFs", c.name, state.wear.cycle, state.wear.computed_cycles, state.step, model.dofs.num_dofs);
+    println!(
+        "{}: {} cycles, {} computed, {} steps, {} DOFs",
+        c.name, state.wear.cycle, state.wear.computed_cycles, state.step, model.dofs.num_dofs
+    );
     println!("{table}");
     let rest = wall - timings.setup - timings.solve - timings.wear - output;
     println!(
@@ -402,7 +406,8 @@ fn run(
         Ok(()) => {
             if wear_cycles.is_some() {
                 let w = &state.wear;
-                let deepest: Vec<String> = w.depth.iter().map(|d| format!("{:.4e}", d.iter().fold(0.0_f64, |a, &b| a.max(b)))).collect();
+                let deepest: Vec<String> =
+                    w.depth.iter().map(|d| format!("{:.4e}", d.iter().fold(0.0_f64, |a, &b| a.max(b)))).collect();
                 println!(
                     "{}: {} cycles ({} computed), max wear depth [{}], worn area {:?}",
                     c.name,

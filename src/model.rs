@@ -672,7 +672,15 @@ impl ModelBuilder {
             .elastic()
             .young
             .max(self.materials[self.bodies[other_body].material].elastic().young);
-        self.contacts.push(ContactSpec { name: name.to_string(), mortar, side, mortar_cut: None, other, young, params });
+        self.contacts.push(ContactSpec {
+            name: name.to_string(),
+            mortar,
+            side,
+            mortar_cut: None,
+            other,
+            young,
+            params,
+        });
         Ok(())
     }
 
@@ -786,8 +794,8 @@ impl ModelBuilder {
         let Some(cell) = b.mesh.cells.iter().find(|c| c.nodes().contains(&n0) && c.nodes().contains(&n1)) else {
             return Err(ModelError::Tie { tie: name.to_string(), msg: "the first edge belongs to no cell".into() });
         };
-        let centroid = cell.nodes().iter().fold(Vector2::zeros(), |s, &n| s + b.mesh.nodes[n].coords)
-            / cell.nodes().len() as f64;
+        let centroid =
+            cell.nodes().iter().fold(Vector2::zeros(), |s, &n| s + b.mesh.nodes[n].coords) / cell.nodes().len() as f64;
         let (a, e) = (pts[0], pts[1] - pts[0]);
         let keep_left = e.x * (centroid.y - a.y) - e.y * (centroid.x - a.x) > 0.0;
         if !side.closed {
@@ -1365,9 +1373,7 @@ impl ModelBuilder {
                 }
             };
             let nseg = side.num_segments();
-            let h = (0..nseg)
-                .map(|i| (side.points[(i + 1) % side.points.len()] - side.points[i]).norm())
-                .sum::<f64>()
+            let h = (0..nseg).map(|i| (side.points[(i + 1) % side.points.len()] - side.points[i]).norm()).sum::<f64>()
                 / nseg as f64;
             // Wearing sides sink by up to their max_depth: they stay within reach.
             let depth_of = |cut: &String| self.wear_cuts.iter().find(|w| &w.0 == cut).map_or(0.0, |w| w.3);
@@ -1467,7 +1473,8 @@ impl ModelBuilder {
             .collect();
         let penalty = penalty_parts.iter().flatten().copied().collect();
         let n_constraints = constraints.len();
-        let mut wear = crate::wear::WearModel { surfaces: vec![], jump: self.wear_jump, smoothing: self.wear_smoothing };
+        let mut wear =
+            crate::wear::WearModel { surfaces: vec![], jump: self.wear_jump, smoothing: self.wear_smoothing };
         for (name, law, coefficient, max_depth) in &self.wear_cuts {
             let surface = self.free_cuts.iter().position(|f| &f.0 == name).unwrap_or(usize::MAX);
             let as_other = self.contacts.iter().position(|c| matches!(&c.other, ContactOther::Cut(n) if n == name));

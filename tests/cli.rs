@@ -546,15 +546,30 @@ fn wear_bad_inputs_give_clear_errors() {
         assert!(good.contains(from), "{from}");
         good.replace(from, to)
     };
-    expect_error(&d, "neg_k", &sub("coefficient = 4e-3", "coefficient = -4e-3"), &["neg_k.toml", "wear[0].coefficient", ">= 0"]);
+    expect_error(
+        &d,
+        "neg_k",
+        &sub("coefficient = 4e-3", "coefficient = -4e-3"),
+        &["neg_k.toml", "wear[0].coefficient", ">= 0"],
+    );
     expect_error(&d, "nan_k", &sub("coefficient = 4e-3", "coefficient = nan"), &["nan_k.toml", "wear[0].coefficient"]);
-    expect_error(&d, "no_cut", &sub("cut = \"surface\"\ncoefficient", "cut = \"nowhere\"\ncoefficient"), &["no_cut.toml", "wear[0].cut", "nowhere"]);
+    expect_error(
+        &d,
+        "no_cut",
+        &sub("cut = \"surface\"\ncoefficient", "cut = \"nowhere\"\ncoefficient"),
+        &["no_cut.toml", "wear[0].cut", "nowhere"],
+    );
     let lonely = sub(
         "[[contacts]]",
         "[[cuts]]\nname = \"lonely\"\nbody = \"host\"\npoints = [[-1.0, 1.0], [5.0, 1.0]]\nkeep = \"right\"\n\n[[wear]]\ncut = \"lonely\"\ncoefficient = 1e-3\nmax_depth = 0.1\n\n[[contacts]]",
     );
     expect_error(&d, "lonely", &lonely, &["lonely.toml", "wear[0].cut", "lonely", "not in contact with anything"]);
-    expect_error(&d, "no_cycle", &sub("cycle = [1.0, 2.0]\ncycles = 20\n", ""), &["no_cycle.toml", "wear", "steps.cycle"]);
+    expect_error(
+        &d,
+        "no_cycle",
+        &sub("cycle = [1.0, 2.0]\ncycles = 20\n", ""),
+        &["no_cycle.toml", "wear", "steps.cycle"],
+    );
 
     // Failing runs (the case itself is valid): zero stroke, a band too shallow.
     for (name, text, needle) in [

@@ -65,7 +65,11 @@ fn uniform_wear_is_exact() {
             if r.increment == 4 && w.increment == 0 {
                 updates += 1;
                 for (i, d) in w.depth[0].iter().enumerate() {
-                    assert!((d - exact).abs() < 1e-8 * exact, "jump {jump} cycle {}: vertex {i}: depth {d} vs {exact}", w.cycle);
+                    assert!(
+                        (d - exact).abs() < 1e-8 * exact,
+                        "jump {jump} cycle {}: vertex {i}: depth {d} vs {exact}",
+                        w.cycle
+                    );
                 }
                 let balance = (w.worn_area[0] - K * w.work[0]).abs() / w.worn_area[0];
                 assert!(balance < 1e-10, "jump {jump}: worn area {} vs k * work {}", w.worn_area[0], K * w.work[0]);
@@ -111,7 +115,8 @@ impl Winkler {
     /// Pressure for a worn depth `w`: `p = kappa (delta - g0 - w)` with `delta` from the load.
     fn pressure(&self, w: &[f64]) -> Vec<f64> {
         let total: f64 = self.weight.iter().sum();
-        let mean_gap: f64 = self.weight.iter().zip(self.g0.iter().zip(w)).map(|(q, (g, w))| q * (g + w)).sum::<f64>() / total;
+        let mean_gap: f64 =
+            self.weight.iter().zip(self.g0.iter().zip(w)).map(|(q, (g, w))| q * (g + w)).sum::<f64>() / total;
         let delta = self.load / (self.kappa * total) + mean_gap;
         self.g0.iter().zip(w).map(|(g, w)| self.kappa * (delta - g - w)).collect()
     }
@@ -184,7 +189,11 @@ fn winkler_relaxation_and_jump_stability() {
         let (p, _, _) = scene.run(JumpPolicy::Fixed(dn), dn * jumps, f64::INFINITY);
         let dev = p.iter().map(|p| (p - mean).abs()).fold(0.0, f64::max);
         let factor = (1.0 - a * dn as f64).abs().powi(jumps as i32);
-        assert!((dev / dev0 - factor).abs() < 1e-9 * factor.max(1.0), "a dN = {a_dn}: growth {} vs {factor}", dev / dev0);
+        assert!(
+            (dev / dev0 - factor).abs() < 1e-9 * factor.max(1.0),
+            "a dN = {a_dn}: growth {} vs {factor}",
+            dev / dev0
+        );
         if a_dn > 2.0 {
             assert!(dev > 100.0 * dev0, "a dN = {a_dn} must diverge");
         }
@@ -295,7 +304,8 @@ max_depth = 0.9
 /// unload takes thousands of cycles: not in this reduced run.)
 #[test]
 fn partial_slip_stick_zone_never_wears() {
-    let text = std::fs::read_to_string("wear_cases/partial_slip_wear.toml").unwrap().replace("cycles = 2000", "cycles = 40");
+    let text =
+        std::fs::read_to_string("wear_cases/partial_slip_wear.toml").unwrap().replace("cycles = 2000", "cycles = 40");
     let case = mortex::case::parse(&text, "partial_slip", Path::new("wear_cases"), "partial_slip").unwrap();
     let model = case.model;
     let pair = &model.contact.pairs[0];
@@ -332,7 +342,13 @@ fn partial_slip_stick_zone_never_wears() {
     let spacing = (lo..hi).map(|l| (x[l + 1] - x[l]).abs()).fold(0.0, f64::max);
     let (x0, x1) = (x[lo].min(x[hi]) + spacing, x[lo].max(x[hi]) - spacing);
     let a_hertz = 0.0359;
-    eprintln!("stick interval [{:.4}, {:.4}] mm (Mindlin c = {:.4}), {} nodes", x[lo].min(x[hi]), x[lo].max(x[hi]), 0.707 * a_hertz, hi - lo + 1);
+    eprintln!(
+        "stick interval [{:.4}, {:.4}] mm (Mindlin c = {:.4}), {} nodes",
+        x[lo].min(x[hi]),
+        x[lo].max(x[hi]),
+        0.707 * a_hertz,
+        hi - lo + 1
+    );
     assert!(hi - lo >= 4, "a stick zone of several nodes");
     let deepest = state.wear.depth.iter().flatten().fold(0.0_f64, |a, &b| a.max(b));
     assert!(deepest > 0.0);
@@ -361,7 +377,8 @@ fn partial_slip_stick_zone_never_wears() {
 /// work, and the run jumped cycles.
 #[test]
 fn mccoll_wear_balance_through_jumps() {
-    let text = std::fs::read_to_string("wear_cases/mccoll_fretting.toml").unwrap().replace("cycles = 18000", "cycles = 600");
+    let text =
+        std::fs::read_to_string("wear_cases/mccoll_fretting.toml").unwrap().replace("cycles = 18000", "cycles = 600");
     let case = mortex::case::parse(&text, "mccoll", Path::new("wear_cases"), "mccoll").unwrap();
     let model = case.model;
     let k: Vec<f64> = model.wear.surfaces.iter().map(|w| w.coefficient).collect();
@@ -387,7 +404,12 @@ fn mccoll_wear_balance_through_jumps() {
                 let snapping = mortex::surface::SNAP_VERTEX * h * worn_length;
                 let bound = 1e-4 * w.worn_area[i] + snapping;
                 let diff = (lost - w.worn_area[i]).abs();
-                assert!(diff <= bound, "surface {i} cycle {}: area lost {lost} vs worn area {} (bound {bound:.2e})", w.cycle, w.worn_area[i]);
+                assert!(
+                    diff <= bound,
+                    "surface {i} cycle {}: area lost {lost} vs worn area {} (bound {bound:.2e})",
+                    w.cycle,
+                    w.worn_area[i]
+                );
             }
         }
         if w.increment == 0 && w.cycle > 0 {
@@ -404,7 +426,12 @@ fn mccoll_wear_balance_through_jumps() {
     assert_eq!(state.wear.cycle, 600);
     assert!(state.wear.computed_cycles < 100, "computed cycles {}", state.wear.computed_cycles);
     assert!(balance_checks as u64 == state.wear.computed_cycles && geometric.len() >= 10);
-    eprintln!("McColl 600 cycles: {} computed; last geometric area check {:?}, worn areas {:?}", state.wear.computed_cycles, geometric.last(), state.wear.worn_area);
+    eprintln!(
+        "McColl 600 cycles: {} computed; last geometric area check {:?}, worn areas {:?}",
+        state.wear.computed_cycles,
+        geometric.last(),
+        state.wear.worn_area
+    );
 }
 
 /// A real boundary that wears becomes a virtual surface coinciding with it: before any wear the
@@ -415,7 +442,8 @@ fn mccoll_wear_balance_through_jumps() {
 /// the real run's node positions by linear interpolation, over the contact).
 #[test]
 fn worn_boundary_turned_virtual_matches_the_real_surface_before_wear() {
-    let text = std::fs::read_to_string("wear_cases/mccoll_fretting.toml").unwrap().replace("cycles = 18000", "cycles = 1");
+    let text =
+        std::fs::read_to_string("wear_cases/mccoll_fretting.toml").unwrap().replace("cycles = 18000", "cycles = 1");
     let a = text.find("[[wear]]").unwrap();
     let b = text.find("[steps]").unwrap();
     let real_text = format!("{}{}", &text[..a], &text[b..]);
@@ -477,8 +505,14 @@ fn energy_law_equals_archard_over_mu_in_gross_slip() {
     let (a, e) = (finish(&base), finish(&energy));
     for i in 0..2 {
         let rel = (a.worn_area[i] - e.worn_area[i]).abs() / a.worn_area[i];
-        assert!(rel < 1e-12, "surface {i}: worn area {} (Archard) vs {} (energy): {rel:.1e}", a.worn_area[i], e.worn_area[i]);
-        let (da, de) = (a.depth[i].iter().fold(0.0_f64, |m, &d| m.max(d)), e.depth[i].iter().fold(0.0_f64, |m, &d| m.max(d)));
+        assert!(
+            rel < 1e-12,
+            "surface {i}: worn area {} (Archard) vs {} (energy): {rel:.1e}",
+            a.worn_area[i],
+            e.worn_area[i]
+        );
+        let (da, de) =
+            (a.depth[i].iter().fold(0.0_f64, |m, &d| m.max(d)), e.depth[i].iter().fold(0.0_f64, |m, &d| m.max(d)));
         assert!((da - de).abs() < 1e-12 * da, "surface {i}: max depth {da} vs {de}");
     }
 }

@@ -749,23 +749,22 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         };
         let mortar = body(&c.mortar, "mortar")?;
         let other_body = body(&c.other, "other")?;
-        let other =
-            match (&c.other_surface, &c.other_cut) {
-                (Some(sets), None) => ContactOther::Edges(
-                    b.global_edges(other_body, sets).map_err(|e| model_err(&cx, k("other_surface"), e))?,
-                ),
-                (None, Some(cut)) => {
-                    if !wear_cuts.contains(cut)
-                        && !raw.cuts.iter().enumerate().any(|(j, cs)| {
-                            cs.name.clone().unwrap_or_else(|| format!("cut{j}")) == *cut && cs.body == c.other
-                        })
-                    {
-                        return Err(cx.err(k("other_cut"), format!("no cut named '{cut}' in body '{}'", c.other)));
-                    }
-                    ContactOther::Cut(cut.clone())
+        let other = match (&c.other_surface, &c.other_cut) {
+            (Some(sets), None) => ContactOther::Edges(
+                b.global_edges(other_body, sets).map_err(|e| model_err(&cx, k("other_surface"), e))?,
+            ),
+            (None, Some(cut)) => {
+                if !wear_cuts.contains(cut)
+                    && !raw.cuts.iter().enumerate().any(|(j, cs)| {
+                        cs.name.clone().unwrap_or_else(|| format!("cut{j}")) == *cut && cs.body == c.other
+                    })
+                {
+                    return Err(cx.err(k("other_cut"), format!("no cut named '{cut}' in body '{}'", c.other)));
                 }
-                _ => return Err(cx.err(format!("contacts[{i}]"), "give exactly one of other_surface, other_cut")),
-            };
+                ContactOther::Cut(cut.clone())
+            }
+            _ => return Err(cx.err(format!("contacts[{i}]"), "give exactly one of other_surface, other_cut")),
+        };
         let name = c.name.clone().unwrap_or_else(|| format!("contact{i}"));
         if !(c.friction.is_finite() && c.friction >= 0.0) {
             return Err(
@@ -802,7 +801,8 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
 
     for (i, (w, cut)) in raw.wear.iter().zip(&wear_cuts).enumerate() {
         let k = |f: &str| format!("wear[{i}].{f}");
-        let declared = raw.cuts.iter().enumerate().any(|(j, c)| c.name.clone().unwrap_or_else(|| format!("cut{j}")) == *cut);
+        let declared =
+            raw.cuts.iter().enumerate().any(|(j, c)| c.name.clone().unwrap_or_else(|| format!("cut{j}")) == *cut);
         if w.cut.is_some() && !declared {
             return Err(cx.err(k("cut"), format!("no cut named '{cut}'")));
         }

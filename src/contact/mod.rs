@@ -75,7 +75,13 @@ impl VirtualMortar {
         let nseg = if closed { nv } else { nv - 1 };
         (0..nv)
             .map(|i| {
-                let before = if i > 0 { Some(i - 1) } else if closed { Some(nseg - 1) } else { None };
+                let before = if i > 0 {
+                    Some(i - 1)
+                } else if closed {
+                    Some(nseg - 1)
+                } else {
+                    None
+                };
                 let after = if i < nseg { Some(i) } else { None };
                 // Nearest piece end to the vertex on an adjacent segment.
                 let mut best: Option<(f64, usize)> = None;
@@ -95,16 +101,17 @@ impl VirtualMortar {
                     Some((_, k)) => embedding.pieces[k].cell,
                     None => {
                         // No adjacent piece (a long stretch outside): nearest piece overall.
-                        let Some(p) = embedding.pieces.iter().min_by(|a, b| {
-                            (a.a - vertices[i]).norm().total_cmp(&(b.a - vertices[i]).norm())
-                        }) else {
+                        let Some(p) = embedding
+                            .pieces
+                            .iter()
+                            .min_by(|a, b| (a.a - vertices[i]).norm().total_cmp(&(b.a - vertices[i]).norm()))
+                        else {
                             return vec![];
                         };
                         p.cell
                     }
                 };
-                let mapped =
-                    crate::fem::element::MappedElement::new(mesh.cells[cell].kind, mesh.cell_coords(cell));
+                let mapped = crate::fem::element::MappedElement::new(mesh.cells[cell].kind, mesh.cell_coords(cell));
                 let xi = mapped.inverse_map(vertices[i]).unwrap_or([0.0, 0.0]);
                 let mut n = [0.0; 4];
                 mesh.cells[cell].kind.shape(xi, &mut n);

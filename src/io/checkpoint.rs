@@ -81,13 +81,20 @@ pub(super) fn write(g: &hdf5::Group, state: &SimState) -> hdf5::Result<()> {
 /// `last_jump`, `jump_before`, `decay`).
 fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> {
     let g = c.create_group("wear")?;
-    for (name, v) in [("cycle", w.cycle), ("computed_cycles", w.computed_cycles), ("increment", w.increment as u64), ("jump", w.jump)] {
+    for (name, v) in [
+        ("cycle", w.cycle),
+        ("computed_cycles", w.computed_cycles),
+        ("increment", w.increment as u64),
+        ("jump", w.jump),
+    ] {
         super::write_attr(&g, name, &v)?;
     }
     let vec1 = |name: &str, v: &[f64]| g.new_dataset_builder().with_data(&Array1::from(v.to_vec())).create(name);
     for (i, verts) in w.vertices.iter().enumerate() {
         let flat: Vec<f64> = verts.iter().flat_map(|p| [p[0], p[1]]).collect();
-        g.new_dataset_builder().with_data(&super::array2(verts.len(), 2, flat)).create(format!("vertices_{i}").as_str())?;
+        g.new_dataset_builder()
+            .with_data(&super::array2(verts.len(), 2, flat))
+            .create(format!("vertices_{i}").as_str())?;
         vec1(&format!("depth_{i}"), &w.depth[i])?;
         vec1(&format!("cycle_volume_{i}"), &w.cycle_volume[i])?;
     }
@@ -104,8 +111,11 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
 
 fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, String> {
     let g = c.group("wear").map_err(|e| format!("no wear group ({e}): the checkpoint is not of a wear run"))?;
-    let attr_u64 = |name: &str| g.attr(name).and_then(|a| a.read_scalar::<u64>()).map_err(|e| format!("wear attribute {name}: {e}"));
-    let vec_f64 = |name: &str| g.dataset(name).and_then(|d| d.read_raw::<f64>()).map_err(|e| format!("wear dataset {name}: {e}"));
+    let attr_u64 = |name: &str| {
+        g.attr(name).and_then(|a| a.read_scalar::<u64>()).map_err(|e| format!("wear attribute {name}: {e}"))
+    };
+    let vec_f64 =
+        |name: &str| g.dataset(name).and_then(|d| d.read_raw::<f64>()).map_err(|e| format!("wear dataset {name}: {e}"));
     let fresh = model.initial_wear_state();
     let mut w = crate::state::WearState {
         cycle: attr_u64("cycle")?,
@@ -119,7 +129,11 @@ fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, 
         let depth = vec_f64(&format!("depth_{i}"))?;
         let vol = vec_f64(&format!("cycle_volume_{i}"))?;
         if flat.len() != 2 * expected.len() || depth.len() != expected.len() || vol.len() != expected.len() {
-            return Err(format!("wear surface {i} has {} vertices in the checkpoint, the model {}", flat.len() / 2, expected.len()));
+            return Err(format!(
+                "wear surface {i} has {} vertices in the checkpoint, the model {}",
+                flat.len() / 2,
+                expected.len()
+            ));
         }
         w.vertices.push(flat.chunks_exact(2).map(|p| [p[0], p[1]]).collect());
         w.depth.push(depth);
@@ -136,8 +150,16 @@ fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, 
     w.controller.last_change = vec_f64("last_change")?;
     w.controller.last_jump = attr_u64("last_jump")?;
     w.controller.jump_before = attr_u64("jump_before")?;
-    w.controller.decay = g.attr("decay").and_then(|a| a.read_scalar::<f64>()).map_err(|e| format!("wear attribute decay: {e}"))?;
-    let finite = w.vertices.iter().flatten().flatten().chain(w.depth.iter().flatten()).chain(&w.worn_area).all(|v| v.is_finite());
+    w.controller.decay =
+        g.attr("decay").and_then(|a| a.read_scalar::<f64>()).map_err(|e| format!("wear attribute decay: {e}"))?;
+    let finite = w
+        .vertices
+        .iter()
+        .flatten()
+        .flatten()
+        .chain(w.depth.iter().flatten())
+        .chain(&w.worn_area)
+        .all(|v| v.is_finite());
     if !finite {
         return Err("non-finite wear state".into());
     }

@@ -375,7 +375,14 @@ impl ResultWriter {
             fields_every: 1,
             last_step: model.times.len(),
             last_flush: std::time::Instant::now(),
-            series: Series { scalars: vec![], contacts: vec![], dissipation: None, surfaces: vec![], rows: 0, wear: None },
+            series: Series {
+                scalars: vec![],
+                contacts: vec![],
+                dissipation: None,
+                surfaces: vec![],
+                rows: 0,
+                wear: None,
+            },
         };
         let res: hdf5::Result<()> = (|| {
             write_str_attr(&file, "format", "mortex-results")?;
@@ -745,7 +752,11 @@ impl ResultWriter {
 /// least 1% of its maximum), worn area, and the wear balance `|worn area - k work| / worn area`.
 pub fn wear_table(path: &Path, model: &Model, at: &[u64]) -> Result<String, OutputError> {
     use std::fmt::Write as _;
-    let err = |e: hdf5::Error| OutputError::Hdf5 { path: path.display().to_string(), what: "reading /wear".into(), msg: e.to_string() };
+    let err = |e: hdf5::Error| OutputError::Hdf5 {
+        path: path.display().to_string(),
+        what: "reading /wear".into(),
+        msg: e.to_string(),
+    };
     let f = hdf5::File::open(path).map_err(err)?;
     let cycles = f.dataset("wear/cycle").and_then(|d| d.read_raw::<u64>()).map_err(err)?;
     let mut t = String::new();
@@ -755,8 +766,14 @@ pub fn wear_table(path: &Path, model: &Model, at: &[u64]) -> Result<String, Outp
         let Some(row) = cycles.iter().position(|&c| c >= n) else { continue };
         for ws in &model.wear.surfaces {
             let g = |name: &str| format!("wear/{}/{name}", ws.name);
-            let depth = f.dataset(&g("depth")).and_then(|d| d.read_slice_2d::<f64, _>(ndarray::s![row..row + 1, ..])).map_err(err)?;
-            let verts = f.dataset(&g("vertices")).and_then(|d| d.read_slice::<f64, _, ndarray::Ix3>(ndarray::s![row..row + 1, .., ..])).map_err(err)?;
+            let depth = f
+                .dataset(&g("depth"))
+                .and_then(|d| d.read_slice_2d::<f64, _>(ndarray::s![row..row + 1, ..]))
+                .map_err(err)?;
+            let verts = f
+                .dataset(&g("vertices"))
+                .and_then(|d| d.read_slice::<f64, _, ndarray::Ix3>(ndarray::s![row..row + 1, .., ..]))
+                .map_err(err)?;
             let area = f.dataset(&g("worn_area")).and_then(|d| d.read_raw::<f64>()).map_err(err)?[row];
             let work = f.dataset(&g("work")).and_then(|d| d.read_raw::<f64>()).map_err(err)?[row];
             let d: Vec<f64> = depth.iter().copied().collect();

@@ -319,8 +319,10 @@ pub fn write_wear_png(path: &Path, out: &Path) -> Result<usize, PlotError> {
     let mut histories = vec![];
     for (name, panel) in names.iter().zip(panels.iter()) {
         let g = wear.group(name).map_err(|e| err(e.to_string()))?;
-        let depth: ndarray::Array2<f64> = g.dataset("depth").and_then(|d| d.read_2d()).map_err(|e| err(e.to_string()))?;
-        let verts: ndarray::Array3<f64> = g.dataset("vertices").and_then(|d| d.read()).map_err(|e| err(e.to_string()))?;
+        let depth: ndarray::Array2<f64> =
+            g.dataset("depth").and_then(|d| d.read_2d()).map_err(|e| err(e.to_string()))?;
+        let verts: ndarray::Array3<f64> =
+            g.dataset("vertices").and_then(|d| d.read()).map_err(|e| err(e.to_string()))?;
         let max_depth: Vec<f64> = g.dataset("max_depth").and_then(|d| d.read_raw()).map_err(|e| err(e.to_string()))?;
         histories.push((name.clone(), max_depth));
         let last = depth.nrows() - 1;
@@ -340,7 +342,8 @@ pub fn write_wear_png(path: &Path, out: &Path) -> Result<usize, PlotError> {
         ch.configure_mesh().x_desc("x (mm, reference)").y_desc("wear depth (um)").draw().map_err(|e| de(&e))?;
         for (k, &r) in rows.iter().enumerate() {
             let color = palette[k % palette.len()];
-            let mut pts: Vec<(f64, f64)> = (0..depth.ncols()).map(|i| (verts[[r, i, 0]], depth[[r, i]] * 1e3)).collect();
+            let mut pts: Vec<(f64, f64)> =
+                (0..depth.ncols()).map(|i| (verts[[r, i, 0]], depth[[r, i]] * 1e3)).collect();
             pts.sort_by(|a, b| a.0.total_cmp(&b.0));
             ch.draw_series(LineSeries::new(pts, color.stroke_width(2)))
                 .map_err(|e| de(&e))?
@@ -362,10 +365,13 @@ pub fn write_wear_png(path: &Path, out: &Path) -> Result<usize, PlotError> {
     ch.configure_mesh().x_desc("cycles").y_desc("max depth (um)").draw().map_err(|e| de(&e))?;
     for (k, (name, h)) in histories.iter().enumerate() {
         let color = palette[k % palette.len()];
-        ch.draw_series(LineSeries::new(cycles.iter().zip(h).map(|(&c, &d)| (c as f64, d * 1e3)), color.stroke_width(2)))
-            .map_err(|e| de(&e))?
-            .label(name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+        ch.draw_series(LineSeries::new(
+            cycles.iter().zip(h).map(|(&c, &d)| (c as f64, d * 1e3)),
+            color.stroke_width(2),
+        ))
+        .map_err(|e| de(&e))?
+        .label(name.clone())
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
     }
     legend(&mut ch).map_err(|e| de(&e))?;
     root.present().map_err(|e| de(&e))?;

@@ -610,7 +610,18 @@ pub fn paired_points(side: &MortarSide, lm: &Multipliers, other: &OtherSide, max
             return;
         }
         let segment_length = (side.points[p.vb % n] - side.points[p.va % n]).norm();
-        v.push(PairedPoint { va: p.va, vb: p.vb, tau: p.tau, segment_length, wt: p.wt, hats: p.hats, xm: p.xm, xo: p.xo, other: p.other, sigma: p.sigma });
+        v.push(PairedPoint {
+            va: p.va,
+            vb: p.vb,
+            tau: p.tau,
+            segment_length,
+            wt: p.wt,
+            hats: p.hats,
+            xm: p.xm,
+            xo: p.xo,
+            other: p.other,
+            sigma: p.sigma,
+        });
     });
     v
 }
