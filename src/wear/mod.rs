@@ -261,10 +261,13 @@ pub fn smooth_rate(v: &[Point2<f64>], closed: bool, measure: &[f64], rate: &[f64
     // Tridiagonal system: lower a, diagonal b, upper c.
     let (mut a, mut b, mut c) = (vec![0.0; n], measure.to_vec(), vec![0.0; n]);
     let mut d: Vec<f64> = measure.iter().zip(rate).map(|(m, r)| m * r).collect();
+    // Only between vertices that wear: the filter never spreads wear where there is none (a
+    // stick zone, the unworn surface beyond the scar). Round-off rates (a sticking node's slip
+    // is zero to about 1e-17) do not count as wear.
+    let floor = 1e-12 * rate.iter().fold(0.0_f64, |m, r| m.max(r.abs()));
+    let wears = |r: f64| r.abs() > floor;
     for i in 0..n - 1 {
-        // Only between vertices that wear: the filter never spreads wear where there is none
-        // (a stick zone, the unworn surface beyond the scar).
-        if measure[i] > 0.0 && measure[i + 1] > 0.0 && rate[i] != 0.0 && rate[i + 1] != 0.0 {
+        if measure[i] > 0.0 && measure[i + 1] > 0.0 && wears(rate[i]) && wears(rate[i + 1]) {
             let l = (v[i + 1] - v[i]).norm();
             let k = s * s * l;
             b[i] += k;
