@@ -653,35 +653,13 @@ impl ModelBuilder {
         other: ContactOther,
         params: ContactParams,
     ) -> Result<(), ModelError> {
-        let mu = params.friction;
-        if !(mu.is_finite() && mu >= 0.0) {
-            return Err(ModelError::Contact {
-                contact: name.to_string(),
-                key: "friction",
-                msg: format!("the friction coefficient must be finite and >= 0 (got {mu})"),
-            });
-        }
         let side = self.mortar_side(name, mortar, mortar_sets, "contact surface").map_err(|e| match e {
             ModelError::Tie { msg, .. } => {
                 ModelError::Contact { contact: name.to_string(), key: "mortar_surface", msg }
             }
             other => other,
         })?;
-        let mb = &self.bodies[mortar];
-        let young = self.materials[mb.material]
-            .elastic()
-            .young
-            .max(self.materials[self.bodies[other_body].material].elastic().young);
-        self.contacts.push(ContactSpec {
-            name: name.to_string(),
-            mortar,
-            side,
-            mortar_cut: None,
-            other,
-            young,
-            params,
-        });
-        Ok(())
+        self.push_contact(name, mortar, side, None, other_body, other, params)
     }
 
     /// Mortar contact whose mortar side is the virtual surface of free cut `mortar_cut` (in its
@@ -695,14 +673,6 @@ impl ModelBuilder {
         other: ContactOther,
         params: ContactParams,
     ) -> Result<(), ModelError> {
-        let mu = params.friction;
-        if !(mu.is_finite() && mu >= 0.0) {
-            return Err(ModelError::Contact {
-                contact: name.to_string(),
-                key: "friction",
-                msg: format!("the friction coefficient must be finite and >= 0 (got {mu})"),
-            });
-        }
         let Some(f) = self.free_cuts.iter().find(|f| f.0 == mortar_cut) else {
             return Err(ModelError::Contact {
                 contact: name.to_string(),
@@ -711,20 +681,36 @@ impl ModelBuilder {
             });
         };
         let mortar = f.1;
+        // The side is the cut's polyline, known once the model is built.
+        let side = MortarSide { nodes: vec![], points: vec![], closed: false };
+        self.push_contact(name, mortar, side, Some(mortar_cut.to_string()), other_body, other, params)
+    }
+
+    /// Checks the friction coefficient and records a contact pair.
+    #[allow(clippy::too_many_arguments)]
+    fn push_contact(
+        &mut self,
+        name: &str,
+        mortar: usize,
+        side: MortarSide,
+        mortar_cut: Option<String>,
+        other_body: usize,
+        other: ContactOther,
+        params: ContactParams,
+    ) -> Result<(), ModelError> {
+        let mu = params.friction;
+        if !(mu.is_finite() && mu >= 0.0) {
+            return Err(ModelError::Contact {
+                contact: name.to_string(),
+                key: "friction",
+                msg: format!("the friction coefficient must be finite and >= 0 (got {mu})"),
+            });
+        }
         let young = self.materials[self.bodies[mortar].material]
             .elastic()
             .young
             .max(self.materials[self.bodies[other_body].material].elastic().young);
-        let side = MortarSide { nodes: vec![], points: vec![], closed: false };
-        self.contacts.push(ContactSpec {
-            name: name.to_string(),
-            mortar,
-            side,
-            mortar_cut: Some(mortar_cut.to_string()),
-            other,
-            young,
-            params,
-        });
+        self.contacts.push(ContactSpec { name: name.to_string(), mortar, side, mortar_cut, other, young, params });
         Ok(())
     }
 

@@ -13,6 +13,55 @@ fn tmpfile(name: &str) -> PathBuf {
     d.join(name)
 }
 
+/// Starts `mortex run case -o <name>.h5`, kills it (SIGKILL) after `delay`, then resumes with
+/// `--restart` from what it left. Returns the step it resumed from and the continuation's file,
+/// or `None` if the run finished first or was killed before its first checkpoint. A killed run
+/// must never leave an XDMF beside a file it does not describe.
+fn kill_then_resume(case: &Path, name: &str, delay: std::time::Duration) -> Option<(usize, PathBuf)> {
+    use std::process::{Command, Stdio};
+    let exe = env!("CARGO_BIN_EXE_mortex");
+    let out = tmpfile(&format!("{name}.h5"));
+    let mut child = Command::new(exe)
+        .args(["run", case.to_str().unwrap(), "--quiet", "-o", out.to_str().unwrap()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(delay);
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    let xdmf = out.with_extension("xdmf");
+    let partial = PathBuf::from(format!("{}.partial", out.display()));
+    if out.exists() {
+        // The run finished before the kill: its XDMF describes it.
+        assert!(xdmf.exists());
+        return None;
+    }
+    assert!(!xdmf.exists(), "a killed run must not leave an XDMF beside a file it does not describe");
+    if !partial.exists() {
+        // Killed while still reading the case and building the model: nothing to resume.
+        return None;
+    }
+    let k = *checkpoint::available_steps(&partial).unwrap().last()?;
+    let cont = tmpfile(&format!("{name}_resumed.h5"));
+    let status = Command::new(exe)
+        .args([
+            "run",
+            case.to_str().unwrap(),
+            "--quiet",
+            "--restart",
+            partial.to_str().unwrap(),
+            "-o",
+            cont.to_str().unwrap(),
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .unwrap();
+    assert!(status.success(), "{name}: the resume failed");
+    Some((k, cont))
+}
+
 /// kill -9 at five moments of a many-step CLI run (the moving_contact case with 40 cycles:
 /// 161 steps, a surface re-cut every step, a checkpoint every step), then `--restart` from what
 /// the killed run left: every resume must end in exactly the uninterrupted run's final state
@@ -53,41 +102,7 @@ fn kill_minus_nine_then_resume_is_bit_identical() {
     assert_eq!(k_ref, 161);
     let mut resumed_from = vec![];
     for (i, fraction) in [0.15, 0.32, 0.5, 0.67, 0.85].into_iter().enumerate() {
-        let out = tmpfile(&format!("kill_{i}.h5"));
-        let mut child = Command::new(exe)
-            .args(["run", case.to_str().unwrap(), "--quiet", "-o", out.to_str().unwrap()])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap();
-        std::thread::sleep(wall.mul_f64(fraction));
-        child.kill().unwrap(); // SIGKILL
-        child.wait().unwrap();
-        let xdmf = out.with_extension("xdmf");
-        let partial = PathBuf::from(format!("{}.partial", out.display()));
-        if out.exists() {
-            // The run finished before the kill: its XDMF describes it.
-            assert!(xdmf.exists());
-            continue;
-        }
-        assert!(!xdmf.exists(), "a killed run must not leave an XDMF beside a file it does not describe");
-        if !partial.exists() {
-            // Killed while still reading the case and building the model: nothing to resume.
-            continue;
-        }
-        let steps = checkpoint::available_steps(&partial).unwrap();
-        let Some(&k) = steps.last() else { continue };
-        let cont = tmpfile(&format!("kill_{i}_resumed.h5"));
-        assert!(run(&[
-            "run",
-            case.to_str().unwrap(),
-            "--quiet",
-            "--restart",
-            partial.to_str().unwrap(),
-            "-o",
-            cont.to_str().unwrap()
-        ])
-        .success());
+        let Some((k, cont)) = kill_then_resume(&case, &format!("kill_{i}"), wall.mul_f64(fraction)) else { continue };
         let (k_end, b) = last(&cont);
         assert_eq!(k_end, k_ref);
         assert!(b == bits_ref, "kill {i}: resumed from step {k}: final state differs from the uninterrupted run");
@@ -154,33 +169,9 @@ fn kill_minus_nine_during_wear_with_jumps_then_resume_is_bit_identical() {
     };
     let mut resumed_from = vec![];
     for (i, fraction) in [0.15, 0.32, 0.5, 0.67, 0.85].into_iter().enumerate() {
-        let out = tmpfile(&format!("kill_wear_{i}.h5"));
-        let mut child = Command::new(exe)
-            .args(["run", case.to_str().unwrap(), "--quiet", "-o", out.to_str().unwrap()])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap();
-        std::thread::sleep(wall.mul_f64(fraction));
-        child.kill().unwrap(); // SIGKILL
-        child.wait().unwrap();
-        let partial = PathBuf::from(format!("{}.partial", out.display()));
-        if out.exists() || !partial.exists() {
+        let Some((k, cont)) = kill_then_resume(&case, &format!("kill_wear_{i}"), wall.mul_f64(fraction)) else {
             continue;
-        }
-        let steps = checkpoint::available_steps(&partial).unwrap();
-        let Some(&k) = steps.last() else { continue };
-        let cont = tmpfile(&format!("kill_wear_{i}_resumed.h5"));
-        assert!(run(&[
-            "run",
-            case.to_str().unwrap(),
-            "--quiet",
-            "--restart",
-            partial.to_str().unwrap(),
-            "-o",
-            cont.to_str().unwrap()
-        ])
-        .success());
+        };
         let k_end = *checkpoint::available_steps(&cont).unwrap().last().unwrap();
         assert_eq!(k_end, k_ref);
         assert!(

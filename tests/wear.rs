@@ -5,6 +5,22 @@ use mortex::driver::{run, RunOptions};
 use mortex::wear::JumpPolicy;
 use std::path::Path;
 
+/// Every material point of the model carries `sigma_yy = -p` and no other in-plane stress, to
+/// 1e-8 p (the uniform state is exact; round-off stays far below that).
+fn assert_uniaxial_pressure(m: &mortex::model::Model, st: &mortex::state::SimState, p: f64, at: &str) {
+    let el = &m.elements;
+    for e in 0..el.len() {
+        for (q, &w) in m.rules[el.rule[e]].weights.iter().enumerate() {
+            if w == 0.0 {
+                continue;
+            }
+            let s = st.stress[el.point_offset[e] + q];
+            let d = [s[0].abs(), (s[1] + p).abs(), s[3].abs()].into_iter().fold(0.0, f64::max);
+            assert!(d < 1e-8 * p, "{at}: element {e} point {q}: stress {s:?}");
+        }
+    }
+}
+
 /// Uniform wear (wear_cases/uniform_wear.toml; exact). A block pressed with p = 50 MPa slides
 /// +-0.1 mm (frictionless, so the stress stays uniform) on a host whose virtual top wears by
 /// Archard's law, k = 4e-3 /MPa. Each cycle removes k p S = 0.08 mm everywhere (S = 0.4 mm of
@@ -43,17 +59,7 @@ fn uniform_wear_is_exact() {
         let (mut updates, mut checked_geometry) = (0, 0);
         let mut last_depth = 0.0;
         run(&model, &mut state, RunOptions::default(), |r, st, m| {
-            let el = &m.elements;
-            for e in 0..el.len() {
-                for (q, &w) in m.rules[el.rule[e]].weights.iter().enumerate() {
-                    if w == 0.0 {
-                        continue;
-                    }
-                    let s = st.stress[el.point_offset[e] + q];
-                    let d = [s[0].abs(), (s[1] + P).abs(), s[3].abs()].into_iter().fold(0.0, f64::max);
-                    assert!(d < 1e-8 * P, "jump {jump} step {}: element {e} point {q}: stress {s:?}", r.step);
-                }
-            }
+            assert_uniaxial_pressure(m, st, P, &format!("jump {jump} step {}", r.step));
             let w = &st.wear;
             let exact = K * P * S * w.cycle as f64;
             if r.increment == 1 && w.cycle > 0 {
@@ -258,17 +264,7 @@ max_depth = 0.9
     let mut state = StaticAnalysis::initial_state_of(&model);
     let mut updates = 0;
     run(&model, &mut state, RunOptions::default(), |r, st, m| {
-        let el = &m.elements;
-        for e in 0..el.len() {
-            for (q, &w) in m.rules[el.rule[e]].weights.iter().enumerate() {
-                if w == 0.0 {
-                    continue;
-                }
-                let s = st.stress[el.point_offset[e] + q];
-                let d = [s[0].abs(), (s[1] + P).abs(), s[3].abs()].into_iter().fold(0.0, f64::max);
-                assert!(d < 1e-8 * P, "step {}: element {e} point {q}: stress {s:?}", r.step);
-            }
-        }
+        assert_uniaxial_pressure(m, st, P, &format!("step {}", r.step));
         let w = &st.wear;
         if r.increment == 1 && w.cycle > 0 {
             for b in 0..2 {
