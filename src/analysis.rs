@@ -14,7 +14,7 @@ use crate::model::Model;
 use crate::solver::linear::{LinearSolverError, SparseSolver};
 use crate::solver::newton::NewtonError;
 use crate::state::SimState;
-use nalgebra::{DMatrix, DVector};
+
 
 pub use crate::contact::FrictionStatus;
 use crate::contact::{
@@ -22,6 +22,7 @@ use crate::contact::{
 };
 
 mod condensed;
+pub use condensed::GapSensitivity;
 
 /// What one converged output step did.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -87,6 +88,9 @@ pub struct StaticAnalysis<'m> {
     /// Gross sliding (every node in contact slipping one way) seen by the last failed Newton
     /// solve: reported if the cut-backs run out.
     last_gross_sliding: Option<usize>,
+    /// Contact and friction sets of the last converged condensed step (for the interface
+    /// stiffness the implicit wear jump needs).
+    last_sets: Option<(Vec<bool>, Vec<FrictionStatus>)>,
 }
 
 /// Small sliding pairs from the reference geometry: a converged state whose nodes in contact
@@ -150,6 +154,7 @@ impl<'m> StaticAnalysis<'m> {
                 condensed: Some(cd),
                 last_active: 0,
                 last_gross_sliding: None,
+                last_sets: None,
             });
         }
         // Constraint rows are scaled by `alpha ~ E / |C|` in the matrix so that both blocks of the
@@ -192,6 +197,7 @@ impl<'m> StaticAnalysis<'m> {
             condensed: None,
             last_active: 0,
             last_gross_sliding: None,
+            last_sets: None,
         })
     }
 
@@ -700,60 +706,10 @@ impl<'m> StaticAnalysis<'m> {
                     }
                     prev = Some((active.clone(), status.clone()));
                     iterations += 1;
-                    // Per live row: gap row (dw known, dlambda unknown) or multiplier row (dlambda
-                    // known or tied to its normal's, dw unknown).
-                    enum Law {
-                        Gap(f64),
-                        Fixed(f64),
-                        Slip { normal: usize, s: f64, rest: f64 },
-                    }
                     let row_law = row_laws(&m.contact, &active, &status);
-                    let laws: Vec<Law> = cd
-                        .live
-                        .iter()
-                        .enumerate()
-                        .map(|(a, &i)| match row_law[i] {
-                            // The row's value at the start of the step is known; its target is 0.
-                            RowLaw::Constraint if i < nt => Law::Gap(-w0[a]),
-                            RowLaw::Constraint if i < nt + nc => Law::Gap(-(m.contact.g0[i - nt] + w0[a])),
-                            RowLaw::Constraint => Law::Gap(-slip0[i - nt - nc]),
-                            RowLaw::Free => Law::Fixed(-lam0[i]),
-                            RowLaw::Slip { normal, coef } => Law::Slip {
-                                normal: cd.live_of[normal].unwrap_or(a),
-                                s: coef,
-                                rest: -(lam0[i] - coef * lam0[normal]),
-                            },
-                        })
-                        .collect();
-                    // (I - rho D) dw + D dlambda = C z, unknowns x_a = dlambda_a (gap rows) or dw_a.
-                    let mut a_mat = DMatrix::<f64>::zeros(nl, nl);
-                    let mut rhs = DVector::<f64>::from_vec(cz.clone());
-                    for (a, law) in laws.iter().enumerate() {
-                        let dcol = cd.d.column(a);
-                        match *law {
-                            Law::Gap(b) => {
-                                // dw_a = b known; dlambda_a unknown (column a).
-                                for e in 0..nl {
-                                    let ima = if e == a { 1.0 } else { 0.0 } - cd.rho[a] * dcol[e];
-                                    rhs[e] -= ima * b;
-                                    a_mat[(e, a)] += dcol[e];
-                                }
-                            }
-                            Law::Fixed(l) => {
-                                for e in 0..nl {
-                                    a_mat[(e, a)] += if e == a { 1.0 } else { 0.0 } - cd.rho[a] * dcol[e];
-                                    rhs[e] -= dcol[e] * l;
-                                }
-                            }
-                            Law::Slip { normal, s, rest } => {
-                                for e in 0..nl {
-                                    a_mat[(e, a)] += if e == a { 1.0 } else { 0.0 } - cd.rho[a] * dcol[e];
-                                    a_mat[(e, normal)] += dcol[e] * s;
-                                    rhs[e] -= dcol[e] * rest;
-                                }
-                            }
-                        }
-                    }
+                    let laws = cd.laws(m, &row_law, &w0, &lam0, &slip0);
+                    let a_mat = cd.law_matrix(&laws);
+                    let rhs = cd.law_rhs(&laws, &cz);
                     let Some(x) = a_mat.lu().solve(&rhs) else {
                         tracing::warn!(step, t, it, "condensed interface system is singular");
                         if let Some(slipping) = gross_sliding(&status) {
@@ -763,15 +719,15 @@ impl<'m> StaticAnalysis<'m> {
                     };
                     for (a, law) in laws.iter().enumerate() {
                         match *law {
-                            Law::Gap(b) => {
+                            condensed::Law::Gap(b) => {
                                 dw[a] = b;
                                 dlam[a] = x[a];
                             }
-                            Law::Fixed(l) => {
+                            condensed::Law::Fixed(l) => {
                                 dw[a] = x[a];
                                 dlam[a] = l;
                             }
-                            Law::Slip { normal, s, rest } => {
+                            condensed::Law::Slip { normal, s, rest } => {
                                 dw[a] = x[a];
                                 dlam[a] = s * x[normal] + rest;
                             }
@@ -826,6 +782,7 @@ impl<'m> StaticAnalysis<'m> {
             if res.is_finite() && res <= p.rtol {
                 check_small_sliding(m, &u, &status, step, t)?;
                 self.commit(state, u, mu, t, &status, &slip);
+                self.last_sets = Some((active, status));
                 return Ok(Ok((iterations, res)));
             }
             if let Some(slipping) = gross_sliding(&status) {
@@ -838,6 +795,13 @@ impl<'m> StaticAnalysis<'m> {
             lam0 = mu;
         }
         Ok(Err((iterations, f64::INFINITY)))
+    }
+
+    /// Interface stiffness of the last converged step (see [`GapSensitivity`]); `None` without
+    /// interface condensation or before a step converged.
+    pub fn gap_sensitivity(&self) -> Option<GapSensitivity> {
+        let (active, status) = self.last_sets.as_ref()?;
+        self.condensed.as_ref()?.gap_sensitivity(self.model, active, status)
     }
 
     /// Reactions at constrained DOFs of the current state, zero elsewhere.

@@ -15,9 +15,10 @@
 //! and the state alone (surface positions from the time, pairings from `u`), so a resume from
 //! any checkpoint needs nothing else.
 
-use crate::analysis::{AnalysisError, StaticAnalysis, StepReport};
+use crate::analysis::{AnalysisError, GapSensitivity, StaticAnalysis, StepReport};
 use crate::model::Model;
 use crate::state::SimState;
+use crate::wear::{JumpScheme, RateFilter, WearLaw, WearingSurface};
 
 /// Options of a run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -150,7 +151,7 @@ where
             accumulate_step_wear(&current, state, &u_prev);
             if k + 1 == ramp_steps {
                 // The ramp's wear (sliding under the rising load) counts, applied once.
-                apply_wear(&current, state, cycle.count as u64, false)?;
+                apply_wear(&current, state, cycle.count as u64, false, None)?;
                 state.interface_log.clear();
             }
             observer(&report, state, &current).map_err(|msg| AnalysisError::Observer { step: k + 1, msg })?;
@@ -221,7 +222,11 @@ fn wear_step(
     state.wear.increment = i + 1;
     if i + 1 == increments {
         let count = m.cycle.map_or(1, |c| c.count as u64);
-        apply_wear(m, state, count, true)?;
+        let sensitivity = match m.wear.scheme {
+            JumpScheme::Implicit => analysis.gap_sensitivity(),
+            JumpScheme::Explicit => None,
+        };
+        apply_wear(m, state, count, true, sensitivity.as_ref())?;
         if let Some(c) = m.cycle {
             state.time = c.start + c.period * state.wear.cycle as f64;
         }
@@ -237,17 +242,8 @@ fn accumulate_step_wear(m: &Model, state: &mut SimState, u_prev: &[f64]) {
     for (w, ws) in m.wear.surfaces.iter().enumerate() {
         // Small sliding keeps the reference pairing (the material points that meet stay paired,
         // as in its mechanics); finite sliding: where the surfaces meet halfway through the step.
-        let finite = m.contact.pairs[ws.contact].sliding == crate::contact::Sliding::Finite;
-        let u = &state.u;
-        let x = |node: usize| {
-            let p = m.coords[node];
-            if !finite {
-                return p;
-            }
-            let (ux, uy) = (0.5 * (u_prev[2 * node] + u[2 * node]), 0.5 * (u_prev[2 * node + 1] + u[2 * node + 1]));
-            nalgebra::Point2::new(p.x + ux, p.y + uy)
-        };
-        let (vol, work) = crate::wear::step_wear(
+        let x = pairing_position(m, ws, u_prev, &state.u);
+        let sw = crate::wear::step_wear(
             &m.contact,
             &hosts,
             ws,
@@ -257,31 +253,74 @@ fn accumulate_step_wear(m: &Model, state: &mut SimState, u_prev: &[f64]) {
             &state.multipliers,
             &x,
         );
-        for (a, v) in state.wear.cycle_volume[w].iter_mut().zip(&vol) {
+        let wear = &mut state.wear;
+        for (a, v) in wear.cycle_volume[w].iter_mut().zip(&sw.volume) {
             *a += v;
         }
-        state.wear.cycle_work[w] += work;
+        for (a, v) in wear.cycle_row_work[w].iter_mut().zip(&sw.row_work) {
+            *a += v;
+        }
+        for (a, v) in wear.cycle_row_slip[w].iter_mut().zip(&sw.row_slip) {
+            *a += v;
+        }
+        wear.cycle_work[w] += sw.work;
+    }
+}
+
+/// Where the pairs of `m` are paired at the state's displacements: the reference geometry for
+/// small sliding, the configuration halfway through the step (from `u_prev` to `u`) for finite.
+fn pairing_position<'a>(
+    m: &'a Model,
+    ws: &WearingSurface,
+    u_prev: &'a [f64],
+    u: &'a [f64],
+) -> impl Fn(usize) -> nalgebra::Point2<f64> + 'a {
+    let finite = m.contact.pairs[ws.contact].sliding == crate::contact::Sliding::Finite;
+    move |node: usize| {
+        let p = m.coords[node];
+        if !finite {
+            return p;
+        }
+        let (ux, uy) = (0.5 * (u_prev[2 * node] + u[2 * node]), 0.5 * (u_prev[2 * node + 1] + u[2 * node + 1]));
+        nalgebra::Point2::new(p.x + ux, p.y + uy)
     }
 }
 
 /// Applies the current cycle's wear: the jump `dN` (the controller's, or 1 for the ramp when
-/// `jump` is false), depths, vertices, sums and counters.
-fn apply_wear(m: &Model, state: &mut SimState, count: u64, jump: bool) -> Result<(), AnalysisError> {
-    let w = &mut state.wear;
+/// `jump` is false), depths, vertices, sums and counters. With the implicit scheme and the
+/// interface stiffness `sensitivity` of the cycle's last increment, the cycle's wear is taken
+/// at the end-of-jump pressure (see [`crate::wear::implicit_pressure_change`]).
+fn apply_wear(
+    m: &Model,
+    state: &mut SimState,
+    count: u64,
+    jump: bool,
+    sensitivity: Option<&GapSensitivity>,
+) -> Result<(), AnalysisError> {
     let measures: Vec<Vec<f64>> =
         m.wear.surfaces.iter().map(|ws| crate::wear::vertex_measure(&m.surfaces[ws.surface])).collect();
-    let rates: Vec<Vec<f64>> = w
-        .cycle_volume
+    let per_measure = |vol: &[f64], mea: &[f64]| -> Vec<f64> {
+        vol.iter().zip(mea).map(|(v, a)| if *a > 0.0 { v / a } else { 0.0 }).collect()
+    };
+    let filters: Vec<RateFilter> = m
+        .wear
+        .surfaces
         .iter()
-        .zip(&measures)
-        .zip(&m.wear.surfaces)
-        .map(|((vol, mea), ws)| {
-            let raw: Vec<f64> = vol.iter().zip(mea).map(|(v, a)| if *a > 0.0 { v / a } else { 0.0 }).collect();
+        .enumerate()
+        .map(|(k, ws)| {
             let s = &m.surfaces[ws.surface];
-            crate::wear::smooth_rate(&s.vertices, s.base.closed, mea, &raw, m.wear.smoothing)
+            let raw = per_measure(&state.wear.cycle_volume[k], &measures[k]);
+            RateFilter::new(&s.vertices, s.base.closed, &measures[k], &raw, m.wear.smoothing)
         })
         .collect();
-    let dn = if jump {
+    let rates: Vec<Vec<f64>> = filters
+        .iter()
+        .enumerate()
+        .map(|(k, f)| f.apply(&per_measure(&state.wear.cycle_volume[k], &measures[k])))
+        .collect();
+    let sensitivity = sensitivity.filter(|s| jump && m.wear.scheme == JumpScheme::Implicit && !s.rows.is_empty());
+    let scheme = if sensitivity.is_some() { JumpScheme::Implicit } else { JumpScheme::Explicit };
+    let mut dn = if jump {
         let resolution = m
             .wear
             .surfaces
@@ -290,8 +329,8 @@ fn apply_wear(m: &Model, state: &mut SimState, count: u64, jump: bool) -> Result
             .map(|(ws, r)| crate::wear::wearing_resolution(&m.surfaces[ws.surface].vertices, r))
             .fold(f64::INFINITY, f64::min);
         let flat: Vec<f64> = rates.iter().flatten().copied().collect();
-        let remaining = count.saturating_sub(w.cycle);
-        crate::wear::next_jump(m.wear.jump, &mut w.controller, &flat, resolution, remaining)
+        let remaining = count.saturating_sub(state.wear.cycle);
+        crate::wear::next_jump(m.wear.jump, scheme, &mut state.wear.controller, &flat, resolution, remaining)
     } else {
         1
     };
@@ -309,7 +348,7 @@ fn apply_wear(m: &Model, state: &mut SimState, count: u64, jump: bool) -> Result
             )
         })
         .fold(f64::INFINITY, f64::min);
-    if jump && w.computed_cycles == 0 && rmax * count as f64 <= 1e-9 * h_min {
+    if jump && state.wear.computed_cycles == 0 && rmax * count as f64 <= 1e-9 * h_min {
         return Err(AnalysisError::Wear {
             cycle: 1,
             surface: m.wear.surfaces.iter().map(|s| s.name.as_str()).collect::<Vec<_>>().join(", "),
@@ -318,6 +357,25 @@ fn apply_wear(m: &Model, state: &mut SimState, count: u64, jump: bool) -> Result
                 .into(),
         });
     }
+    // The cycle's wear volumes and work as applied: the computed ones, or (implicit) those at
+    // the end-of-jump pressure.
+    let (volumes, works, rates) = match sensitivity {
+        Some(sens) => match implicit_correction(m, state, sens, &measures, &filters, &rates, &mut dn) {
+            Some((volumes, works)) => {
+                let rates =
+                    filters.iter().zip(&volumes).zip(&measures).map(|((f, v), a)| f.apply(&per_measure(v, a))).collect();
+                (volumes, works, rates)
+            }
+            None => {
+                tracing::warn!(cycle = state.wear.cycle, "implicit wear jump: singular system; one explicit cycle");
+                dn = 1;
+                state.wear.controller.last_jump = 1;
+                (state.wear.cycle_volume.clone(), state.wear.cycle_work.clone(), rates)
+            }
+        },
+        None => (state.wear.cycle_volume.clone(), state.wear.cycle_work.clone(), rates),
+    };
+    let w = &mut state.wear;
     for (k, ws) in m.wear.surfaces.iter().enumerate() {
         let inc = crate::wear::depth_increment(&rates[k], &measures[k], dn);
         let verts: Vec<nalgebra::Point2<f64>> =
@@ -341,9 +399,11 @@ fn apply_wear(m: &Model, state: &mut SimState, count: u64, jump: bool) -> Result
             });
         }
         w.vertices[k] = moved.iter().map(|p| [p.x, p.y]).collect();
-        w.worn_area[k] += dn as f64 * w.cycle_volume[k].iter().sum::<f64>();
-        w.work[k] += dn as f64 * w.cycle_work[k];
+        w.worn_area[k] += dn as f64 * volumes[k].iter().sum::<f64>();
+        w.work[k] += dn as f64 * works[k];
         w.cycle_volume[k].iter_mut().for_each(|v| *v = 0.0);
+        w.cycle_row_work[k].iter_mut().for_each(|v| *v = 0.0);
+        w.cycle_row_slip[k].iter_mut().for_each(|v| *v = 0.0);
         w.cycle_work[k] = 0.0;
     }
     if jump {
@@ -353,4 +413,94 @@ fn apply_wear(m: &Model, state: &mut SimState, count: u64, jump: bool) -> Result
         w.increment = 0;
     }
     Ok(())
+}
+
+/// The implicit jump's cycle volumes and works per surface (the computed cycle's, each row's
+/// work moved by its change at the end-of-jump pressure, never below zero: the wear balance
+/// holds exactly), and the jump after the controller's pressure-change bound. `None` if the
+/// linearised system is singular.
+fn implicit_correction(
+    m: &Model,
+    state: &mut SimState,
+    sens: &GapSensitivity,
+    measures: &[Vec<f64>],
+    filters: &[RateFilter],
+    rates: &[Vec<f64>],
+    dn: &mut u64,
+) -> Option<(Vec<Vec<f64>>, Vec<f64>)> {
+    let hosts = m.hosts();
+    let nt = m.constraints.len();
+    let na = sens.rows.len();
+    let mut pos_of = vec![None; m.contact.rows.len()];
+    for (r, &k) in sens.rows.iter().enumerate() {
+        pos_of[k] = Some(r);
+    }
+    let w = &state.wear;
+    let mut couplings = Vec::with_capacity(m.wear.surfaces.len());
+    let mut surfaces = Vec::with_capacity(m.wear.surfaces.len());
+    for (b, ws) in m.wear.surfaces.iter().enumerate() {
+        let x = pairing_position(m, ws, &state.u, &state.u);
+        let coupling = crate::wear::wear_coupling(&m.contact, &hosts, ws, &m.surfaces[ws.surface], &x)?;
+        let c = &m.contact.pairs[ws.contact];
+        let nv = measures[b].len();
+        let mut g = nalgebra::DMatrix::zeros(na, nv);
+        let (mut phi, mut work_per_pressure) = (vec![0.0; na], vec![0.0; na]);
+        for &(i, l, v) in &coupling.entries {
+            if let Some(r) = pos_of[c.first_row + l] {
+                g[(r, i)] += v;
+            }
+        }
+        for l in 0..c.multipliers.num_nodes {
+            let k = c.first_row + l;
+            let Some(r) = pos_of[k] else { continue };
+            phi[r] = coupling.phi[l];
+            let per_pressure = match ws.law {
+                WearLaw::Archard => 1.0,
+                WearLaw::Energy => c.friction_row[l].map_or(0.0, |_| m.contact.mu[k]),
+            };
+            work_per_pressure[r] = if phi[r] > 0.0 { per_pressure * w.cycle_row_slip[b][l] } else { 0.0 };
+        }
+        surfaces.push(crate::wear::JumpSurface {
+            coupling: g,
+            phi,
+            measure: &measures[b],
+            coefficient: ws.coefficient,
+            work_per_pressure,
+            rate: &rates[b],
+            filter: &filters[b],
+        });
+        couplings.push(coupling);
+    }
+    let p_max = sens.rows.iter().map(|&k| -state.multipliers[nt + k]).fold(0.0_f64, f64::max);
+    let solve = |n: u64| crate::wear::implicit_pressure_change(&sens.dlambda_dgap, &surfaces, n);
+    let mut controller = state.wear.controller.clone();
+    let (n, dp) = crate::wear::bounded_implicit_jump(m.wear.jump, &mut controller, *dn, p_max, &solve)?;
+    let w = &mut state.wear;
+    w.controller = controller;
+    tracing::debug!(
+        cycle = w.cycle,
+        proposed = *dn,
+        jump = n,
+        pressure_change = dp.iter().fold(0.0_f64, |m, v| m.max(v.abs())) / p_max,
+        rows = na,
+        "implicit wear jump"
+    );
+    *dn = n;
+    let mut volumes = Vec::with_capacity(surfaces.len());
+    let mut works = Vec::with_capacity(surfaces.len());
+    for (b, ws) in m.wear.surfaces.iter().enumerate() {
+        let c = &m.contact.pairs[ws.contact];
+        let mut dw = vec![0.0; c.multipliers.num_nodes];
+        for (l, d) in dw.iter_mut().enumerate() {
+            if let Some(r) = pos_of[c.first_row + l] {
+                // W_end = W + c dp >= 0.
+                *d = (surfaces[b].work_per_pressure[r] * dp[r]).max(-w.cycle_row_work[b][l]);
+            }
+        }
+        let nv = measures[b].len();
+        let extra = couplings[b].volumes(ws.coefficient, &dw, nv);
+        volumes.push(w.cycle_volume[b].iter().zip(&extra).map(|(a, e)| a + e).collect());
+        works.push(w.cycle_work[b] + dw.iter().sum::<f64>());
+    }
+    Some((volumes, works))
 }

@@ -537,6 +537,7 @@ pub struct ModelBuilder {
     /// Wearing cuts: (name, law, coefficient, deepest wear), and the cycle-jump policy.
     wear_cuts: Vec<(String, crate::wear::WearLaw, f64, f64)>,
     wear_jump: crate::wear::JumpPolicy,
+    wear_scheme: crate::wear::JumpScheme,
     wear_smoothing: f64,
     ghost_penalty: f64,
     contacts: Vec<ContactSpec>,
@@ -564,6 +565,7 @@ impl ModelBuilder {
             cycle: None,
             wear_cuts: vec![],
             wear_jump: crate::wear::JumpPolicy::default(),
+            wear_scheme: crate::wear::JumpScheme::default(),
             wear_smoothing: crate::wear::DEFAULT_SMOOTHING,
         }
     }
@@ -607,6 +609,11 @@ impl ModelBuilder {
     /// Cycle-jump policy of wear runs.
     pub fn set_wear_jump(&mut self, policy: crate::wear::JumpPolicy) {
         self.wear_jump = policy;
+    }
+
+    /// How jumps extrapolate a computed cycle's wear (see [`crate::wear::JumpScheme`]).
+    pub fn set_wear_scheme(&mut self, scheme: crate::wear::JumpScheme) {
+        self.wear_scheme = scheme;
     }
 
     /// Wear-rate smoothing length in segments (see [`crate::wear::smooth_rate`]; 0: none).
@@ -1460,7 +1467,12 @@ impl ModelBuilder {
         let penalty = penalty_parts.iter().flatten().copied().collect();
         let n_constraints = constraints.len();
         let mut wear =
-            crate::wear::WearModel { surfaces: vec![], jump: self.wear_jump, smoothing: self.wear_smoothing };
+            crate::wear::WearModel {
+                surfaces: vec![],
+                jump: self.wear_jump,
+                scheme: self.wear_scheme,
+                smoothing: self.wear_smoothing,
+            };
         for (name, law, coefficient, max_depth) in &self.wear_cuts {
             let surface = self.free_cuts.iter().position(|f| &f.0 == name).unwrap_or(usize::MAX);
             let as_other = self.contacts.iter().position(|c| matches!(&c.other, ContactOther::Cut(n) if n == name));
@@ -1552,6 +1564,8 @@ impl Model {
             cycle_volume: verts.iter().map(|v| vec![0.0; v.len()]).collect(),
             vertices: verts,
             cycle_work: vec![0.0; n],
+            cycle_row_work: self.wear.surfaces.iter().map(|w| vec![0.0; self.contact.pairs[w.contact].multipliers.num_nodes]).collect(),
+            cycle_row_slip: self.wear.surfaces.iter().map(|w| vec![0.0; self.contact.pairs[w.contact].multipliers.num_nodes]).collect(),
             worn_area: vec![0.0; n],
             work: vec![0.0; n],
             ..Default::default()

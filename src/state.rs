@@ -60,6 +60,10 @@ pub struct WearState {
     pub cycle_volume: Vec<Vec<f64>>,
     /// `int p |ds|` (Archard) or `int |q ds|` (energy) of the current cycle, per surface.
     pub cycle_work: Vec<f64>,
+    /// Per surface, per multiplier node of its contact pair: the wear work `W_j` and the
+    /// weighted slip `sum |ds_j|` of the current cycle (the implicit jump's linearisation).
+    pub cycle_row_work: Vec<Vec<f64>>,
+    pub cycle_row_slip: Vec<Vec<f64>>,
     /// Worn area (`sum_i depth_i int N_i`) and the time integral of the wear work, per surface
     /// (jumps included): `worn_area = k * work` is the wear balance.
     pub worn_area: Vec<f64>,

@@ -19,9 +19,10 @@
 
 use crate::assembly::{Assembler, AssemblyInput, AssemblyOutput, SparsityPattern, CONSTRAINED};
 use crate::fem::material::{PlasticState, Stress4};
+use crate::contact::{row_laws, FrictionStatus, RowLaw};
 use crate::model::Model;
 use crate::solver::linear::{LinearSolverError, LinearSolverKind, SparseSolver};
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 /// Columns solved at a time when forming `D` (bounds the dense right-hand-side block).
@@ -148,7 +149,136 @@ pub(super) fn setup(
     Ok((assembler, solver, values, cd))
 }
 
+/// What a live row imposes in one active-set iteration: a gap row (`dw` known, `dlambda`
+/// unknown) or a multiplier row (`dlambda` known, or tied to its normal's, `dw` unknown).
+pub(super) enum Law {
+    Gap(f64),
+    Fixed(f64),
+    Slip { normal: usize, s: f64, rest: f64 },
+}
+
+/// How the multipliers of the active normal rows answer a change of their weighted gaps with
+/// the loads and the contact/friction sets held: `dlambda_A = dlambda_dgap * dg_A`, the
+/// interface stiffness of the converged state (floating bodies held by their loads included:
+/// a uniform gap change of a force-loaded body leaves the total force unchanged).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GapSensitivity {
+    /// Contact normal rows (model contact-row order) in contact.
+    pub rows: Vec<usize>,
+    pub dlambda_dgap: DMatrix<f64>,
+}
+
 impl Condensed {
+    /// Per live row, its law for the sets `row_law`; `w0` the live rows' values at the start of
+    /// the step, `lam0` the multipliers there, `slip0` the friction rows' slips so far.
+    pub fn laws(&self, m: &Model, row_law: &[RowLaw], w0: &[f64], lam0: &[f64], slip0: &[f64]) -> Vec<Law> {
+        let (nt, nc) = (m.constraints.len(), m.contact.rows.len());
+        self.live
+            .iter()
+            .enumerate()
+            .map(|(a, &i)| match row_law[i] {
+                // The row's value at the start of the step is known; its target is 0.
+                RowLaw::Constraint if i < nt => Law::Gap(-w0[a]),
+                RowLaw::Constraint if i < nt + nc => Law::Gap(-(m.contact.g0[i - nt] + w0[a])),
+                RowLaw::Constraint => Law::Gap(-slip0[i - nt - nc]),
+                RowLaw::Free => Law::Fixed(-lam0[i]),
+                RowLaw::Slip { normal, coef } => Law::Slip {
+                    normal: self.live_of[normal].unwrap_or(a),
+                    s: coef,
+                    rest: -(lam0[i] - coef * lam0[normal]),
+                },
+            })
+            .collect()
+    }
+
+    /// Matrix of `(I - rho D) dw + D dlambda = C z` in the unknowns `x_a` (`dlambda_a` of gap
+    /// rows, `dw_a` of the others).
+    pub fn law_matrix(&self, laws: &[Law]) -> DMatrix<f64> {
+        let nl = self.live.len();
+        let mut a_mat = DMatrix::<f64>::zeros(nl, nl);
+        for (a, law) in laws.iter().enumerate() {
+            let dcol = self.d.column(a);
+            let unit = |e: usize| if e == a { 1.0 } else { 0.0 };
+            match *law {
+                Law::Gap(_) => {
+                    for e in 0..nl {
+                        a_mat[(e, a)] += dcol[e];
+                    }
+                }
+                Law::Fixed(_) => {
+                    for e in 0..nl {
+                        a_mat[(e, a)] += unit(e) - self.rho[a] * dcol[e];
+                    }
+                }
+                Law::Slip { normal, s, .. } => {
+                    for e in 0..nl {
+                        a_mat[(e, a)] += unit(e) - self.rho[a] * dcol[e];
+                        a_mat[(e, normal)] += dcol[e] * s;
+                    }
+                }
+            }
+        }
+        a_mat
+    }
+
+    /// Right-hand side of [`Self::law_matrix`]'s system: `C z` minus the known terms.
+    pub fn law_rhs(&self, laws: &[Law], cz: &[f64]) -> DVector<f64> {
+        let nl = self.live.len();
+        let mut rhs = DVector::<f64>::from_column_slice(cz);
+        for (a, law) in laws.iter().enumerate() {
+            let dcol = self.d.column(a);
+            match *law {
+                Law::Gap(b) => {
+                    for e in 0..nl {
+                        let ima = if e == a { 1.0 } else { 0.0 } - self.rho[a] * dcol[e];
+                        rhs[e] -= ima * b;
+                    }
+                }
+                Law::Fixed(l) => {
+                    for e in 0..nl {
+                        rhs[e] -= dcol[e] * l;
+                    }
+                }
+                Law::Slip { rest, .. } => {
+                    for e in 0..nl {
+                        rhs[e] -= dcol[e] * rest;
+                    }
+                }
+            }
+        }
+        rhs
+    }
+
+    /// The interface stiffness of a converged state with sets `active` / `status` (see
+    /// [`GapSensitivity`]): one dense solve of the step's interface system per active normal
+    /// row, the gap row's `dw_a = -dg_a` moved to the right-hand side.
+    pub fn gap_sensitivity(&self, m: &Model, active: &[bool], status: &[FrictionStatus]) -> Option<GapSensitivity> {
+        let nt = m.constraints.len();
+        let nl = self.live.len();
+        let row_law = row_laws(&m.contact, active, status);
+        let zeros = vec![0.0; row_law.len().max(nl)];
+        let laws = self.laws(m, &row_law, &zeros[..nl], &zeros, &zeros);
+        let lu = self.law_matrix(&laws).lu();
+        let cols: Vec<usize> = (0..nl)
+            .filter(|&a| {
+                let i = self.live[a];
+                i >= nt && i < nt + active.len() && active[i - nt] && matches!(laws[a], Law::Gap(_))
+            })
+            .collect();
+        let mut out = DMatrix::zeros(cols.len(), cols.len());
+        for (c, &a) in cols.iter().enumerate() {
+            let mut rhs = DVector::zeros(nl);
+            for e in 0..nl {
+                rhs[e] = if e == a { 1.0 } else { 0.0 } - self.rho[a] * self.d[(e, a)];
+            }
+            let x = lu.solve(&rhs)?;
+            for (r, &b) in cols.iter().enumerate() {
+                out[(r, c)] = x[b];
+            }
+        }
+        Some(GapSensitivity { rows: cols.iter().map(|&a| self.live[a] - nt).collect(), dlambda_dgap: out })
+    }
+
     /// Adds multipliers `new` (model order, not yet in the set) with regularisation weight
     /// `rho` (non-zero only for rows whose `rho C^T C` is in the factored matrix): one solve
     /// with the factor per new row, `RHS_BLOCK` at a time.

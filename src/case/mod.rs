@@ -118,6 +118,11 @@ pub struct CycleJumpSpec {
     pub smoothing: Option<f64>,
     pub depth_fraction: Option<f64>,
     pub max_jump: Option<u64>,
+    /// Adaptive jumps with the implicit scheme: largest pressure change per jump relative to
+    /// the peak pressure (default 0.2).
+    pub pressure_change: Option<f64>,
+    /// "implicit" (default: linearised backward Euler, stable for any jump) or "explicit".
+    pub scheme: Option<crate::wear::JumpScheme>,
 }
 
 /// A rigid set: the nodes of a node or edge set move together (no rotation); load it with a
@@ -815,13 +820,16 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         })?;
     }
     if let Some(j) = &raw.cycle_jump {
-        let policy = match (j.fixed, j.depth_fraction, j.max_jump) {
-            (Some(0), _, _) => return Err(cx.err("cycle_jump.fixed", "must be at least 1")),
-            (Some(n), None, None) => crate::wear::JumpPolicy::Fixed(n),
-            (Some(_), _, _) => {
-                return Err(cx.err("cycle_jump", "fixed cannot be combined with depth_fraction or max_jump"))
+        let policy = match (j.fixed, j.depth_fraction, j.max_jump, j.pressure_change) {
+            (Some(0), _, _, _) => return Err(cx.err("cycle_jump.fixed", "must be at least 1")),
+            (Some(n), None, None, None) => crate::wear::JumpPolicy::Fixed(n),
+            (Some(_), _, _, _) => {
+                return Err(cx.err(
+                    "cycle_jump",
+                    "fixed cannot be combined with depth_fraction, max_jump or pressure_change",
+                ))
             }
-            (None, f, m) => {
+            (None, f, m, pc) => {
                 let depth_fraction = f.unwrap_or(0.1);
                 if !(depth_fraction.is_finite() && depth_fraction > 0.0 && depth_fraction <= 1.0) {
                     return Err(cx.err("cycle_jump.depth_fraction", format!("must be in (0, 1], got {depth_fraction}")));
@@ -830,13 +838,23 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                 if max_jump == 0 {
                     return Err(cx.err("cycle_jump.max_jump", "must be at least 1"));
                 }
-                crate::wear::JumpPolicy::Adaptive { depth_fraction, max_jump }
+                let pressure_change = pc.unwrap_or(crate::wear::DEFAULT_PRESSURE_CHANGE);
+                if !(pressure_change.is_finite() && pressure_change > 0.0) {
+                    return Err(cx.err(
+                        "cycle_jump.pressure_change",
+                        format!("must be finite and > 0, got {pressure_change}"),
+                    ));
+                }
+                crate::wear::JumpPolicy::Adaptive { depth_fraction, max_jump, pressure_change }
             }
         };
         if raw.wear.is_empty() {
             return Err(cx.err("cycle_jump", "there is no [[wear]] surface to jump cycles for"));
         }
         b.set_wear_jump(policy);
+        if let Some(scheme) = j.scheme {
+            b.set_wear_scheme(scheme);
+        }
         if let Some(sm) = j.smoothing {
             if !(sm.is_finite() && sm >= 0.0) {
                 return Err(cx.err("cycle_jump.smoothing", format!("must be finite and >= 0, got {sm}")));

@@ -76,7 +76,8 @@ pub(super) fn write(g: &hdf5::Group, state: &SimState) -> hdf5::Result<()> {
 }
 
 /// The wear state under `checkpoint/wear`: counters as attributes, per surface `i` the datasets
-/// `vertices_i` `(n, 2)`, `depth_i`, `cycle_volume_i` `(n)`, per surface `cycle_work`,
+/// `vertices_i` `(n, 2)`, `depth_i`, `cycle_volume_i` `(n)`, `cycle_row_work_i`,
+/// `cycle_row_slip_i` (per multiplier node of the pair), per surface `cycle_work`,
 /// `worn_area`, `work`, and the jump controller (`last_rate`, `last_change`, attributes
 /// `last_jump`, `jump_before`, `decay`).
 fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> {
@@ -97,6 +98,8 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
             .create(format!("vertices_{i}").as_str())?;
         vec1(&format!("depth_{i}"), &w.depth[i])?;
         vec1(&format!("cycle_volume_{i}"), &w.cycle_volume[i])?;
+        vec1(&format!("cycle_row_work_{i}"), &w.cycle_row_work[i])?;
+        vec1(&format!("cycle_row_slip_{i}"), &w.cycle_row_slip[i])?;
     }
     vec1("cycle_work", &w.cycle_work)?;
     vec1("worn_area", &w.worn_area)?;
@@ -138,6 +141,17 @@ fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, 
         w.vertices.push(flat.chunks_exact(2).map(|p| [p[0], p[1]]).collect());
         w.depth.push(depth);
         w.cycle_volume.push(vol);
+        let row_work = vec_f64(&format!("cycle_row_work_{i}"))?;
+        let row_slip = vec_f64(&format!("cycle_row_slip_{i}"))?;
+        if row_work.len() != fresh.cycle_row_work[i].len() || row_slip.len() != row_work.len() {
+            return Err(format!(
+                "wear surface {i} has {} multiplier nodes in the checkpoint, the model {}",
+                row_work.len(),
+                fresh.cycle_row_work[i].len()
+            ));
+        }
+        w.cycle_row_work.push(row_work);
+        w.cycle_row_slip.push(row_slip);
     }
     w.cycle_work = vec_f64("cycle_work")?;
     w.worn_area = vec_f64("worn_area")?;

@@ -31,7 +31,7 @@ use crate::contact::{ContactSet, PairedSide};
 use crate::discretisation::FreeSurface;
 use crate::mesh::Mesh2;
 use crate::state::ControllerState;
-use nalgebra::{Point2, Vector2};
+use nalgebra::{DMatrix, DVector, Point2, Vector2};
 
 /// Wear law of a surface.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize)]
@@ -66,13 +66,17 @@ pub enum JumpPolicy {
     /// Always `dN` cycles (the last jump shortened to the run's end).
     Fixed(u64),
     /// Adaptive (see the module documentation): depth per jump at most `depth_fraction` of the
-    /// surface's smallest segment in contact, `dN <= max_jump`.
-    Adaptive { depth_fraction: f64, max_jump: u64 },
+    /// surface's smallest segment in contact, `dN <= max_jump`; with the implicit scheme the
+    /// pressure change a jump causes at most `pressure_change` of the peak pressure.
+    Adaptive { depth_fraction: f64, max_jump: u64, pressure_change: f64 },
 }
+
+/// Default bound of the implicit jump's pressure change, relative to the peak pressure.
+pub const DEFAULT_PRESSURE_CHANGE: f64 = 0.2;
 
 impl Default for JumpPolicy {
     fn default() -> Self {
-        JumpPolicy::Adaptive { depth_fraction: 0.1, max_jump: 1_000_000 }
+        JumpPolicy::Adaptive { depth_fraction: 0.1, max_jump: 1_000_000, pressure_change: DEFAULT_PRESSURE_CHANGE }
     }
 }
 
@@ -81,6 +85,7 @@ impl Default for JumpPolicy {
 pub struct WearModel {
     pub surfaces: Vec<WearingSurface>,
     pub jump: JumpPolicy,
+    pub scheme: JumpScheme,
     /// Filter length of the wear-rate smoothing in segments (see [`smooth_rate`]; 0: none).
     pub smoothing: f64,
 }
@@ -90,7 +95,12 @@ pub const DEFAULT_SMOOTHING: f64 = 1.0;
 
 impl Default for WearModel {
     fn default() -> Self {
-        WearModel { surfaces: vec![], jump: JumpPolicy::default(), smoothing: DEFAULT_SMOOTHING }
+        WearModel {
+            surfaces: vec![],
+            jump: JumpPolicy::default(),
+            scheme: JumpScheme::default(),
+            smoothing: DEFAULT_SMOOTHING,
+        }
     }
 }
 
@@ -100,51 +110,63 @@ impl WearModel {
     }
 }
 
-/// Wear of one converged step on one wearing surface: per vertex of the polyline the wear
-/// volume `V_i` (per unit thickness), and the step's wear work `int p |ds|` (or `int |q ds|`).
-/// `u_prev`, `u`: displacements at the start and end of the step; `x` places nodes where the
-/// pair is paired for the step: the reference geometry under small sliding (the material
-/// points that meet stay paired, as in its mechanics), the configuration halfway through the
-/// step under finite sliding (the wear lands on the material that slid under the point).
-pub fn step_wear(
+/// What one converged step wears on one wearing surface.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepWear {
+    /// Wear volume `V_i` (per unit thickness) per vertex of the polyline.
+    pub volume: Vec<f64>,
+    /// The step's wear work `int p |ds|` (or `int |q ds|`).
+    pub work: f64,
+    /// Per multiplier node of the pair: its wear work `W_j` and weighted slip `|ds_j|`.
+    pub row_work: Vec<f64>,
+    pub row_slip: Vec<f64>,
+}
+
+/// The mortar coupling of a pair's multiplier nodes with a wearing polyline's vertices over one
+/// pairing: `entries (i, l, G_li)` with `G_li = int Phi_l N_i` (gap row `l` opens by
+/// `sum_i G_li dh_i` when vertex `i` wears `dh_i`), and `phi_l = int Phi_l = sum_i G_li` over
+/// the same points. Wear volumes are `V_i = k sum_l G_li W_l / phi_l`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WearCoupling {
+    pub entries: Vec<(usize, usize, f64)>,
+    pub phi: Vec<f64>,
+}
+
+impl WearCoupling {
+    /// Vertex volumes `k sum_l G_li W_l / phi_l` of row works `work`.
+    pub fn volumes(&self, coefficient: f64, work: &[f64], nv: usize) -> Vec<f64> {
+        let mut v = vec![0.0; nv];
+        for &(i, l, g) in &self.entries {
+            if work[l] != 0.0 && self.phi[l] > 0.0 {
+                v[i] += coefficient * work[l] * g / self.phi[l];
+            }
+        }
+        v
+    }
+}
+
+/// The coupling of `ws`'s contact pair with its polyline (see [`WearCoupling`]); `x` places
+/// the nodes where the pair is paired (see [`step_wear`]). `None` when the surface is neither
+/// the pair's embedded other side nor its mortar side.
+pub fn wear_coupling(
     set: &ContactSet,
     hosts: &[(&Mesh2, usize)],
     ws: &WearingSurface,
     surface: &FreeSurface,
-    u_prev: &[f64],
-    u: &[f64],
-    multipliers: &[f64],
     x: &dyn Fn(usize) -> Point2<f64>,
-) -> (Vec<f64>, f64) {
+) -> Option<WearCoupling> {
     let c = &set.pairs[ws.contact];
-    let (nt, nn) = (set.first_multiplier, set.rows.len());
     let n_lm = c.multipliers.num_nodes;
-    let mut work = vec![0.0; n_lm];
-    for (l, w) in work.iter_mut().enumerate() {
-        let k = c.first_row + l;
-        if set.phi[k] <= 0.0 {
-            continue;
-        }
-        let ds: f64 = set.tangents[k].iter().map(|&(d, v)| v * (u[d] - u_prev[d])).sum();
-        *w = match ws.law {
-            WearLaw::Archard => (-multipliers[nt + k]).max(0.0) * ds.abs(),
-            WearLaw::Energy => c.friction_row[l].map_or(0.0, |j| (multipliers[nt + nn + j] * ds).abs()),
-        };
-    }
     let nv = surface.vertices.len();
-    let mut volume = vec![0.0; nv];
-    if work.iter().all(|&w| w == 0.0) {
-        return (volume, 0.0);
-    }
     let embedding = match &c.other {
         PairedSide::Embedded { embedding, .. } => Some(embedding),
         PairedSide::Edges(_) => None,
     };
     if !ws.on_mortar_side && embedding.is_none() {
-        return (volume, 0.0);
+        return None;
     }
-    // Paired where the surfaces meet during the step (the wear lands on the material that is
-    // under the point then), weighted by the reference length (small strain).
+    // Paired where the surfaces meet (the wear lands on the material that is under the point
+    // then), weighted by the reference length (small strain).
     let mut points = crate::contact::paired_points(hosts, c, x);
     let ns = c.side.points.len();
     for p in points.iter_mut() {
@@ -153,20 +175,9 @@ pub fn step_wear(
             p.wt *= reference / p.segment_length;
         }
     }
-    // Normalise the hats by the same points (so the density integrates to sum W exactly).
     let mut phi = vec![0.0; n_lm];
+    let mut entries = Vec::with_capacity(4 * points.len());
     for p in &points {
-        for (l, v) in p.hats {
-            phi[l] += p.wt * v;
-        }
-    }
-    let mut total = 0.0;
-    for p in &points {
-        let q: f64 =
-            p.hats.iter().filter(|(l, v)| *v != 0.0 && phi[*l] > 0.0).map(|&(l, v)| work[l] * v / phi[l]).sum();
-        if q == 0.0 {
-            continue;
-        }
         // The point on the wearing surface: the mortar point (side vertices are the polyline's
         // vertices) or its partner on the other side's piece.
         let (a, b, tau) = match embedding {
@@ -176,12 +187,68 @@ pub fn step_wear(
             }
             _ => (p.va % nv, p.vb % nv, p.tau),
         };
-        let dv = p.wt * q;
-        total += dv;
-        volume[a] += ws.coefficient * dv * (1.0 - tau);
-        volume[b] += ws.coefficient * dv * tau;
+        for &(l, v) in &p.hats {
+            if v == 0.0 {
+                continue;
+            }
+            phi[l] += p.wt * v;
+            entries.push((a, l, p.wt * v * (1.0 - tau)));
+            entries.push((b, l, p.wt * v * tau));
+        }
     }
-    (volume, total)
+    Some(WearCoupling { entries, phi })
+}
+
+/// Wear of one converged step on one wearing surface. `u_prev`, `u`: displacements at the
+/// start and end of the step; `x` places nodes where the pair is paired for the step: the
+/// reference geometry under small sliding (the material points that meet stay paired, as in its
+/// mechanics), the configuration halfway through the step under finite sliding (the wear lands
+/// on the material that slid under the point).
+#[allow(clippy::too_many_arguments)]
+pub fn step_wear(
+    set: &ContactSet,
+    hosts: &[(&Mesh2, usize)],
+    ws: &WearingSurface,
+    surface: &FreeSurface,
+    u_prev: &[f64],
+    u: &[f64],
+    multipliers: &[f64],
+    x: &dyn Fn(usize) -> Point2<f64>,
+) -> StepWear {
+    let c = &set.pairs[ws.contact];
+    let (nt, nn) = (set.first_multiplier, set.rows.len());
+    let n_lm = c.multipliers.num_nodes;
+    let nv = surface.vertices.len();
+    let mut out =
+        StepWear { volume: vec![0.0; nv], work: 0.0, row_work: vec![0.0; n_lm], row_slip: vec![0.0; n_lm] };
+    for l in 0..n_lm {
+        let k = c.first_row + l;
+        if set.phi[k] <= 0.0 {
+            continue;
+        }
+        let ds: f64 = set.tangents[k].iter().map(|&(d, v)| v * (u[d] - u_prev[d])).sum();
+        out.row_slip[l] = ds.abs();
+        out.row_work[l] = match ws.law {
+            WearLaw::Archard => (-multipliers[nt + k]).max(0.0) * ds.abs(),
+            WearLaw::Energy => c.friction_row[l].map_or(0.0, |j| (multipliers[nt + nn + j] * ds).abs()),
+        };
+    }
+    if out.row_work.iter().all(|&w| w == 0.0) {
+        return out;
+    }
+    let Some(coupling) = wear_coupling(set, hosts, ws, surface, x) else {
+        out.row_work.iter_mut().for_each(|w| *w = 0.0);
+        return out;
+    };
+    // Work of rows that pair nowhere lands nowhere (and does not count).
+    for (w, phi) in out.row_work.iter_mut().zip(&coupling.phi) {
+        if *phi <= 0.0 {
+            *w = 0.0;
+        }
+    }
+    out.volume = coupling.volumes(ws.coefficient, &out.row_work, nv);
+    out.work = out.row_work.iter().sum();
+    out
 }
 
 /// `int N_i` of every vertex hat of the surface over its part inside the host.
@@ -254,47 +321,79 @@ pub fn depth_increment(rate: &[f64], measure: &[f64], dn: u64) -> Vec<f64> {
 /// stiffness, see the module documentation) is removed, a scar many segments wide is not.
 /// `s = 0`, or a closed polyline: no smoothing.
 pub fn smooth_rate(v: &[Point2<f64>], closed: bool, measure: &[f64], rate: &[f64], s: f64) -> Vec<f64> {
-    let n = rate.len();
-    if s <= 0.0 || closed || n < 3 {
-        return rate.to_vec();
-    }
-    // Tridiagonal system: lower a, diagonal b, upper c.
-    let (mut a, mut b, mut c) = (vec![0.0; n], measure.to_vec(), vec![0.0; n]);
-    let mut d: Vec<f64> = measure.iter().zip(rate).map(|(m, r)| m * r).collect();
-    // Only between vertices that wear: the filter never spreads wear where there is none (a
-    // stick zone, the unworn surface beyond the scar). Round-off rates (a sticking node's slip
-    // is zero to about 1e-17) do not count as wear.
-    let floor = 1e-12 * rate.iter().fold(0.0_f64, |m, r| m.max(r.abs()));
-    let wears = |r: f64| r.abs() > floor;
-    for i in 0..n - 1 {
-        if measure[i] > 0.0 && measure[i + 1] > 0.0 && wears(rate[i]) && wears(rate[i + 1]) {
-            let l = (v[i + 1] - v[i]).norm();
-            let k = s * s * l;
-            b[i] += k;
-            b[i + 1] += k;
-            c[i] -= k;
-            a[i + 1] -= k;
+    RateFilter::new(v, closed, measure, rate, s).apply(rate)
+}
+
+/// The factored filter of [`smooth_rate`] for the wearing vertices of one rate, applicable to
+/// other vectors (the implicit jump filters its corrections with the same operator).
+#[derive(Debug, Clone)]
+pub struct RateFilter {
+    measure: Vec<f64>,
+    /// Thomas factors: elimination multipliers, pivots, upper diagonal (empty: identity).
+    w: Vec<f64>,
+    pivot: Vec<f64>,
+    upper: Vec<f64>,
+}
+
+impl RateFilter {
+    pub fn new(v: &[Point2<f64>], closed: bool, measure: &[f64], rate: &[f64], s: f64) -> Self {
+        let n = rate.len();
+        let mut f = RateFilter { measure: measure.to_vec(), w: vec![], pivot: vec![], upper: vec![] };
+        if s <= 0.0 || closed || n < 3 {
+            return f;
         }
-    }
-    // Vertices outside the host keep their (zero) rate.
-    for i in 0..n {
-        if b[i] == 0.0 {
-            b[i] = 1.0;
-            d[i] = rate[i];
+        // Tridiagonal system: lower a, diagonal b, upper c.
+        let (mut a, mut b, mut c) = (vec![0.0; n], measure.to_vec(), vec![0.0; n]);
+        // Only between vertices that wear: the filter never spreads wear where there is none (a
+        // stick zone, the unworn surface beyond the scar). Round-off rates (a sticking node's
+        // slip is zero to about 1e-17) do not count as wear.
+        let floor = 1e-12 * rate.iter().fold(0.0_f64, |m, r| m.max(r.abs()));
+        let wears = |r: f64| r.abs() > floor;
+        for i in 0..n - 1 {
+            if measure[i] > 0.0 && measure[i + 1] > 0.0 && wears(rate[i]) && wears(rate[i + 1]) {
+                let l = (v[i + 1] - v[i]).norm();
+                let k = s * s * l;
+                b[i] += k;
+                b[i + 1] += k;
+                c[i] -= k;
+                a[i + 1] -= k;
+            }
         }
+        // Vertices outside the host keep their value (unit row).
+        for bi in b.iter_mut() {
+            if *bi == 0.0 {
+                *bi = 1.0;
+            }
+        }
+        // Thomas algorithm (the matrix is diagonally dominant: M + a weighted graph Laplacian).
+        let mut w = vec![0.0; n];
+        for i in 1..n {
+            w[i] = a[i] / b[i - 1];
+            b[i] -= w[i] * c[i - 1];
+        }
+        f.w = w;
+        f.pivot = b;
+        f.upper = c;
+        f
     }
-    // Thomas algorithm (the matrix is diagonally dominant: M + a weighted graph Laplacian).
-    for i in 1..n {
-        let w = a[i] / b[i - 1];
-        b[i] -= w * c[i - 1];
-        d[i] -= w * d[i - 1];
+
+    /// `(M + K_s)^{-1} M x` (`x` itself at vertices outside the host).
+    pub fn apply(&self, x: &[f64]) -> Vec<f64> {
+        let n = x.len();
+        if self.pivot.is_empty() {
+            return x.to_vec();
+        }
+        let mut d: Vec<f64> = self.measure.iter().zip(x).map(|(m, r)| if *m > 0.0 { m * r } else { *r }).collect();
+        for i in 1..n {
+            d[i] -= self.w[i] * d[i - 1];
+        }
+        let mut y = vec![0.0; n];
+        y[n - 1] = d[n - 1] / self.pivot[n - 1];
+        for i in (0..n - 1).rev() {
+            y[i] = (d[i] - self.upper[i] * y[i + 1]) / self.pivot[i];
+        }
+        y
     }
-    let mut x = vec![0.0; n];
-    x[n - 1] = d[n - 1] / b[n - 1];
-    for i in (0..n - 1).rev() {
-        x[i] = (d[i] - c[i] * x[i + 1]) / b[i];
-    }
-    x
 }
 
 /// The polyline moved inward by `depth` at each vertex (along the vertex normals).
@@ -315,17 +414,101 @@ pub fn wearing_resolution(v: &[Point2<f64>], rate: &[f64]) -> f64 {
     h
 }
 
+/// How a computed cycle's wear is extrapolated over its jump.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum JumpScheme {
+    /// `h += dN r(h)`: stable only while `a dN < 2` for the stiffest wear mode (see the module
+    /// documentation); the adaptive controller keeps `a dN <= 1`.
+    Explicit,
+    /// Linearised backward Euler, `h += dN r(h + dh)` with the pressure's answer to `dh` from
+    /// the interface stiffness of the cycle's last converged increment ([`implicit_pressure_change`]):
+    /// stable for any `dN`. Needs interface condensation (linear elastic bodies); otherwise the
+    /// explicit jump is used.
+    #[default]
+    Implicit,
+}
+
+/// One wearing surface's part in the implicit jump, on the active normal rows `A` of the
+/// interface stiffness.
+pub struct JumpSurface<'a> {
+    /// `G_li = int Phi_l N_i` for the rows of `A` (rows) and the polyline's vertices (columns).
+    pub coupling: DMatrix<f64>,
+    /// `phi_l = int Phi_l` of the rows of `A` (as paired for this surface).
+    pub phi: Vec<f64>,
+    /// `int N_i` of the vertices (0 outside the host).
+    pub measure: &'a [f64],
+    pub coefficient: f64,
+    /// Change of the cycle's wear work per unit pressure change, per row of `A`: the cycle's
+    /// weighted slip `sum |ds_l|` (Archard) or `mu` times it (energy law, slipping rows).
+    pub work_per_pressure: Vec<f64>,
+    /// The cycle's wear rate (depth per cycle per vertex, filtered by `filter`).
+    pub rate: &'a [f64],
+    pub filter: &'a RateFilter,
+}
+
+/// Pressure change `dp_A` at the end of a jump of `dn` cycles (linearised backward Euler):
+/// with `dlambda_A = L dg_A` (`L = dlambda_dgap`, the interface stiffness of the converged
+/// state, `lambda = -p`), each surface's depth change
+/// `dh_b = dN F_b M_b^{-1} (V_b + k_b G_b^T Phi^{-1} c_b dp)` (its cycle's wear volumes `V_b`
+/// at the end-of-jump pressure; `F_b` the rate filter, `c_b` work per pressure) opens the gaps
+/// by `dg = sum_b G_b dh_b`, hence
+/// `(I + dN L sum_b G_b F_b M_b^{-1} k_b G_b^T Phi^{-1} c_b) dp = -dN L sum_b G_b r_b`.
+/// For a Winkler foundation (`L = kappa (I - mean)`) this multiplies the pressure deviation by
+/// `1 / (1 + a dN)` per jump, `a = kappa k dS`: stable for any jump, first order, and exact in
+/// the steady state. `None` if the system is singular.
+pub fn implicit_pressure_change(dlambda_dgap: &DMatrix<f64>, surfaces: &[JumpSurface], dn: u64) -> Option<Vec<f64>> {
+    let na = dlambda_dgap.nrows();
+    let dn = dn as f64;
+    // H = sum_b G_b F_b M_b^{-1} k_b G_b^T Phi^{-1} c_b (column r: the gap opening per cycle of
+    // a unit pressure change at row r), and the gap opening rate sum_b G_b r_b.
+    let mut h = DMatrix::<f64>::zeros(na, na);
+    let mut gap_rate = DVector::<f64>::zeros(na);
+    for sf in surfaces {
+        let nv = sf.measure.len();
+        debug_assert_eq!(sf.coupling.nrows(), na);
+        debug_assert_eq!(sf.coupling.ncols(), nv);
+        gap_rate += &sf.coupling * DVector::from_column_slice(sf.rate);
+        for r in 0..na {
+            if sf.work_per_pressure[r] == 0.0 || sf.phi[r] <= 0.0 {
+                continue;
+            }
+            let scale = sf.coefficient * sf.work_per_pressure[r] / sf.phi[r];
+            let y: Vec<f64> = (0..nv)
+                .map(|i| if sf.measure[i] > 0.0 { scale * sf.coupling[(r, i)] / sf.measure[i] } else { 0.0 })
+                .collect();
+            let y = DVector::from_vec(sf.filter.apply(&y));
+            let col = &sf.coupling * y;
+            let mut hc = h.column_mut(r);
+            hc += col;
+        }
+    }
+    let a = DMatrix::identity(na, na) + dlambda_dgap * h * dn;
+    let rhs = -(dlambda_dgap * gap_rate) * dn;
+    let dp = a.lu().solve(&rhs)?;
+    dp.iter().all(|v| v.is_finite()).then(|| dp.iter().copied().collect())
+}
+
 /// Largest `a * dN` the adaptive controller allows (`1 - a dN >= 0`: the deviation from the
 /// steady wear state decays without changing sign; the explicit jump diverges beyond 2).
 pub const JUMP_SAFETY: f64 = 1.0;
 
 /// The jump `dN` to apply to a computed cycle whose wear rates (depth per cycle, all wearing
 /// surfaces' vertices in one vector) are `rate`; `resolution` is the smallest wearing segment,
-/// `remaining` the cycles left. Updates the controller memory `c`.
-pub fn next_jump(policy: JumpPolicy, c: &mut ControllerState, rate: &[f64], resolution: f64, remaining: u64) -> u64 {
+/// `remaining` the cycles left. Updates the controller memory `c`. The bound `a dN <= 1` applies
+/// to the explicit scheme only (the implicit one is stable for any jump; its accuracy bound is
+/// the pressure change, see [`bounded_implicit_jump`]).
+pub fn next_jump(
+    policy: JumpPolicy,
+    scheme: JumpScheme,
+    c: &mut ControllerState,
+    rate: &[f64],
+    resolution: f64,
+    remaining: u64,
+) -> u64 {
     let dn = match policy {
         JumpPolicy::Fixed(n) => n,
-        JumpPolicy::Adaptive { depth_fraction, max_jump } => {
+        JumpPolicy::Adaptive { depth_fraction, max_jump, .. } => {
             let mut dn = if c.last_jump == 0 { 1 } else { c.last_jump.saturating_mul(2) };
             let rmax = rate.iter().fold(0.0_f64, |m, r| m.max(r.abs()));
             if rmax > 0.0 && resolution.is_finite() {
@@ -346,7 +529,7 @@ pub fn next_jump(policy: JumpPolicy, c: &mut ControllerState, rate: &[f64], reso
                 c.last_change = change;
             }
             c.last_rate = rate.to_vec();
-            if c.decay > 0.0 {
+            if c.decay > 0.0 && scheme == JumpScheme::Explicit {
                 dn = dn.min(((JUMP_SAFETY / c.decay).floor() as u64).max(1));
             }
             dn.min(max_jump)
@@ -356,6 +539,35 @@ pub fn next_jump(policy: JumpPolicy, c: &mut ControllerState, rate: &[f64], reso
     c.jump_before = c.last_jump;
     c.last_jump = dn;
     dn
+}
+
+/// The implicit jump under the adaptive policy's accuracy bound: starting from the controller's
+/// `dn`, the pressure change `dp = solve(dN)` ([`implicit_pressure_change`]) must stay within
+/// `pressure_change * p_max`; otherwise `dN` shrinks in proportion (at most four times, never
+/// below 1). A fixed policy takes `dn` as it is. Updates the controller's last jump. `None` if
+/// `solve` fails.
+pub fn bounded_implicit_jump(
+    policy: JumpPolicy,
+    c: &mut ControllerState,
+    dn: u64,
+    p_max: f64,
+    solve: &dyn Fn(u64) -> Option<Vec<f64>>,
+) -> Option<(u64, Vec<f64>)> {
+    let mut dn = dn;
+    let mut dp = solve(dn)?;
+    if let JumpPolicy::Adaptive { pressure_change, .. } = policy {
+        for _ in 0..4 {
+            let change = dp.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+            let allowed = pressure_change * p_max;
+            if dn == 1 || change <= allowed {
+                break;
+            }
+            dn = ((dn as f64 * allowed / change).floor() as u64).clamp(1, dn - 1);
+            dp = solve(dn)?;
+        }
+    }
+    c.last_jump = dn;
+    Some((dn, dp))
 }
 
 #[cfg(test)]
@@ -374,6 +586,6 @@ mod tests {
     #[test]
     fn fixed_jump_is_shortened_at_the_end() {
         let mut c = ControllerState::default();
-        assert_eq!(next_jump(JumpPolicy::Fixed(10), &mut c, &[1.0], 1.0, 4), 4);
+        assert_eq!(next_jump(JumpPolicy::Fixed(10), JumpScheme::Explicit, &mut c, &[1.0], 1.0, 4), 4);
     }
 }
