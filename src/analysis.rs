@@ -15,7 +15,6 @@ use crate::solver::linear::{LinearSolverError, SparseSolver};
 use crate::solver::newton::NewtonError;
 use crate::state::SimState;
 
-
 pub use crate::contact::FrictionStatus;
 use crate::contact::{
     friction_couplings, gross_sliding, row_laws, slide_from_pairing, update_sets, zero_open_multipliers, RowLaw,

@@ -362,8 +362,12 @@ fn apply_wear(
     let (volumes, works, rates) = match sensitivity {
         Some(sens) => match implicit_correction(m, state, sens, &measures, &filters, &rates, &mut dn) {
             Some((volumes, works)) => {
-                let rates =
-                    filters.iter().zip(&volumes).zip(&measures).map(|((f, v), a)| f.apply(&per_measure(v, a))).collect();
+                let rates = filters
+                    .iter()
+                    .zip(&volumes)
+                    .zip(&measures)
+                    .map(|((f, v), a)| f.apply(&per_measure(v, a)))
+                    .collect();
                 (volumes, works, rates)
             }
             None => {
@@ -471,17 +475,20 @@ fn implicit_correction(
         });
         couplings.push(coupling);
     }
-    let p_max = sens.rows.iter().map(|&k| -state.multipliers[nt + k]).fold(0.0_f64, f64::max);
+    let pressure: Vec<f64> = sens.rows.iter().map(|&k| -state.multipliers[nt + k]).collect();
+    let weights: Vec<f64> = sens.rows.iter().map(|&k| m.contact.phi[k]).collect();
     let solve = |n: u64| crate::wear::implicit_pressure_change(&sens.dlambda_dgap, &surfaces, n);
     let mut controller = state.wear.controller.clone();
-    let (n, dp) = crate::wear::bounded_implicit_jump(m.wear.jump, &mut controller, *dn, p_max, &solve)?;
+    let (n, dp) = crate::wear::bounded_implicit_jump(m.wear.jump, &mut controller, *dn, &pressure, &weights, &solve)?;
     let w = &mut state.wear;
     w.controller = controller;
     tracing::debug!(
         cycle = w.cycle,
         proposed = *dn,
         jump = n,
-        pressure_change = dp.iter().fold(0.0_f64, |m, v| m.max(v.abs())) / p_max,
+        pressure_change = (dp.iter().zip(&weights).map(|(d, w)| w * d * d).sum::<f64>()
+            / pressure.iter().zip(&weights).map(|(p, w)| w * p * p).sum::<f64>())
+        .sqrt(),
         rows = na,
         "implicit wear jump"
     );

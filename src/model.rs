@@ -1466,13 +1466,12 @@ impl ModelBuilder {
             .collect();
         let penalty = penalty_parts.iter().flatten().copied().collect();
         let n_constraints = constraints.len();
-        let mut wear =
-            crate::wear::WearModel {
-                surfaces: vec![],
-                jump: self.wear_jump,
-                scheme: self.wear_scheme,
-                smoothing: self.wear_smoothing,
-            };
+        let mut wear = crate::wear::WearModel {
+            surfaces: vec![],
+            jump: self.wear_jump,
+            scheme: self.wear_scheme,
+            smoothing: self.wear_smoothing,
+        };
         for (name, law, coefficient, max_depth) in &self.wear_cuts {
             let surface = self.free_cuts.iter().position(|f| &f.0 == name).unwrap_or(usize::MAX);
             let as_other = self.contacts.iter().position(|c| matches!(&c.other, ContactOther::Cut(n) if n == name));
@@ -1564,8 +1563,18 @@ impl Model {
             cycle_volume: verts.iter().map(|v| vec![0.0; v.len()]).collect(),
             vertices: verts,
             cycle_work: vec![0.0; n],
-            cycle_row_work: self.wear.surfaces.iter().map(|w| vec![0.0; self.contact.pairs[w.contact].multipliers.num_nodes]).collect(),
-            cycle_row_slip: self.wear.surfaces.iter().map(|w| vec![0.0; self.contact.pairs[w.contact].multipliers.num_nodes]).collect(),
+            cycle_row_work: self
+                .wear
+                .surfaces
+                .iter()
+                .map(|w| vec![0.0; self.contact.pairs[w.contact].multipliers.num_nodes])
+                .collect(),
+            cycle_row_slip: self
+                .wear
+                .surfaces
+                .iter()
+                .map(|w| vec![0.0; self.contact.pairs[w.contact].multipliers.num_nodes])
+                .collect(),
             worn_area: vec![0.0; n],
             work: vec![0.0; n],
             ..Default::default()

@@ -18,8 +18,8 @@
 //! agree to round-off (tested). Live rows: ties, paired contact normals, friction rows.
 
 use crate::assembly::{Assembler, AssemblyInput, AssemblyOutput, SparsityPattern, CONSTRAINED};
-use crate::fem::material::{PlasticState, Stress4};
 use crate::contact::{row_laws, FrictionStatus, RowLaw};
+use crate::fem::material::{PlasticState, Stress4};
 use crate::model::Model;
 use crate::solver::linear::{LinearSolverError, LinearSolverKind, SparseSolver};
 use nalgebra::{DMatrix, DVector};
@@ -257,6 +257,11 @@ impl Condensed {
         let nl = self.live.len();
         let row_law = row_laws(&m.contact, active, status);
         let zeros = vec![0.0; row_law.len().max(nl)];
+        // Slipping rows keep their shear (the normal-only interface stiffness: symmetric
+        // positive definite, so the implicit jump's operator has no negative mode; the
+        // slip coupling is a second-order effect between like materials).
+        let row_law: Vec<RowLaw> =
+            row_law.into_iter().map(|r| if matches!(r, RowLaw::Slip { .. }) { RowLaw::Free } else { r }).collect();
         let laws = self.laws(m, &row_law, &zeros[..nl], &zeros, &zeros);
         let lu = self.law_matrix(&laws).lu();
         let cols: Vec<usize> = (0..nl)

@@ -824,10 +824,9 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
             (Some(0), _, _, _) => return Err(cx.err("cycle_jump.fixed", "must be at least 1")),
             (Some(n), None, None, None) => crate::wear::JumpPolicy::Fixed(n),
             (Some(_), _, _, _) => {
-                return Err(cx.err(
-                    "cycle_jump",
-                    "fixed cannot be combined with depth_fraction, max_jump or pressure_change",
-                ))
+                return Err(
+                    cx.err("cycle_jump", "fixed cannot be combined with depth_fraction, max_jump or pressure_change")
+                )
             }
             (None, f, m, pc) => {
                 let depth_fraction = f.unwrap_or(0.1);
@@ -840,10 +839,9 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                 }
                 let pressure_change = pc.unwrap_or(crate::wear::DEFAULT_PRESSURE_CHANGE);
                 if !(pressure_change.is_finite() && pressure_change > 0.0) {
-                    return Err(cx.err(
-                        "cycle_jump.pressure_change",
-                        format!("must be finite and > 0, got {pressure_change}"),
-                    ));
+                    return Err(
+                        cx.err("cycle_jump.pressure_change", format!("must be finite and > 0, got {pressure_change}"))
+                    );
                 }
                 crate::wear::JumpPolicy::Adaptive { depth_fraction, max_jump, pressure_change }
             }
