@@ -570,6 +570,18 @@ fn wear_bad_inputs_give_clear_errors() {
         &sub("cycle = [1.0, 2.0]\ncycles = 20\n", ""),
         &["no_cycle.toml", "wear", "steps.cycle"],
     );
+    expect_error(
+        &d,
+        "bad_change",
+        &sub("[cycle_jump]\nfixed = 1", "[cycle_jump]\npressure_change = -0.2"),
+        &["bad_change.toml", "cycle_jump.pressure_change", "> 0"],
+    );
+    expect_error(
+        &d,
+        "bad_scheme",
+        &sub("[cycle_jump]\nfixed = 1", "[cycle_jump]\nscheme = \"sideways\""),
+        &["bad_scheme.toml", "scheme"],
+    );
 
     // Failing runs (the case itself is valid): zero stroke, a band too shallow.
     for (name, text, needle) in [
