@@ -18,7 +18,7 @@
 use crate::analysis::{AnalysisError, GapSensitivity, StaticAnalysis, StepReport};
 use crate::model::Model;
 use crate::state::SimState;
-use crate::wear::{JumpScheme, RateFilter, WearLaw, WearingSurface};
+use crate::wear::{JumpPolicy, JumpScheme, RateFilter, WearLaw, WearingSurface};
 
 /// Options of a run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -374,10 +374,14 @@ fn apply_wear(
                 tracing::warn!(cycle = state.wear.cycle, "implicit wear jump: singular system; one explicit cycle");
                 dn = 1;
                 state.wear.controller.last_jump = 1;
+                state.wear.controller.predicted.clear();
                 (state.wear.cycle_volume.clone(), state.wear.cycle_work.clone(), rates)
             }
         },
-        None => (state.wear.cycle_volume.clone(), state.wear.cycle_work.clone(), rates),
+        None => {
+            state.wear.controller.predicted.clear();
+            (state.wear.cycle_volume.clone(), state.wear.cycle_work.clone(), rates)
+        }
     };
     let w = &mut state.wear;
     for (k, ws) in m.wear.surfaces.iter().enumerate() {
@@ -479,7 +483,19 @@ fn implicit_correction(
     let weights: Vec<f64> = sens.rows.iter().map(|&k| m.contact.phi[k]).collect();
     let solve = |n: u64| crate::wear::implicit_pressure_change(&sens.dlambda_dgap, &surfaces, n);
     let mut controller = state.wear.controller.clone();
+    // The last jump's prediction against this cycle's pressure (every contact row).
+    let all_pressure: Vec<f64> = (0..m.contact.rows.len()).map(|k| (-state.multipliers[nt + k]).max(0.0)).collect();
+    if let (JumpPolicy::Adaptive { .. }, Some((error, cap))) =
+        (m.wear.jump, crate::wear::prediction_cap(&controller, &all_pressure, &m.contact.phi))
+    {
+        tracing::debug!(cycle = state.wear.cycle, error, cap, proposed = *dn, "implicit jump: last prediction");
+        *dn = (*dn).min(cap);
+    }
     let (n, dp) = crate::wear::bounded_implicit_jump(m.wear.jump, &mut controller, *dn, &pressure, &weights, &solve)?;
+    controller.predicted = all_pressure;
+    for (r, &k) in sens.rows.iter().enumerate() {
+        controller.predicted[k] += dp[r];
+    }
     let w = &mut state.wear;
     w.controller = controller;
     tracing::debug!(

@@ -82,4 +82,7 @@ pub struct ControllerState {
     pub jump_before: u64,
     /// Estimated decay rate `a` per cycle of the rate deviation (Winkler: `kappa k dS`).
     pub decay: f64,
+    /// Implicit jumps: the contact pressure per contact row the last jump predicted for the end
+    /// of its cycles (empty after an explicit jump); the next computed cycle checks it.
+    pub predicted: Vec<f64>,
 }

@@ -78,7 +78,7 @@ pub(super) fn write(g: &hdf5::Group, state: &SimState) -> hdf5::Result<()> {
 /// The wear state under `checkpoint/wear`: counters as attributes, per surface `i` the datasets
 /// `vertices_i` `(n, 2)`, `depth_i`, `cycle_volume_i` `(n)`, `cycle_row_work_i`,
 /// `cycle_row_slip_i` (per multiplier node of the pair), per surface `cycle_work`,
-/// `worn_area`, `work`, and the jump controller (`last_rate`, `last_change`, attributes
+/// `worn_area`, `work`, and the jump controller (`last_rate`, `last_change`, `predicted`, attributes
 /// `last_jump`, `jump_before`, `decay`).
 fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> {
     let g = c.create_group("wear")?;
@@ -106,6 +106,7 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
     vec1("work", &w.work)?;
     vec1("last_rate", &w.controller.last_rate)?;
     vec1("last_change", &w.controller.last_change)?;
+    vec1("predicted", &w.controller.predicted)?;
     super::write_attr(&g, "last_jump", &w.controller.last_jump)?;
     super::write_attr(&g, "jump_before", &w.controller.jump_before)?;
     super::write_attr(&g, "decay", &w.controller.decay)?;
@@ -162,6 +163,14 @@ fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, 
     }
     w.controller.last_rate = vec_f64("last_rate")?;
     w.controller.last_change = vec_f64("last_change")?;
+    w.controller.predicted = vec_f64("predicted")?;
+    if !w.controller.predicted.is_empty() && w.controller.predicted.len() != model.contact.rows.len() {
+        return Err(format!(
+            "wear dataset predicted has {} contact rows, the model {}",
+            w.controller.predicted.len(),
+            model.contact.rows.len()
+        ));
+    }
     w.controller.last_jump = attr_u64("last_jump")?;
     w.controller.jump_before = attr_u64("jump_before")?;
     w.controller.decay =

@@ -601,6 +601,38 @@ pub fn bounded_implicit_jump(
     Some((dn, dp))
 }
 
+/// Largest error the adaptive controller accepts in an implicit jump's predicted pressure,
+/// relative, in the mean square over the contact (see [`prediction_cap`]).
+pub const PREDICTION_TOLERANCE: f64 = 0.05;
+
+/// The a-posteriori check of the last implicit jump: its predicted end pressure (per contact
+/// row, `c.predicted`) against the pressure the next computed cycle found (`pressure`), in the
+/// mean square with `weights` (`int Phi` of the rows), relative to the pressure. The error of
+/// the linearisation grows like `dN^2`, so the next jump is capped at
+/// `last_jump * sqrt(PREDICTION_TOLERANCE / error)` (at least 1); `None` without a prediction.
+/// This catches what the linearisation leaves out (rows joining the contact, a slip zone that
+/// grows with the wear).
+pub fn prediction_cap(c: &ControllerState, pressure: &[f64], weights: &[f64]) -> Option<(f64, u64)> {
+    if c.predicted.len() != pressure.len() || c.last_jump == 0 {
+        return None;
+    }
+    let (mut diff, mut norm) = (0.0, 0.0);
+    for ((p, q), w) in pressure.iter().zip(&c.predicted).zip(weights) {
+        diff += w * (p - q) * (p - q);
+        norm += w * p * p;
+    }
+    if norm <= 0.0 {
+        return None;
+    }
+    let error = (diff / norm).sqrt();
+    let cap = if error > 0.0 {
+        ((c.last_jump as f64 * (PREDICTION_TOLERANCE / error).sqrt()).floor() as u64).max(1)
+    } else {
+        u64::MAX
+    };
+    Some((error, cap))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
