@@ -362,12 +362,14 @@ fn apply_wear(
     let (volumes, works, rates) = match sensitivity {
         Some(sens) => match implicit_correction(m, state, sens, &measures, &filters, &rates, &mut dn) {
             Some((volumes, works)) => {
-                let rates = filters
+                let rates: Vec<Vec<f64>> = filters
                     .iter()
                     .zip(&volumes)
                     .zip(&measures)
                     .map(|((f, v), a)| f.apply(&per_measure(v, a)))
                     .collect();
+                // What the next computed cycle should find (checked by `prediction_cap`).
+                state.wear.controller.predicted_area_rate = volumes.iter().map(|v| v.iter().sum()).collect();
                 (volumes, works, rates)
             }
             None => {
@@ -375,11 +377,13 @@ fn apply_wear(
                 dn = 1;
                 state.wear.controller.last_jump = 1;
                 state.wear.controller.predicted.clear();
+                state.wear.controller.predicted_area_rate.clear();
                 (state.wear.cycle_volume.clone(), state.wear.cycle_work.clone(), rates)
             }
         },
         None => {
             state.wear.controller.predicted.clear();
+            state.wear.controller.predicted_area_rate.clear();
             (state.wear.cycle_volume.clone(), state.wear.cycle_work.clone(), rates)
         }
     };
@@ -483,13 +487,36 @@ fn implicit_correction(
     let weights: Vec<f64> = sens.rows.iter().map(|&k| m.contact.phi[k]).collect();
     let solve = |n: u64| crate::wear::implicit_pressure_change(&sens.dlambda_dgap, &surfaces, n);
     let mut controller = state.wear.controller.clone();
-    // The last jump's prediction against this cycle's pressure (every contact row).
+    // The last jump's prediction against this cycle: the pressure of every contact row, the
+    // worn-area rate of each surface.
     let all_pressure: Vec<f64> = (0..m.contact.rows.len()).map(|k| (-state.multipliers[nt + k]).max(0.0)).collect();
-    if let (JumpPolicy::Adaptive { .. }, Some((error, cap))) =
-        (m.wear.jump, crate::wear::prediction_cap(&controller, &all_pressure, &m.contact.phi))
-    {
-        tracing::debug!(cycle = state.wear.cycle, error, cap, proposed = *dn, "implicit jump: last prediction");
-        *dn = (*dn).min(cap);
+    if let JumpPolicy::Adaptive { prediction_tolerance, .. } = m.wear.jump {
+        use crate::wear::{prediction_cap, PRESSURE_PREDICTION_TOLERANCE};
+        let area_rate: Vec<f64> = state.wear.cycle_volume.iter().map(|v| v.iter().sum()).collect();
+        let (last, ones) = (controller.last_jump, vec![1.0; area_rate.len()]);
+        let pressure_check = prediction_cap(
+            &controller.predicted,
+            &all_pressure,
+            &m.contact.phi,
+            last,
+            PRESSURE_PREDICTION_TOLERANCE,
+            2,
+        );
+        let area_check =
+            prediction_cap(&controller.predicted_area_rate, &area_rate, &ones, last, prediction_tolerance, 1);
+        for (what, check) in [("pressure", pressure_check), ("area rate", area_check)] {
+            if let Some((error, cap)) = check {
+                tracing::debug!(
+                    cycle = state.wear.cycle,
+                    what,
+                    error,
+                    cap,
+                    proposed = *dn,
+                    "implicit jump: last prediction"
+                );
+                *dn = (*dn).min(cap);
+            }
+        }
     }
     let (n, dp) = crate::wear::bounded_implicit_jump(m.wear.jump, &mut controller, *dn, &pressure, &weights, &solve)?;
     controller.predicted = all_pressure;

@@ -85,4 +85,7 @@ pub struct ControllerState {
     /// Implicit jumps: the contact pressure per contact row the last jump predicted for the end
     /// of its cycles (empty after an explicit jump); the next computed cycle checks it.
     pub predicted: Vec<f64>,
+    /// Implicit jumps: the worn-area rate (per cycle) of each wearing surface the last jump
+    /// predicted for the end of its cycles (empty after an explicit jump).
+    pub predicted_area_rate: Vec<f64>,
 }

@@ -578,6 +578,18 @@ fn wear_bad_inputs_give_clear_errors() {
     );
     expect_error(
         &d,
+        "bad_tolerance",
+        &sub("[cycle_jump]\nfixed = 1", "[cycle_jump]\nprediction_tolerance = nan"),
+        &["bad_tolerance.toml", "cycle_jump.prediction_tolerance", "> 0"],
+    );
+    expect_error(
+        &d,
+        "fixed_and_tolerance",
+        &sub("[cycle_jump]\nfixed = 1", "[cycle_jump]\nfixed = 1\nprediction_tolerance = 0.01"),
+        &["fixed_and_tolerance.toml", "cycle_jump", "cannot be combined"],
+    );
+    expect_error(
+        &d,
         "bad_scheme",
         &sub("[cycle_jump]\nfixed = 1", "[cycle_jump]\nscheme = \"sideways\""),
         &["bad_scheme.toml", "scheme"],

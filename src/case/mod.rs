@@ -121,6 +121,9 @@ pub struct CycleJumpSpec {
     /// Adaptive jumps with the implicit scheme: largest pressure change per jump relative to
     /// the peak pressure (default 0.2).
     pub pressure_change: Option<f64>,
+    /// Adaptive jumps with the implicit scheme: largest relative error of a jump's predicted
+    /// worn-area rate (each surface) against the next computed cycle's (default 0.01).
+    pub prediction_tolerance: Option<f64>,
     /// "implicit" (default: linearised backward Euler, stable for any jump) or "explicit".
     pub scheme: Option<crate::wear::JumpScheme>,
 }
@@ -820,15 +823,21 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         })?;
     }
     if let Some(j) = &raw.cycle_jump {
-        let policy = match (j.fixed, j.depth_fraction, j.max_jump, j.pressure_change) {
-            (Some(0), _, _, _) => return Err(cx.err("cycle_jump.fixed", "must be at least 1")),
-            (Some(n), None, None, None) => crate::wear::JumpPolicy::Fixed(n),
-            (Some(_), _, _, _) => {
-                return Err(
-                    cx.err("cycle_jump", "fixed cannot be combined with depth_fraction, max_jump or pressure_change")
-                )
+        let adaptive_keys = j.depth_fraction.is_some()
+            || j.max_jump.is_some()
+            || j.pressure_change.is_some()
+            || j.prediction_tolerance.is_some();
+        let policy = match (j.fixed, adaptive_keys) {
+            (Some(0), _) => return Err(cx.err("cycle_jump.fixed", "must be at least 1")),
+            (Some(n), false) => crate::wear::JumpPolicy::Fixed(n),
+            (Some(_), true) => {
+                return Err(cx.err(
+                    "cycle_jump",
+                    "fixed cannot be combined with depth_fraction, max_jump, pressure_change or prediction_tolerance",
+                ))
             }
-            (None, f, m, pc) => {
+            (None, _) => {
+                let (f, m, pc) = (j.depth_fraction, j.max_jump, j.pressure_change);
                 let depth_fraction = f.unwrap_or(0.1);
                 if !(depth_fraction.is_finite() && depth_fraction > 0.0 && depth_fraction <= 1.0) {
                     return Err(cx.err("cycle_jump.depth_fraction", format!("must be in (0, 1], got {depth_fraction}")));
@@ -843,7 +852,14 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                         cx.err("cycle_jump.pressure_change", format!("must be finite and > 0, got {pressure_change}"))
                     );
                 }
-                crate::wear::JumpPolicy::Adaptive { depth_fraction, max_jump, pressure_change }
+                let prediction_tolerance = j.prediction_tolerance.unwrap_or(crate::wear::DEFAULT_PREDICTION_TOLERANCE);
+                if !(prediction_tolerance.is_finite() && prediction_tolerance > 0.0) {
+                    return Err(cx.err(
+                        "cycle_jump.prediction_tolerance",
+                        format!("must be finite and > 0, got {prediction_tolerance}"),
+                    ));
+                }
+                crate::wear::JumpPolicy::Adaptive { depth_fraction, max_jump, pressure_change, prediction_tolerance }
             }
         };
         if raw.wear.is_empty() {

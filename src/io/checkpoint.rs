@@ -78,7 +78,7 @@ pub(super) fn write(g: &hdf5::Group, state: &SimState) -> hdf5::Result<()> {
 /// The wear state under `checkpoint/wear`: counters as attributes, per surface `i` the datasets
 /// `vertices_i` `(n, 2)`, `depth_i`, `cycle_volume_i` `(n)`, `cycle_row_work_i`,
 /// `cycle_row_slip_i` (per multiplier node of the pair), per surface `cycle_work`,
-/// `worn_area`, `work`, and the jump controller (`last_rate`, `last_change`, `predicted`, attributes
+/// `worn_area`, `work`, and the jump controller (`last_rate`, `last_change`, `predicted`, `predicted_area_rate`, attributes
 /// `last_jump`, `jump_before`, `decay`).
 fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> {
     let g = c.create_group("wear")?;
@@ -107,6 +107,7 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
     vec1("last_rate", &w.controller.last_rate)?;
     vec1("last_change", &w.controller.last_change)?;
     vec1("predicted", &w.controller.predicted)?;
+    vec1("predicted_area_rate", &w.controller.predicted_area_rate)?;
     super::write_attr(&g, "last_jump", &w.controller.last_jump)?;
     super::write_attr(&g, "jump_before", &w.controller.jump_before)?;
     super::write_attr(&g, "decay", &w.controller.decay)?;
@@ -169,6 +170,13 @@ fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, 
             "wear dataset predicted has {} contact rows, the model {}",
             w.controller.predicted.len(),
             model.contact.rows.len()
+        ));
+    }
+    w.controller.predicted_area_rate = vec_f64("predicted_area_rate")?;
+    if !w.controller.predicted_area_rate.is_empty() && w.controller.predicted_area_rate.len() != n {
+        return Err(format!(
+            "wear dataset predicted_area_rate has {} values, the model {n} wearing surfaces",
+            w.controller.predicted_area_rate.len()
         ));
     }
     w.controller.last_jump = attr_u64("last_jump")?;
