@@ -152,40 +152,53 @@ fn cattaneo_mindlin(n_fine: usize, core: f64, virtual_lower: bool, ratio: f64) -
 /// a sqrt(1 - Q/(mu P)), shear-traction L2 error over [-a, a] within 3%, and MorteX vs
 /// classical mortar within 1% at 0.5 and 0.75. At 0.25 the MorteX-classical difference is
 /// reported, not asserted: 1.17% (missed; relative to the small shear of that case).
+/// The 0.25 case (427k DOFs, the file's largest mesh) is the ignored
+/// `cattaneo_mindlin_quarter_load`; the CI run keeps 0.5 and 0.75.
 #[test]
 fn cattaneo_mindlin_partial_slip() {
-    for ratio in [0.25, 0.5, 0.75] {
-        let n = if ratio < 0.5 { 300 } else { 200 };
-        let real = cattaneo_mindlin(n, 0.1, false, ratio);
-        let virt = cattaneo_mindlin(n, 0.1, true, ratio);
-        for (r, name) in [(&real, "real"), (&virt, "virtual")] {
-            assert!((r.resultant / (ratio * MU * P) - 1.0).abs() < 1e-7, "{name}: shear resultant {}", r.resultant);
-            assert!(r.law_error < 1e-9, "{name}: Coulomb law violated by {:.2e} (relative)", r.law_error);
-            assert!(r.stick_intervals == 1, "{name}: {} stick intervals", r.stick_intervals);
-            assert!(r.c_err.abs() < 0.03, "{name}, Q/(mu P) = {ratio}: stick zone {:+.2}%", 100.0 * r.c_err);
-        }
-        for (r, name) in [(&real, "real"), (&virt, "virtual")] {
-            assert!(r.q_l2 < 0.03, "{name}, Q/(mu P) = {ratio}: shear L2 {:.2}%", 100.0 * r.q_l2);
-        }
-        let (mut num, mut den) = (0.0, 0.0);
-        for (p, q) in real.q.iter().zip(&virt.q) {
-            assert!((p.0 - q.0).abs() < 1e-12, "same mortar side, same nodes");
-            num += (p.1 - q.1).powi(2);
-            den += p.1 * p.1;
-        }
-        let diff = (num / den).sqrt();
-        if ratio >= 0.5 {
-            assert!(diff < 0.01, "Q/(mu P) = {ratio}: MorteX vs classical {:.2}%", 100.0 * diff);
-        }
-        eprintln!(
-            "Q/(mu P) = {ratio}: stick zone {:+.2}% / {:+.2}%, shear L2 {:.2}% / {:.2}% (real / virtual); MorteX vs classical {:.2}%",
-            100.0 * real.c_err,
-            100.0 * virt.c_err,
-            100.0 * real.q_l2,
-            100.0 * virt.q_l2,
-            100.0 * diff
-        );
+    for ratio in [0.5, 0.75] {
+        check_cattaneo_mindlin(ratio, 200);
     }
+}
+
+/// Cattaneo-Mindlin at Q/(mu P) = 0.25 on the 427k-DOF mesh (see `cattaneo_mindlin_partial_slip`):
+/// `cargo test --release --test mindlin -- --ignored quarter`.
+#[test]
+#[ignore]
+fn cattaneo_mindlin_quarter_load() {
+    check_cattaneo_mindlin(0.25, 300);
+}
+
+fn check_cattaneo_mindlin(ratio: f64, n: usize) {
+    let real = cattaneo_mindlin(n, 0.1, false, ratio);
+    let virt = cattaneo_mindlin(n, 0.1, true, ratio);
+    for (r, name) in [(&real, "real"), (&virt, "virtual")] {
+        assert!((r.resultant / (ratio * MU * P) - 1.0).abs() < 1e-7, "{name}: shear resultant {}", r.resultant);
+        assert!(r.law_error < 1e-9, "{name}: Coulomb law violated by {:.2e} (relative)", r.law_error);
+        assert!(r.stick_intervals == 1, "{name}: {} stick intervals", r.stick_intervals);
+        assert!(r.c_err.abs() < 0.03, "{name}, Q/(mu P) = {ratio}: stick zone {:+.2}%", 100.0 * r.c_err);
+    }
+    for (r, name) in [(&real, "real"), (&virt, "virtual")] {
+        assert!(r.q_l2 < 0.03, "{name}, Q/(mu P) = {ratio}: shear L2 {:.2}%", 100.0 * r.q_l2);
+    }
+    let (mut num, mut den) = (0.0, 0.0);
+    for (p, q) in real.q.iter().zip(&virt.q) {
+        assert!((p.0 - q.0).abs() < 1e-12, "same mortar side, same nodes");
+        num += (p.1 - q.1).powi(2);
+        den += p.1 * p.1;
+    }
+    let diff = (num / den).sqrt();
+    if ratio >= 0.5 {
+        assert!(diff < 0.01, "Q/(mu P) = {ratio}: MorteX vs classical {:.2}%", 100.0 * diff);
+    }
+    eprintln!(
+        "Q/(mu P) = {ratio}: stick zone {:+.2}% / {:+.2}%, shear L2 {:.2}% / {:.2}% (real / virtual); MorteX vs classical {:.2}%",
+        100.0 * real.c_err,
+        100.0 * virt.c_err,
+        100.0 * real.q_l2,
+        100.0 * virt.q_l2,
+        100.0 * diff
+    );
 }
 
 #[test]
