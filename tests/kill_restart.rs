@@ -14,10 +14,12 @@ fn tmpfile(name: &str) -> PathBuf {
 }
 
 /// Starts `mortex run case -o <name>.h5`, kills it (SIGKILL) after `delay`, then resumes with
-/// `--restart` from what it left. Returns the step it resumed from and the continuation's file,
+/// `--restart` from what it left; with `damage`, the left `.h5.partial` is first made unreadable
+/// (its first 8 KiB zeroed, the superblock with them), as a kill during an HDF5 metadata update
+/// can leave it, so the resume must come from the side copy of the last checkpoint. Returns the step it resumed from and the continuation's file,
 /// or `None` if the run finished first or was killed before its first checkpoint. A killed run
 /// must never leave an XDMF beside a file it does not describe.
-fn kill_then_resume(case: &Path, name: &str, delay: std::time::Duration) -> Option<(usize, PathBuf)> {
+fn kill_then_resume(case: &Path, name: &str, delay: std::time::Duration, damage: bool) -> Option<(usize, PathBuf)> {
     use std::process::{Command, Stdio};
     let exe = env!("CARGO_BIN_EXE_mortex");
     let out = tmpfile(&format!("{name}.h5"));
@@ -41,6 +43,17 @@ fn kill_then_resume(case: &Path, name: &str, delay: std::time::Duration) -> Opti
     if !partial.exists() {
         // Killed while still reading the case and building the model: nothing to resume.
         return None;
+    }
+    if damage {
+        let side = checkpoint::side_path(&partial);
+        if !side.exists() {
+            return None; // killed before the first checkpoint
+        }
+        let mut bytes = std::fs::read(&partial).unwrap();
+        let n = bytes.len().min(8192);
+        bytes[..n].fill(0);
+        std::fs::write(&partial, bytes).unwrap();
+        assert!(hdf5::File::open(&partial).is_err(), "{name}: the damaged file must not open");
     }
     let k = *checkpoint::available_steps(&partial).unwrap().last()?;
     let cont = tmpfile(&format!("{name}_resumed.h5"));
@@ -102,7 +115,11 @@ fn kill_minus_nine_then_resume_is_bit_identical() {
     assert_eq!(k_ref, 161);
     let mut resumed_from = vec![];
     for (i, fraction) in [0.15, 0.32, 0.5, 0.67, 0.85].into_iter().enumerate() {
-        let Some((k, cont)) = kill_then_resume(&case, &format!("kill_{i}"), wall.mul_f64(fraction)) else { continue };
+        // The third kill also damages what the run left (resume from the side checkpoint).
+        let damage = i == 2;
+        let Some((k, cont)) = kill_then_resume(&case, &format!("kill_{i}"), wall.mul_f64(fraction), damage) else {
+            continue;
+        };
         let (k_end, b) = last(&cont);
         assert_eq!(k_end, k_ref);
         assert!(b == bits_ref, "kill {i}: resumed from step {k}: final state differs from the uninterrupted run");
@@ -169,7 +186,7 @@ fn kill_minus_nine_during_wear_with_jumps_then_resume_is_bit_identical() {
     };
     let mut resumed_from = vec![];
     for (i, fraction) in [0.15, 0.32, 0.5, 0.67, 0.85].into_iter().enumerate() {
-        let Some((k, cont)) = kill_then_resume(&case, &format!("kill_wear_{i}"), wall.mul_f64(fraction)) else {
+        let Some((k, cont)) = kill_then_resume(&case, &format!("kill_wear_{i}"), wall.mul_f64(fraction), i == 1) else {
             continue;
         };
         let k_end = *checkpoint::available_steps(&cont).unwrap().last().unwrap();

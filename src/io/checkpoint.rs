@@ -19,7 +19,7 @@ use crate::fem::material::{PlasticState, Stress4};
 use crate::model::Model;
 use crate::state::SimState;
 use ndarray::Array1;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Errors of reading a checkpoint: the file, the step and what is wrong.
 #[derive(Debug, thiserror::Error)]
@@ -197,8 +197,36 @@ fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, 
     Ok(w)
 }
 
-/// Steps of `path` that hold a checkpoint, in increasing order.
+/// The side copy of the latest checkpoint beside a run's `.h5.partial` (see [`super`]).
+pub fn side_path(partial: &Path) -> PathBuf {
+    PathBuf::from(format!("{}.checkpoint", partial.display()))
+}
+
+/// Where the checkpoints of `path` can be read: `path` itself, or, if it cannot be read (a run
+/// killed while HDF5 updated its metadata), the side copy of its latest checkpoint.
+fn readable_source(path: &Path) -> Result<(PathBuf, Vec<usize>), CheckpointError> {
+    match steps_in(path) {
+        Ok(steps) => Ok((path.to_path_buf(), steps)),
+        Err(e) => {
+            let side = side_path(path);
+            match side.exists().then(|| steps_in(&side)) {
+                Some(Ok(steps)) => {
+                    tracing::warn!(file = %path.display(), side = %side.display(), error = %e, "damaged file: resuming from the side copy of its last checkpoint");
+                    Ok((side, steps))
+                }
+                _ => Err(e),
+            }
+        }
+    }
+}
+
+/// Steps that hold a checkpoint, in increasing order: those of `path`, or of the side copy of
+/// its latest checkpoint if `path` cannot be read (see [`super`]).
 pub fn available_steps(path: &Path) -> Result<Vec<usize>, CheckpointError> {
+    readable_source(path).map(|(_, steps)| steps)
+}
+
+fn steps_in(path: &Path) -> Result<Vec<usize>, CheckpointError> {
     let read = |msg: String| CheckpointError::Read { path: path.display().to_string(), msg };
     let file = hdf5::File::open(path).map_err(|e| read(e.to_string()))?;
     let steps = file.group("steps").map_err(|e| read(format!("no /steps group ({e}); not a mortex result file?")))?;
@@ -222,8 +250,9 @@ pub fn available_steps(path: &Path) -> Result<Vec<usize>, CheckpointError> {
 /// `path` and checks that it fits `model`: array sizes, and the step's time against the case's
 /// output times (bit for bit, as the run will continue from them).
 pub fn read(path: &Path, step: Option<usize>, model: &Model) -> Result<SimState, CheckpointError> {
+    let (source, available) = readable_source(path)?;
+    let path = source.as_path();
     let p = path.display().to_string();
-    let available = available_steps(path)?;
     let step = match step.or(available.last().copied()) {
         Some(s) if available.contains(&s) => s,
         Some(s) => return Err(CheckpointError::NoSuchStep { path: p, step: s, available }),

@@ -46,6 +46,12 @@
 //! that name already exists. The XDMF (steps with full fields) is written once, when the file
 //! is renamed into place, so it never describes another file. The contact CSV is written as
 //! the run goes (`<name>_contact.csv.partial`, renamed at the end).
+//!
+//! HDF5 has no journal: a process killed while the library updates the file's metadata can
+//! leave `<name>.h5.partial` unreadable. So each checkpoint is also written, alone, to
+//! `<name>.h5.partial.checkpoint` (a fresh file renamed into place: always whole), which
+//! [`checkpoint::read`] falls back to when the partial file cannot be read. It is removed when
+//! the partial file becomes the result.
 
 pub mod checkpoint;
 pub mod plot;
@@ -567,9 +573,29 @@ impl ResultWriter {
             file.flush().map_err(h5err(&self.partial_path, &format!("flushing step {}", report.step)))?;
             self.last_flush = std::time::Instant::now();
         }
+        if checkpoint {
+            self.write_side_checkpoint(report, state)?;
+        }
         self.append_contact_rows(model, &fields, report)?;
         self.steps.push((report.step, report.time, report.load_factor, full));
         Ok(())
+    }
+
+    /// The latest checkpoint alone in `<partial>.checkpoint`: written to a temporary file, then
+    /// renamed over the previous one (atomic), so a kill at any moment leaves a whole one.
+    fn write_side_checkpoint(&self, report: &StepReport, state: &SimState) -> Result<(), OutputError> {
+        let side = checkpoint::side_path(&self.partial_path);
+        let tmp = PathBuf::from(format!("{}.tmp", side.display()));
+        let res: hdf5::Result<()> = (|| {
+            let f = hdf5::File::create(&tmp)?;
+            let g = f.create_group("steps")?.create_group(&format!("{:06}", report.step))?;
+            write_attr(&g, "time", &report.time)?;
+            write_attr(&g, "load_factor", &report.load_factor)?;
+            checkpoint::write(&g, state)?;
+            f.flush()
+        })();
+        res.map_err(h5err(&tmp, &format!("writing the checkpoint of step {}", report.step)))?;
+        std::fs::rename(&tmp, &side).map_err(|e| OutputError::Io { path: side.display().to_string(), source: e })
     }
 
     /// Nodal, cell and point fields of a step.
@@ -682,6 +708,11 @@ impl ResultWriter {
         }
         if keep_partial {
             return Ok(self.partial_path.clone());
+        }
+        // The result holds every checkpoint: the side copy of the last one has done its job.
+        let side = checkpoint::side_path(&self.partial_path);
+        if side.exists() {
+            std::fs::remove_file(&side).map_err(io(&side))?;
         }
         // XDMF first to its own partial, then both renamed: the XDMF beside a result always
         // describes that result.
