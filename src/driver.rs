@@ -302,6 +302,7 @@ fn apply_wear(
     let per_measure = |vol: &[f64], mea: &[f64]| -> Vec<f64> {
         vol.iter().zip(mea).map(|(v, a)| if *a > 0.0 { v / a } else { 0.0 }).collect()
     };
+    let raw: Vec<Vec<f64>> = state.wear.cycle_volume.iter().zip(&measures).map(|(v, a)| per_measure(v, a)).collect();
     let filters: Vec<RateFilter> = m
         .wear
         .surfaces
@@ -309,15 +310,10 @@ fn apply_wear(
         .enumerate()
         .map(|(k, ws)| {
             let s = &m.surfaces[ws.surface];
-            let raw = per_measure(&state.wear.cycle_volume[k], &measures[k]);
-            RateFilter::new(&s.vertices, s.base.closed, &measures[k], &raw, m.wear.smoothing)
+            RateFilter::new(&s.vertices, s.base.closed, &measures[k], &raw[k], m.wear.smoothing)
         })
         .collect();
-    let rates: Vec<Vec<f64>> = filters
-        .iter()
-        .enumerate()
-        .map(|(k, f)| f.apply(&per_measure(&state.wear.cycle_volume[k], &measures[k])))
-        .collect();
+    let rates: Vec<Vec<f64>> = filters.iter().zip(&raw).map(|(f, r)| f.apply(r)).collect();
     let sensitivity = sensitivity.filter(|s| jump && m.wear.scheme == JumpScheme::Implicit && !s.rows.is_empty());
     let scheme = if sensitivity.is_some() { JumpScheme::Implicit } else { JumpScheme::Explicit };
     let mut dn = if jump {
@@ -376,14 +372,12 @@ fn apply_wear(
                 tracing::warn!(cycle = state.wear.cycle, "implicit wear jump: singular system; one explicit cycle");
                 dn = 1;
                 state.wear.controller.last_jump = 1;
-                state.wear.controller.predicted.clear();
-                state.wear.controller.predicted_area_rate.clear();
+                state.wear.controller.forget_prediction();
                 (state.wear.cycle_volume.clone(), state.wear.cycle_work.clone(), rates)
             }
         },
         None => {
-            state.wear.controller.predicted.clear();
-            state.wear.controller.predicted_area_rate.clear();
+            state.wear.controller.forget_prediction();
             (state.wear.cycle_volume.clone(), state.wear.cycle_work.clone(), rates)
         }
     };

@@ -89,3 +89,12 @@ pub struct ControllerState {
     /// predicted for the end of its cycles (empty after an explicit jump).
     pub predicted_area_rate: Vec<f64>,
 }
+
+impl ControllerState {
+    /// After a jump that predicted nothing (explicit, or a singular implicit system): the next
+    /// computed cycle has nothing to check.
+    pub fn forget_prediction(&mut self) {
+        self.predicted.clear();
+        self.predicted_area_rate.clear();
+    }
+}
