@@ -11,6 +11,7 @@
 use crate::assembly::{Assembler, AssemblyInput, AssemblyOutput, SparsityPattern};
 use crate::fem::material::{PlasticState, Stress4};
 use crate::model::Model;
+use crate::solver::dense::DenseLu;
 use crate::solver::linear::{LinearSolverError, SparseSolver};
 use crate::solver::newton::NewtonError;
 use crate::state::SimState;
@@ -709,7 +710,7 @@ impl<'m> StaticAnalysis<'m> {
                     let laws = cd.laws(m, &row_law, &w0, &lam0, &slip0);
                     let a_mat = cd.law_matrix(&laws);
                     let rhs = cd.law_rhs(&laws, &cz);
-                    let Some(x) = a_mat.lu().solve(&rhs) else {
+                    let Some(x) = DenseLu::new(a_mat).and_then(|lu| lu.solve(&rhs)) else {
                         tracing::warn!(step, t, it, "condensed interface system is singular");
                         if let Some(slipping) = gross_sliding(&status) {
                             return Err(AnalysisError::GrossSliding { step, time: t, slipping });

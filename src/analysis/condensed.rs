@@ -21,6 +21,7 @@ use crate::assembly::{Assembler, AssemblyInput, AssemblyOutput, SparsityPattern,
 use crate::contact::{row_laws, FrictionStatus, RowLaw};
 use crate::fem::material::{PlasticState, Stress4};
 use crate::model::Model;
+use crate::solver::dense::DenseLu;
 use crate::solver::linear::{LinearSolverError, LinearSolverKind, SparseSolver};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
@@ -101,7 +102,9 @@ pub(super) fn setup(
     }
     let t0 = std::time::Instant::now();
     let pattern = SparsityPattern::with_constraints(m.num_nodes(), &m.elements, &m.dofs, &[], &penalty, 0, &[]);
+    let tp = t0.elapsed().as_secs_f64();
     let mut solver = SparseSolver::new(&pattern.symbolic, LinearSolverKind::Cholesky)?;
+    let ts = t0.elapsed().as_secs_f64();
     let mut values = vec![0.0; pattern.nnz()];
     let mut assembler = Assembler::new(pattern, &m.elements);
     let u = vec![0.0; m.dofs.num_dofs];
@@ -141,7 +144,9 @@ pub(super) fn setup(
     tracing::info!(
         set = cd.live.len(),
         rho,
-        assembly_s = t1,
+        pattern_s = tp,
+        symbolic_s = ts - tp,
+        assembly_s = t1 - ts,
         factor_s = t2 - t1,
         delassus_s = t0.elapsed().as_secs_f64() - t2,
         "interface condensation: K_rho factored, Delassus operator formed"
@@ -263,7 +268,7 @@ impl Condensed {
         let row_law: Vec<RowLaw> =
             row_law.into_iter().map(|r| if matches!(r, RowLaw::Slip { .. }) { RowLaw::Free } else { r }).collect();
         let laws = self.laws(m, &row_law, &zeros[..nl], &zeros, &zeros);
-        let lu = self.law_matrix(&laws).lu();
+        let lu = DenseLu::new(self.law_matrix(&laws))?;
         let cols: Vec<usize> = (0..nl)
             .filter(|&a| {
                 let i = self.live[a];
@@ -302,6 +307,20 @@ impl Condensed {
         let nl = self.live.len();
         let mut d = DMatrix::zeros(nl, nl);
         d.view_mut((0, 0), (old, old)).copy_from(&self.d);
+        // Supernodal Cholesky: the new columns by forward substitution on the surface's
+        // elimination-tree ancestors only.
+        if let Some(block) = solver.congruence(&self.rows_free, old) {
+            for b in 0..nl - old {
+                for a in 0..nl {
+                    d[(a, old + b)] = block[(a, b)];
+                    if a < old {
+                        d[(old + b, a)] = block[(a, b)];
+                    }
+                }
+            }
+            self.d = d;
+            return Ok(());
+        }
         let nf = m.dofs.num_free;
         // Blocks of RHS_BLOCK new rows, solved on the rayon threads (the triangular solves of
         // one block run on one core); each returns its columns of D over all set rows.

@@ -4,7 +4,8 @@
 //! caller-owned buffers) and scatters them serially in element order. Because the scatter
 //! order never depends on the thread count, serial and parallel assembly are bit-identical.
 
-use crate::fem::kernel::{element_kernel, ElementInput, ElementOutput, Formulation};
+use crate::fem::element::ShapeEval;
+use crate::fem::kernel::{element_kernel, point_geometry, ElementInput, ElementOutput, Formulation};
 use crate::fem::material::{Material, PlasticState, Stress4};
 use crate::fem::quadrature::QuadratureRule;
 use crate::mesh::CellKind;
@@ -299,6 +300,12 @@ pub struct Assembler {
     fe: Vec<[f64; 8]>,
     /// Element block boundaries for the parallel loop.
     blocks: Vec<usize>,
+    /// Mapped geometry at every quadrature point (point order), computed by the first assembly:
+    /// an assembler belongs to one model, whose reference geometry and rules are fixed.
+    geometry: Vec<ShapeEval>,
+    /// Coordinates and rule table the geometry was computed from (address and length): a
+    /// different input recomputes it.
+    geometry_of: Option<(usize, usize, usize, usize)>,
 }
 
 const BLOCK: usize = 512;
@@ -320,11 +327,52 @@ impl Assembler {
         let ne = elements.len();
         let mut blocks: Vec<usize> = (0..ne).step_by(BLOCK).collect();
         blocks.push(ne);
-        Assembler { pattern, ke: vec![[0.0; 64]; ne], fe: vec![[0.0; 8]; ne], blocks }
+        Assembler {
+            pattern,
+            ke: vec![[0.0; 64]; ne],
+            fe: vec![[0.0; 8]; ne],
+            blocks,
+            geometry: Vec::new(),
+            geometry_of: None,
+        }
+    }
+
+    /// Fills the per-point geometry table if `inp`'s geometry is not the one it holds.
+    fn ensure_geometry(&mut self, inp: &AssemblyInput, parallel: bool) {
+        let key = (inp.coords.as_ptr() as usize, inp.coords.len(), inp.rules.as_ptr() as usize, inp.rules.len());
+        let el = inp.elements;
+        if self.geometry_of == Some(key) && self.geometry.len() == el.num_points() {
+            return;
+        }
+        self.geometry = vec![ShapeEval::default(); el.num_points()];
+        let ends = self.blocks[1..].to_vec();
+        let blocks = split_mut(&mut self.geometry, ends.iter().map(|&b| el.point_offset[b]));
+        let starts = &self.blocks[..self.blocks.len() - 1];
+        let work = |((&b0, g), b1): ((&usize, &mut [ShapeEval]), usize)| {
+            let p0 = el.point_offset[b0];
+            for e in b0..b1 {
+                let nodes = &el.nodes[e];
+                let mut coords = [Point2::origin(); 4];
+                for a in 0..el.kind[e].num_nodes() {
+                    coords[a] = inp.coords[nodes[a]];
+                }
+                let (pa, pb) = (el.point_offset[e] - p0, el.point_offset[e + 1] - p0);
+                point_geometry(el.kind[e], coords, &inp.rules[el.rule[e]], &mut g[pa..pb]);
+            }
+        };
+        let jobs: Vec<_> = starts.iter().zip(blocks).zip(ends.iter().copied()).collect();
+        if parallel {
+            jobs.into_par_iter().for_each(work);
+        } else {
+            jobs.into_iter().for_each(work);
+        }
+        self.geometry_of = Some(key);
     }
 
     /// Evaluates all element kernels (in parallel if `parallel`) and scatters them.
     pub fn assemble(&mut self, inp: &AssemblyInput, out: AssemblyOutput, parallel: bool) {
+        self.ensure_geometry(inp, parallel);
+        let geometry = &self.geometry;
         let el = inp.elements;
         let with_tangent = out.values.is_some();
         let ends = self.blocks[1..].to_vec();
@@ -362,6 +410,7 @@ impl Assembler {
                     material: &inp.materials[el.material[e]],
                     thickness: el.thickness[e],
                     state_old: &inp.state_old[el.state_offset[e]..el.state_offset[e + 1]],
+                    geometry: Some(&geometry[el.point_offset[e]..el.point_offset[e + 1]]),
                 };
                 let mut output = ElementOutput {
                     ke: if with_tangent { Some(&mut ke[k]) } else { None },

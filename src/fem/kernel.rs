@@ -33,6 +33,19 @@ pub struct ElementInput<'a> {
     pub thickness: f64,
     /// Converged history of the element's points (empty for materials without state).
     pub state_old: &'a [PlasticState],
+    /// The mapped geometry at each point of the rule, if the caller keeps it (identical to
+    /// evaluating `MappedElement::eval` there: the element's geometry does not change between
+    /// assemblies of one model, so it is computed once).
+    pub geometry: Option<&'a [ShapeEval]>,
+}
+
+/// The mapped geometry of an element at every point of its rule (what `ElementInput::geometry`
+/// holds).
+pub fn point_geometry(kind: CellKind, coords: [Point2<f64>; 4], rule: &QuadratureRule, out: &mut [ShapeEval]) {
+    let mapped = MappedElement::new(kind, coords);
+    for (xi, ev) in rule.points.iter().zip(out.iter_mut()) {
+        mapped.eval(*xi, ev);
+    }
 }
 
 /// Caller-owned output buffers of one element (`ke` row-major 8x8, `fe` of length 8).
@@ -84,13 +97,17 @@ pub fn element_kernel(inp: &ElementInput, out: &mut ElementOutput) -> f64 {
         return 0.0;
     }
     let mapped = MappedElement::new(inp.kind, inp.coords);
+    let eval = |q: usize, xi: &[f64; 2], ev: &mut ShapeEval| match inp.geometry {
+        Some(g) => *ev = g[q],
+        None => mapped.eval(*xi, ev),
+    };
     let mut ev = ShapeEval::default();
     // B-bar: element-average volumetric row.
     let bbar = if inp.formulation == Formulation::BBar {
         let mut bv = [0.0; 8];
         let mut vol = 0.0;
-        for (xi, w) in inp.rule.points.iter().zip(&inp.rule.weights) {
-            mapped.eval(*xi, &mut ev);
+        for (q, (xi, w)) in inp.rule.points.iter().zip(&inp.rule.weights).enumerate() {
+            eval(q, xi, &mut ev);
             let dv = w * ev.det_j;
             vol += dv;
             for k in 0..nn {
@@ -126,7 +143,7 @@ pub fn element_kernel(inp: &ElementInput, out: &mut ElementOutput) -> f64 {
             }
             continue;
         }
-        mapped.eval(*xi, &mut ev);
+        eval(q, xi, &mut ev);
         let dv = w * ev.det_j * inp.thickness;
         measure += dv;
         b_matrix(&ev, nn, bbar.as_ref(), &mut b);

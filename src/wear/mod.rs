@@ -49,6 +49,7 @@
 use crate::contact::{ContactSet, PairedSide};
 use crate::discretisation::FreeSurface;
 use crate::mesh::Mesh2;
+use crate::solver::dense::DenseLu;
 use crate::state::ControllerState;
 use nalgebra::{DMatrix, DVector, Point2, Vector2};
 
@@ -511,7 +512,7 @@ pub fn implicit_pressure_change(dlambda_dgap: &DMatrix<f64>, surfaces: &[JumpSur
     }
     let a = DMatrix::identity(na, na) + dlambda_dgap * h * dn;
     let rhs = -(dlambda_dgap * gap_rate) * dn;
-    let dp = a.lu().solve(&rhs)?;
+    let dp = DenseLu::new(a)?.solve(&rhs)?;
     dp.iter().all(|v| v.is_finite()).then(|| dp.iter().copied().collect())
 }
 
