@@ -143,6 +143,8 @@ pub(super) fn setup(
     cd.grow(m, &solver, &initial, rho)?;
     tracing::info!(
         set = cd.live.len(),
+        points = m.elements.num_points(),
+        elements = m.elements.len(),
         rho,
         pattern_s = tp,
         symbolic_s = ts - tp,
