@@ -1319,7 +1319,9 @@ impl ModelBuilder {
             .iter()
             .enumerate()
             .map(|(b, cut)| {
-                cut.as_ref().map_or(vec![], |cm| held_dofs(cm, self.bodies[b].node_offset, &prescribed_pairs))
+                cut.as_ref().map_or(vec![], |cm| {
+                    held_dofs(cm, self.bodies[b].node_offset, &prescribed_pairs, &penalty_parts[b])
+                })
             })
             .collect();
         let deactivated_dofs = held.iter().map(|h| h.len()).sum();
@@ -1724,7 +1726,7 @@ impl Model {
         } else {
             vec![]
         };
-        self.held[b] = held_dofs(&cm, body.node_offset, &self.prescribed);
+        self.held[b] = held_dofs(&cm, body.node_offset, &self.prescribed, &self.penalty_parts[b]);
         self.cuts[b] = Some(cm);
         Ok(())
     }

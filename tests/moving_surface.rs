@@ -153,6 +153,55 @@ fn moving_surface_patch_test_quad4_and_tri3() {
     }
 }
 
+/// A host node whose support keeps only a corner sliver of material (area fraction ~1e-11,
+/// below the switch-off threshold 1e-8) but which the ghost penalty reaches stays free, and the
+/// uniform-stress patch test on that cut holds to 1e-8 (round-off). The cut `y = x - 1 + d`
+/// (material below, d = 5e-6 mm) clips the lower-right corner of the support of node (2, 2).
+/// Switched off and held at its initial zero, the node anchored the sliver's ghost faces with
+/// the full ghost stiffness and the stress near it left the exact field.
+#[test]
+fn sliver_node_under_the_ghost_penalty_stays_free() {
+    const D: f64 = 5e-6;
+    let hyp = PlaneHypothesis::PlaneStrain;
+    let mesh = generate::rectangle(0.0, 0.0, 4.0, 3.0, 8, 6, 1.0, 1.0, CellKind::Quad4).unwrap();
+    let boundary: Vec<usize> = ["left", "right", "bottom"].iter().flat_map(|s| mesh.node_sets[*s].clone()).collect();
+    let nodes = mesh.nodes.clone();
+    let sliver_node = nodes.iter().position(|p| (p - Point2::new(2.0, 2.0)).norm() < 1e-12).unwrap();
+    let line = [Point2::new(0.5, -0.5 + D), Point2::new(4.5, 3.5 + D)];
+    let t = (line[1] - line[0]).normalize();
+    let sigma = Matrix2::new(t.x * t.x, t.x * t.y, t.x * t.y, t.y * t.y) * S0;
+    let eps = (sigma - Matrix2::identity() * (NU * sigma.trace())) * ((1.0 + NU) / E);
+    let mut b = ModelBuilder::new(hyp);
+    let mi = b.add_material("m", Material::Elastic(Elastic { young: E, poisson: NU, hypothesis: hyp }));
+    let body = b.add_body("block", mesh, mi, Formulation::Standard, 1.0);
+    for &n in &boundary {
+        let u = eps * nodes[n].coords;
+        b.fix_node(body, n, 0, u.x);
+        b.fix_node(body, n, 1, u.y);
+    }
+    b.add_cut("surface", body, line.to_vec(), false, false).unwrap();
+    let model = b
+        .build(
+            LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)]).unwrap(),
+            vec![1.0],
+            NewtonParams::default(),
+            LinearSolverKind::Cholesky,
+        )
+        .unwrap();
+    let fraction = model.cuts[0].as_ref().unwrap().node_fraction[sliver_node];
+    assert!(fraction > 0.0 && fraction < mortex::cut::SMALL_FRACTION, "support fraction {fraction:e}");
+    assert!(!model.held[0].contains(&(2 * sliver_node)), "the sliver node was switched off");
+    assert!(!model.held[0].is_empty(), "nodes with no material at all are still switched off");
+    let mut s = StaticAnalysis::initial_state_of(&model);
+    let mut worst: f64 = 0.0;
+    run(&model, &mut s, RunOptions::default(), |_, st, m| {
+        worst = worst.max(check_uniform(m, st, &sigma));
+        Ok(())
+    })
+    .unwrap();
+    assert!(worst < 1e-8, "stress deviation {worst:e} S0");
+}
+
 /// Moving a surface in 30 steps to its final position vs building the model with the cut
 /// already there, under a non-linear field (bottom and left sides fixed, right side pushed
 /// down as `-0.01 (y / 3)^2` mm); nodes with at least half of their support in the material.
