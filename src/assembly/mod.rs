@@ -303,12 +303,38 @@ pub struct Assembler {
     /// Mapped geometry at every quadrature point (point order), computed by the first assembly:
     /// an assembler belongs to one model, whose reference geometry and rules are fixed.
     geometry: Vec<ShapeEval>,
-    /// Coordinates and rule table the geometry was computed from (address and length): a
-    /// different input recomputes it.
-    geometry_of: Option<(usize, usize, usize, usize)>,
+    /// Fingerprint of the coordinates and rule points the geometry was computed from: a
+    /// different input (another model, or a re-cut that moved a band cell's points) recomputes
+    /// it.
+    geometry_of: Option<u64>,
 }
 
 const BLOCK: usize = 512;
+
+/// A hash of every coordinate, element-to-rule link and rule point (their bits, in order):
+/// cheap next to one assembly, and it changes whenever any of them does.
+fn geometry_fingerprint(inp: &AssemblyInput) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut mix = |v: f64| {
+        h = (h ^ v.to_bits()).wrapping_mul(0x0100_0000_01b3).rotate_left(17);
+    };
+    for p in inp.coords {
+        mix(p.x);
+        mix(p.y);
+    }
+    for (&r, nodes) in inp.elements.rule.iter().zip(&inp.elements.nodes) {
+        mix(r as f64);
+        mix(nodes[0] as f64);
+    }
+    for r in inp.rules {
+        mix(r.points.len() as f64);
+        for xi in &r.points {
+            mix(xi[0]);
+            mix(xi[1]);
+        }
+    }
+    h
+}
 
 fn split_mut<'a, T>(mut s: &'a mut [T], bounds: impl Iterator<Item = usize>) -> Vec<&'a mut [T]> {
     let mut out = Vec::new();
@@ -339,7 +365,7 @@ impl Assembler {
 
     /// Fills the per-point geometry table if `inp`'s geometry is not the one it holds.
     fn ensure_geometry(&mut self, inp: &AssemblyInput, parallel: bool) {
-        let key = (inp.coords.as_ptr() as usize, inp.coords.len(), inp.rules.as_ptr() as usize, inp.rules.len());
+        let key = geometry_fingerprint(inp);
         let el = inp.elements;
         if self.geometry_of == Some(key) && self.geometry.len() == el.num_points() {
             return;

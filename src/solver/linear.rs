@@ -200,7 +200,6 @@ impl SparseSolver {
             m += end[s] - begin[s];
         }
         let compact = |r: usize| offset[super_of[r]] + (r - begin[super_of[r]]);
-        let t0 = std::time::Instant::now();
         let mut w = Mat::<f64>::zeros(m, nb);
         for (j, col) in cols.iter().enumerate() {
             for &(e, c) in col {
@@ -225,17 +224,15 @@ impl SparseSolver {
                 }
             }
         }
-        let t1 = t0.elapsed().as_secs_f64();
         let mut out = Mat::<f64>::zeros(nb, nb - from);
         matmul(out.as_mut(), Accum::Replace, w.transpose(), w.as_ref().subcols(from, nb - from), 1.0, Par::Seq);
-        tracing::info!(
+        tracing::debug!(
             n,
-            reached_rows = m,
+            rows = nb,
+            reached_equations = m,
             supernodes = ns,
-            reached = reached.iter().filter(|&&r| r).count(),
-            forward_s = t1,
-            gemm_s = t0.elapsed().as_secs_f64() - t1,
-            "congruence"
+            reached_supernodes = reached.iter().filter(|&&r| r).count(),
+            "interface operator by forward substitution"
         );
         Some(DMatrix::from_fn(nb, nb - from, |i, j| out[(i, j)]))
     }
