@@ -1,5 +1,6 @@
 //! Criterion benches of the FE core on the 300 x 300 Quad4 plane-strain block (181k DOFs):
-//! sparsity pattern, assembly (serial and parallel), symbolic and numeric Cholesky, solve.
+//! sparsity pattern, assembly (serial and parallel), symbolic and numeric Cholesky, solve, and
+//! the interface operator of the top edge's rows (forward substitution vs column solves).
 //! `MORTEX_BENCH_N` overrides the size.
 
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -65,6 +66,42 @@ fn benches(c: &mut Criterion) {
         b.iter(|| {
             let mut x = rhs.clone();
             solver.solve(&mut x).is_ok()
+        })
+    });
+    // Interface operator `C K^{-1} C^T` of mortar-like rows on the top edge (each row couples
+    // the vertical DOFs of two neighbouring nodes): forward substitution over the reached
+    // supernodes (what the condensed contact solve uses) against one full solve per row.
+    asm.assemble(
+        &AssemblyInput {
+            coords: &model.coords,
+            elements: el,
+            materials: &model.materials,
+            rules: &model.rules,
+            u: &u,
+            state_old: &[],
+        },
+        AssemblyOutput { values: Some(&mut values), f_int: &mut f, stress: &mut stress, state_new: &mut hist },
+        true,
+    );
+    if let Err(e) = solver.factor(&values) {
+        panic!("numeric factorisation: {e}");
+    }
+    let top = &model.bodies[0].mesh.node_sets["top"];
+    let rows: Vec<Vec<(usize, f64)>> =
+        top.windows(2).map(|w| w.iter().map(|&n| (model.dofs.eq[2 * n + 1], 0.5)).collect()).collect();
+    g.bench_function(format!("interface_operator_forward_substitution_{}_rows", rows.len()), |b| {
+        b.iter(|| black_box(solver.congruence(&rows, 0).map(|d| d[(0, 0)]).expect("a supernodal factor")))
+    });
+    g.bench_function(format!("interface_operator_column_solves_{}_rows", rows.len()), |b| {
+        b.iter(|| {
+            let nf = model.dofs.num_free;
+            let mut x = vec![0.0; nf * rows.len()];
+            for (j, row) in rows.iter().enumerate() {
+                for &(e, c) in row {
+                    x[j * nf + e] += c;
+                }
+            }
+            black_box(solver.solve_many(&mut x, rows.len()).map(|_| x[0]).expect("a factor"))
         })
     });
     g.finish();
