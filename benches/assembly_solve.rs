@@ -37,18 +37,19 @@ fn benches(c: &mut Criterion) {
     let mut stress = vec![Stress4::zeros(); el.num_points()];
     let mut hist: Vec<PlasticState> = vec![];
     let u = vec![0.0; model.dofs.num_dofs];
+    let input = AssemblyInput {
+        coords: &model.coords,
+        elements: el,
+        materials: &model.materials,
+        rules: &model.rules,
+        u: &u,
+        state_old: &[],
+    };
     for (name, parallel) in [("assembly_parallel", true), ("assembly_serial", false)] {
         g.bench_function(name, |b| {
             b.iter(|| {
                 asm.assemble(
-                    &AssemblyInput {
-                        coords: &model.coords,
-                        elements: el,
-                        materials: &model.materials,
-                        rules: &model.rules,
-                        u: &u,
-                        state_old: &[],
-                    },
+                    &input,
                     AssemblyOutput {
                         values: Some(&mut values),
                         f_int: &mut f,
@@ -72,14 +73,7 @@ fn benches(c: &mut Criterion) {
     // the vertical DOFs of two neighbouring nodes): forward substitution over the reached
     // supernodes (what the condensed contact solve uses) against one full solve per row.
     asm.assemble(
-        &AssemblyInput {
-            coords: &model.coords,
-            elements: el,
-            materials: &model.materials,
-            rules: &model.rules,
-            u: &u,
-            state_old: &[],
-        },
+        &input,
         AssemblyOutput { values: Some(&mut values), f_int: &mut f, stress: &mut stress, state_new: &mut hist },
         true,
     );
@@ -89,9 +83,14 @@ fn benches(c: &mut Criterion) {
     let top = &model.bodies[0].mesh.node_sets["top"];
     let rows: Vec<Vec<(usize, f64)>> =
         top.windows(2).map(|w| w.iter().map(|&n| (model.dofs.eq[2 * n + 1], 0.5)).collect()).collect();
-    g.bench_function(format!("interface_operator_forward_substitution_{}_rows", rows.len()), |b| {
-        b.iter(|| black_box(solver.congruence(&rows, 0).map(|d| d[(0, 0)]).expect("a supernodal factor")))
-    });
+    // faer factors small matrices simplicially; forward substitution needs supernodes.
+    if solver.congruence(&rows, 0).is_some() {
+        g.bench_function(format!("interface_operator_forward_substitution_{}_rows", rows.len()), |b| {
+            b.iter(|| black_box(solver.congruence(&rows, 0).map(|d| d[(0, 0)])))
+        });
+    } else {
+        eprintln!("simplicial factor at this size: no forward-substitution bench");
+    }
     g.bench_function(format!("interface_operator_column_solves_{}_rows", rows.len()), |b| {
         b.iter(|| {
             let nf = model.dofs.num_free;
