@@ -22,7 +22,7 @@ use crate::contact::{
 };
 
 mod condensed;
-pub use condensed::GapSensitivity;
+pub use condensed::{GapSensitivity, SolverReuse};
 
 /// What one converged output step did.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -91,6 +91,8 @@ pub struct StaticAnalysis<'m> {
     /// Contact and friction sets of the last converged condensed step (for the interface
     /// stiffness the implicit wear jump needs).
     last_sets: Option<(Vec<bool>, Vec<FrictionStatus>)>,
+    /// What the condensed pattern was built from (handed on with [`Self::into_reuse`]).
+    reuse_key: Option<condensed::ReuseKey>,
 }
 
 /// Small sliding pairs from the reference geometry: a converged state whose nodes in contact
@@ -135,27 +137,49 @@ impl<'m> StaticAnalysis<'m> {
         Self::with_condensation(model, condensed::applies(model))
     }
 
+    /// As [`Self::new`] for the next model of a run (moved surfaces, re-paired contact): the
+    /// condensed solver's pattern and symbolic factorisation of the previous model are reused
+    /// when its structure is the same (see [`SolverReuse`]).
+    pub fn with_reuse(model: &'m Model, reuse: Option<SolverReuse>) -> Result<Self, AnalysisError> {
+        if condensed::applies(model) {
+            Self::condensed(model, reuse)
+        } else {
+            Self::with_condensation(model, false)
+        }
+    }
+
+    /// The solver structure this analysis can hand to the next model's (condensed only).
+    pub fn into_reuse(self) -> Option<SolverReuse> {
+        let key = self.reuse_key?;
+        Some(SolverReuse::new(key, self.assembler, self.solver))
+    }
+
+    fn condensed(model: &'m Model, reuse: Option<SolverReuse>) -> Result<Self, AnalysisError> {
+        let (assembler, solver, values, cd, key) = condensed::setup(model, true, reuse)?;
+        Ok(StaticAnalysis {
+            model,
+            assembler,
+            solver,
+            values,
+            alpha: 1.0,
+            factored: true,
+            parallel: true,
+            trial_history: vec![PlasticState::default(); model.elements.num_states()],
+            trial_stress: vec![Stress4::zeros(); model.elements.num_points()],
+            trial_f_int: vec![0.0; model.dofs.num_dofs],
+            condensed: Some(cd),
+            last_active: 0,
+            last_gross_sliding: None,
+            last_sets: None,
+            reuse_key: Some(key),
+        })
+    }
+
     /// As [`Self::new`], choosing condensation (`true`: only valid where it applies) or the
     /// monolithic saddle-point solve.
     pub fn with_condensation(model: &'m Model, condense: bool) -> Result<Self, AnalysisError> {
         if condense && condensed::applies(model) {
-            let (assembler, solver, values, cd) = condensed::setup(model, true)?;
-            return Ok(StaticAnalysis {
-                model,
-                assembler,
-                solver,
-                values,
-                alpha: 1.0,
-                factored: true,
-                parallel: true,
-                trial_history: vec![PlasticState::default(); model.elements.num_states()],
-                trial_stress: vec![Stress4::zeros(); model.elements.num_points()],
-                trial_f_int: vec![0.0; model.dofs.num_dofs],
-                condensed: Some(cd),
-                last_active: 0,
-                last_gross_sliding: None,
-                last_sets: None,
-            });
+            return Self::condensed(model, None);
         }
         // Constraint rows are scaled by `alpha ~ E / |C|` in the matrix so that both blocks of the
         // saddle point have the same magnitude: the LU factorisation then keeps its accuracy.
@@ -198,6 +222,7 @@ impl<'m> StaticAnalysis<'m> {
             last_active: 0,
             last_gross_sliding: None,
             last_sets: None,
+            reuse_key: None,
         })
     }
 
@@ -668,7 +693,12 @@ impl<'m> StaticAnalysis<'m> {
                 let nl = cd.live.len();
                 let cz: Vec<f64> = cd.rows_free.iter().map(|r| r.iter().map(|&(e, c)| c * z[e]).sum()).collect();
                 // Row values at u0: w0 = C u0; the law's targets per live row.
-                let w0: Vec<f64> = cd.live.iter().map(|&i| all[i].iter().map(|&(d, c)| c * u_start[d]).sum()).collect();
+                // (Grounding rows: 0, their law does not read it.)
+                let w0: Vec<f64> = cd
+                    .live
+                    .iter()
+                    .map(|&i| all.get(i).map_or(0.0, |r| r.iter().map(|&(d, c)| c * u_start[d]).sum()))
+                    .collect();
                 let mut dlam = vec![0.0; nl];
                 let mut dw = vec![0.0; nl];
                 let mut prev: Option<(Vec<bool>, Vec<FrictionStatus>)> = None;
@@ -681,7 +711,7 @@ impl<'m> StaticAnalysis<'m> {
                     for j in 0..nfr {
                         slip[j] = slip0[j] + cd.live_of[nt + nc + j].map_or(0.0, |a| dw[a]);
                     }
-                    for (a, &i) in cd.live.iter().enumerate() {
+                    for (a, i) in cd.model_rows() {
                         mult[i] = lam0[i] + dlam[a];
                     }
                     update_sets(&m.contact, &mult, &gaps, &slip, it == 0, &mut active, &mut status);
@@ -748,7 +778,7 @@ impl<'m> StaticAnalysis<'m> {
                     u[g] += z[i] + y[i];
                 }
                 let mut mu = lam0.clone();
-                for (a, &i) in cd.live.iter().enumerate() {
+                for (a, i) in cd.model_rows() {
                     mu[i] += dlam[a];
                 }
                 // A row outside the set that would penetrate joins it (with its neighbours within

@@ -74,6 +74,7 @@ where
         return analysis.run(state, |r, s| observer(r, s, model)).map(|_| RunTimings::default());
     }
     let mut current = model.clone();
+    let mut reuse = None;
     for (k, &t) in model.times.iter().enumerate().skip(state.step) {
         let step = k + 1;
         if current.has_moving_surfaces() {
@@ -87,9 +88,10 @@ where
         } else {
             &current
         };
-        let mut analysis = StaticAnalysis::new(step_model)?;
+        let mut analysis = StaticAnalysis::with_reuse(step_model, reuse.take())?;
         analysis.set_parallel(options.parallel);
         let report = analysis.advance_to(state, step, t)?;
+        reuse = analysis.into_reuse();
         // The interface log of a per-step operator means nothing to the next step.
         state.interface_log.clear();
         observer(&report, state, step_model).map_err(|msg| AnalysisError::Observer { step, msg })?;
@@ -129,6 +131,8 @@ where
     };
     let ramp_steps = model.times.len() - cycle.count * cycle.increments;
     let mut current = model.clone();
+    // The condensed solver's structure, handed from one surface position to the next.
+    let mut reuse = None;
     // Surfaces where the state has them, re-cut and re-paired (small sliding: in the reference
     // geometry, with the pairing reach extended by the wear depth allowed).
     let place = |m: &mut Model, state: &SimState| {
@@ -142,7 +146,7 @@ where
     place(&mut current, state)?;
     timings.wear += t0.elapsed().as_secs_f64();
     if state.step < ramp_steps {
-        let mut analysis = StaticAnalysis::new(&current)?;
+        let mut analysis = StaticAnalysis::with_reuse(&current, reuse.take())?;
         analysis.set_parallel(options.parallel);
         analysis.resume(state)?;
         for k in state.step..ramp_steps {
@@ -156,6 +160,7 @@ where
             }
             observer(&report, state, &current).map_err(|msg| AnalysisError::Observer { step: k + 1, msg })?;
         }
+        reuse = analysis.into_reuse();
         let t0 = clock();
         place(&mut current, state)?;
         timings.wear += t0.elapsed().as_secs_f64();
@@ -167,18 +172,19 @@ where
             for i in state.wear.increment..cycle.increments {
                 let t0 = clock();
                 let repaired = current.repaired(&state.u);
-                let mut analysis = StaticAnalysis::new(&repaired)?;
+                let mut analysis = StaticAnalysis::with_reuse(&repaired, reuse.take())?;
                 analysis.set_parallel(options.parallel);
                 timings.setup += t0.elapsed().as_secs_f64();
                 let report =
                     wear_step(&repaired, &mut analysis, state, i, step_time(i), n, cycle.increments, &mut timings)?;
+                reuse = analysis.into_reuse();
                 state.interface_log.clear();
                 observer(&report, state, &repaired)
                     .map_err(|msg| AnalysisError::Observer { step: report.step, msg })?;
             }
         } else {
             let t0 = clock();
-            let mut analysis = StaticAnalysis::new(&current)?;
+            let mut analysis = StaticAnalysis::with_reuse(&current, reuse.take())?;
             analysis.set_parallel(options.parallel);
             analysis.resume(state)?;
             timings.setup += t0.elapsed().as_secs_f64();
@@ -190,6 +196,7 @@ where
                 }
                 observer(&report, state, &current).map_err(|msg| AnalysisError::Observer { step: report.step, msg })?;
             }
+            reuse = analysis.into_reuse();
         }
         let t0 = clock();
         place(&mut current, state)?;

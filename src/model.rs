@@ -1690,6 +1690,45 @@ impl Model {
         Ok(report)
     }
 
+    /// Every DOF pair `(i, j)` (both orders) the ghost penalty can couple during the run: on
+    /// a body with moving surfaces, the same component of the nodes of any two band cells (or
+    /// a band cell and its neighbour) across a shared face, whether or not the face is next to
+    /// a cut cell now; on other bodies the entries it has. A solver pattern holding these does
+    /// not change when the surfaces move (see `analysis::condensed`).
+    pub fn ghost_reach(&self) -> Vec<(usize, usize)> {
+        let mut v: Vec<(usize, usize)> = Vec::new();
+        for (b, body) in self.bodies.iter().enumerate() {
+            let Some(band) = &self.bands[b] else {
+                v.extend(self.penalty_parts[b].iter().map(|&(i, j, _)| (i, j)));
+                continue;
+            };
+            if self.ghost_penalty <= 0.0 {
+                continue;
+            }
+            let cells = &body.mesh.cells;
+            for &c in &band.cells {
+                let own = cells[c].nodes();
+                for k in 0..own.len() {
+                    let Some(nb) = band.adjacency.neighbour(c, k) else { continue };
+                    let other = cells[nb].nodes();
+                    // Pairs inside one cell are element couplings already.
+                    for &p in own.iter().filter(|p| !other.contains(p)) {
+                        for &q in other.iter().filter(|q| !own.contains(q)) {
+                            let (gp, gq) = (p + body.node_offset, q + body.node_offset);
+                            for comp in 0..2 {
+                                v.push((2 * gp + comp, 2 * gq + comp));
+                                v.push((2 * gq + comp, 2 * gp + comp));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        v.sort_unstable();
+        v.dedup();
+        v
+    }
+
     /// Re-cuts body `b` with its current surfaces: cut state, band weights, ghost penalty and
     /// switched-off nodes.
     fn recut_body(&mut self, b: usize, report: &mut RecutReport) -> Result<(), ModelError> {

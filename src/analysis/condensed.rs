@@ -30,21 +30,24 @@ use rayon::prelude::*;
 const RHS_BLOCK: usize = 32;
 
 pub(super) struct Condensed {
-    /// Multipliers in the condensed set (indices in the model's multiplier order): ties, and the
-    /// contact rows that may touch. Grows when a row outside it would penetrate (never shrinks).
+    /// Rows in the condensed set: indices in the model's multiplier order (ties, and the
+    /// contact rows that may touch; grows when a row outside it would penetrate, never
+    /// shrinks), and from `grounds` on the artificial grounding rows (see [`ground_rows`]).
     pub live: Vec<usize>,
-    /// Position of each multiplier in the set.
+    /// Position of each model multiplier in the set.
     pub live_of: Vec<Option<usize>>,
     /// Set rows over free equations `(eq, coef)`.
     pub rows_free: Vec<Vec<(usize, f64)>>,
-    /// Regularisation weight of each set row (`rho` on the rows of the initial set, whose
-    /// `rho C^T C` is in the factored matrix; 0 on rows added later).
+    /// Regularisation weight of each set row (`rho` on the rows whose `rho C^T C` is in the
+    /// factored matrix: ties and grounding rows; 0 on contact rows).
     pub rho: Vec<f64>,
     /// Delassus operator of `K_rho` on the set.
     pub d: DMatrix<f64>,
     /// Rows added after setup, batch by batch (a checkpoint stores it; replaying it on a restart
     /// rebuilds the identical `d`).
     pub log: Vec<Vec<usize>>,
+    /// Number of model multipliers: set entries `i >= grounds` are grounding rows.
+    pub grounds: usize,
 }
 
 /// Whether a model is solved by condensation: contact present and every body linear elastic.
@@ -71,12 +74,152 @@ pub(super) fn with_friction(m: &Model, ks: &[usize]) -> Vec<usize> {
 /// Margin of the candidate sets in units of the local segment length.
 pub(super) const CANDIDATE_MARGIN: f64 = 0.5;
 
+/// Grounding rows of the bodies that only contact holds (global DOFs, unit coefficients):
+/// `K` is singular on their rigid modes. Nodes are joined into parts by elements, ties and
+/// rigid sets; a part whose prescribed DOFs do not fix all three plane rigid modes (their Gram
+/// matrix is rank-deficient) gets a statically determinate support: `u_x`, `u_y` at the free
+/// node `A` farthest from its centroid and the displacement normal to `AB` at the free node `B`
+/// farthest from `A`, both outside any band of moving surfaces (never switched off). In the
+/// condensed set these rows carry the law `dlambda = 0`: the springs `rho G^T G` they put in
+/// `K_rho` only regularise it, the solution is that of `K` (exact, like `rho C^T C` on ties).
+/// Their couplings are node-local, so the pattern of `K_rho` does not depend on which contact
+/// rows are near (it did when contact rows were the regularisation).
+pub(super) fn ground_rows(m: &Model) -> Vec<Vec<(usize, f64)>> {
+    let nn = m.coords.len();
+    let mut parent: Vec<usize> = (0..nn).collect();
+    fn root(p: &mut [usize], mut a: usize) -> usize {
+        while p[a] != a {
+            p[a] = p[p[a]];
+            a = p[a];
+        }
+        a
+    }
+    let join = |p: &mut Vec<usize>, a: usize, b: usize| {
+        let (ra, rb) = (root(p, a), root(p, b));
+        if ra != rb {
+            p[ra.max(rb)] = ra.min(rb);
+        }
+    };
+    for (e, nodes) in m.elements.nodes.iter().enumerate() {
+        let nn_e = m.elements.kind[e].num_nodes();
+        for &b in &nodes[1..nn_e] {
+            join(&mut parent, nodes[0], b);
+        }
+    }
+    for row in &m.constraints {
+        for w in row.windows(2) {
+            join(&mut parent, w[0].0 / 2, w[1].0 / 2);
+        }
+    }
+    let roots: Vec<usize> = (0..nn).map(|a| root(&mut parent, a)).collect();
+    let mut in_band = vec![false; nn];
+    for (b, body) in m.bodies.iter().enumerate() {
+        let Some(band) = &m.bands[b] else { continue };
+        for &c in &band.cells {
+            for &a in body.mesh.cells[c].nodes() {
+                in_band[a + body.node_offset] = true;
+            }
+        }
+    }
+    let mut parts: Vec<usize> = roots.clone();
+    parts.sort_unstable();
+    parts.dedup();
+    let mut rows = Vec::new();
+    for &part in &parts {
+        let nodes: Vec<usize> = (0..nn).filter(|&a| roots[a] == part).collect();
+        let centre = nodes.iter().fold(nalgebra::Vector2::zeros(), |s, &a| s + m.coords[a].coords) / nodes.len() as f64;
+        let size = nodes.iter().map(|&a| (m.coords[a].coords - centre).norm()).fold(0.0, f64::max);
+        if size <= 0.0 {
+            continue;
+        }
+        // Gram matrix of the rigid modes (x, y, rotation) over the part's prescribed DOFs.
+        let mut gram = nalgebra::Matrix3::<f64>::zeros();
+        for &(d, _) in &m.prescribed {
+            let a = d / 2;
+            if roots[a] != part {
+                continue;
+            }
+            let r = (m.coords[a].coords - centre) / size;
+            let mode =
+                if d % 2 == 0 { nalgebra::Vector3::new(1.0, 0.0, -r.y) } else { nalgebra::Vector3::new(0.0, 1.0, r.x) };
+            gram += mode * mode.transpose();
+        }
+        let eig = gram.symmetric_eigenvalues();
+        if eig.min() > 1e-8 * eig.max().max(1.0) {
+            continue;
+        }
+        let free = |a: &usize| m.dofs.eq[2 * a] != CONSTRAINED && m.dofs.eq[2 * a + 1] != CONSTRAINED;
+        let mut cand: Vec<usize> = nodes.iter().copied().filter(|a| free(a) && !in_band[*a]).collect();
+        if cand.len() < 2 {
+            cand = nodes.iter().copied().filter(free).collect();
+        }
+        // Extreme candidate by distance from `from` (first in node order on ties).
+        let extreme = |set: &[usize], from: nalgebra::Vector2<f64>, far: bool| {
+            set.iter().copied().fold(None, |best: Option<(usize, f64)>, a| {
+                let dist = (m.coords[a].coords - from).norm();
+                match best {
+                    Some((_, bd)) if (far && bd >= dist) || (!far && bd <= dist) => best,
+                    _ => Some((a, dist)),
+                }
+            })
+        };
+        // Far apart (a well-conditioned support), and chosen from what a run does not change
+        // (a surface update keeps them, and so the pattern of `K_rho`).
+        let Some((a, _)) = extreme(&cand, centre, true) else { continue };
+        let Some((b, _)) = extreme(&cand, m.coords[a].coords, true) else { continue };
+        let dist = (m.coords[b].coords - m.coords[a].coords).norm();
+        rows.push(vec![(2 * a, 1.0)]);
+        rows.push(vec![(2 * a + 1, 1.0)]);
+        if dist > 0.0 {
+            let t = (m.coords[b].coords - m.coords[a].coords) / dist;
+            rows.push(vec![(2 * b, -t.y), (2 * b + 1, t.x)]);
+        }
+    }
+    rows
+}
+
+/// A row over global DOFs as a row over free equations.
+fn free_row(m: &Model, row: &[(usize, f64)]) -> Vec<(usize, f64)> {
+    row.iter().filter(|&&(d, _)| m.dofs.eq[d] != CONSTRAINED).map(|&(d, c)| (m.dofs.eq[d], c)).collect()
+}
+
+/// The solver structure of one condensed set-up, kept for the next model of the same run (the
+/// wear loop's surface updates, finite sliding's re-pairings, prescribed surface motions): the
+/// pattern of `K_rho` is a function of the mesh, the DOF map and the structural couplings
+/// (ghost-penalty reach, ties, grounding rows), none of which depend on where the moving
+/// surfaces are; when they are the same the pattern, its scatter tables and the symbolic
+/// factorisation are reused and `K_rho` is refactored numerically only. Reuse gives the same
+/// arithmetic as building afresh (same pattern, same ordering), so a restarted run, which
+/// builds afresh, stays bit for bit on the uninterrupted one.
+pub struct SolverReuse {
+    key: ReuseKey,
+    assembler: Assembler,
+    solver: SparseSolver,
+}
+
+/// What the pattern of `K_rho` is built from.
+#[derive(PartialEq)]
+pub(super) struct ReuseKey {
+    eq: Vec<usize>,
+    elements: usize,
+    pairs: Vec<(usize, usize)>,
+}
+
+impl SolverReuse {
+    pub(super) fn new(key: ReuseKey, assembler: Assembler, solver: SparseSolver) -> Self {
+        SolverReuse { key, assembler, solver }
+    }
+}
+
 /// Pattern, assembler and Cholesky factor of `K_rho`, and the condensed operator on the initial
-/// set: ties and the contact rows near the smallest initial gap (see [`near_rows`]).
+/// set: ties, grounding rows and the contact rows near the smallest initial gap (see
+/// [`near_rows`]). `reuse`: the structure of the previous model of the run, if any.
+#[allow(clippy::type_complexity)]
 pub(super) fn setup(
     m: &Model,
     parallel: bool,
-) -> Result<(Assembler, SparseSolver, Vec<f64>, Condensed), LinearSolverError> {
+    reuse: Option<SolverReuse>,
+) -> Result<(Assembler, SparseSolver, Vec<f64>, Condensed, ReuseKey), LinearSolverError> {
     let nt = m.constraints.len();
     let all: Vec<&Vec<(usize, f64)>> = m.multiplier_rows().collect();
     let g0: Vec<f64> = m.contact.g0.clone();
@@ -84,29 +227,63 @@ pub(super) fn setup(
         .filter(|&k| m.contact.phi[k] > 0.0)
         .map(|k| g0[k] / m.contact.phi[k])
         .fold(f64::INFINITY, f64::min);
-    let mut initial: Vec<usize> = (0..nt).collect();
-    initial.extend(with_friction(m, &near_rows(m, &g0, CANDIDATE_MARGIN, g_min)));
-    // rho |C|^2 about a tenth of the bulk stiffness E: K_rho stays well conditioned and the
-    // floating modes of contact-held bodies are fixed.
-    let n_coef = initial.iter().map(|&i| all[i].len()).sum::<usize>().max(1);
-    let mean_coef = initial.iter().flat_map(|&i| all[i].iter()).map(|(_, c)| c.abs()).sum::<f64>() / n_coef as f64;
     let e_max = m.materials.iter().map(|mat| mat.elastic().young).fold(0.0, f64::max);
-    let rho = if mean_coef > 0.0 { 0.1 * e_max / (mean_coef * mean_coef) } else { 0.0 };
-    let mut penalty = m.penalty.clone();
-    for &i in &initial {
-        for &(d1, c1) in all[i] {
-            for &(d2, c2) in all[i] {
-                penalty.push((d1, d2, rho * c1 * c2));
+    // Ties: rho |C|^2 about a tenth of the bulk stiffness E keeps K_rho well conditioned.
+    let n_coef = all[..nt].iter().map(|r| r.len()).sum::<usize>().max(1);
+    let mean_coef = all[..nt].iter().flat_map(|r| r.iter()).map(|(_, c)| c.abs()).sum::<f64>() / n_coef as f64;
+    let rho_tie = if mean_coef > 0.0 { 0.1 * e_max / (mean_coef * mean_coef) } else { 0.0 };
+    // Grounding springs of stiffness E (per unit thickness): the rigid-mode compliance they
+    // add, 1/E, stays of the order of the contact's own, so `I - rho D` keeps its digits.
+    let grounds = ground_rows(m);
+    let rho_ground = e_max;
+    let mut regularisation: Vec<(usize, usize, f64)> = Vec::new();
+    for (row, rho) in all[..nt].iter().map(|r| (*r, rho_tie)).chain(grounds.iter().map(|r| (r, rho_ground))) {
+        for &(d1, c1) in row {
+            for &(d2, c2) in row {
+                regularisation.push((d1, d2, rho * c1 * c2));
             }
         }
     }
+    let mut pairs = m.ghost_reach();
+    pairs.extend(regularisation.iter().map(|&(i, j, _)| (i, j)));
+    pairs.sort_unstable();
+    pairs.dedup();
+    let key = ReuseKey { eq: m.dofs.eq.clone(), elements: m.elements.len(), pairs };
+    let mut penalty = m.penalty.clone();
+    penalty.extend_from_slice(&regularisation);
     let t0 = std::time::Instant::now();
-    let pattern = SparsityPattern::with_constraints(m.num_nodes(), &m.elements, &m.dofs, &[], &penalty, 0, &[]);
-    let tp = t0.elapsed().as_secs_f64();
-    let mut solver = SparseSolver::new(&pattern.symbolic, LinearSolverKind::Cholesky)?;
+    let build = |pairs: &[(usize, usize)]| {
+        let structure: Vec<(usize, usize, f64)> = pairs.iter().map(|&(i, j)| (i, j, 0.0)).collect();
+        SparsityPattern::with_constraints(m.num_nodes(), &m.elements, &m.dofs, &[], &structure, 0, &[])
+    };
+    let mut reused = false;
+    let (mut assembler, mut solver) = match reuse {
+        Some(r) if r.key == key => {
+            reused = true;
+            (r.assembler, r.solver)
+        }
+        _ => {
+            let pattern = build(&key.pairs);
+            let solver = SparseSolver::new(&pattern.symbolic, LinearSolverKind::Cholesky)?;
+            (Assembler::new(pattern, &m.elements), solver)
+        }
+    };
+    if !assembler.pattern.set_penalty(&m.dofs, &penalty) {
+        // A ghost entry outside the structural couplings (a band body without its reach):
+        // the pattern of this model's own entries, built afresh.
+        tracing::debug!("penalty entries outside the structural pattern: pattern rebuilt");
+        let mut own: Vec<(usize, usize)> = key.pairs.clone();
+        own.extend(penalty.iter().map(|&(i, j, _)| (i, j)));
+        own.sort_unstable();
+        own.dedup();
+        let mut pattern = build(&own);
+        pattern.set_penalty(&m.dofs, &penalty);
+        solver = SparseSolver::new(&pattern.symbolic, LinearSolverKind::Cholesky)?;
+        assembler = Assembler::new(pattern, &m.elements);
+        reused = false;
+    }
     let ts = t0.elapsed().as_secs_f64();
-    let mut values = vec![0.0; pattern.nnz()];
-    let mut assembler = Assembler::new(pattern, &m.elements);
+    let mut values = vec![0.0; assembler.pattern.nnz()];
     let u = vec![0.0; m.dofs.num_dofs];
     let history = vec![PlasticState::default(); m.elements.num_states()];
     let mut history_new = history.clone();
@@ -139,21 +316,31 @@ pub(super) fn setup(
         rho: vec![],
         d: DMatrix::zeros(0, 0),
         log: vec![],
+        grounds: all.len(),
     };
-    cd.grow(m, &solver, &initial, rho)?;
+    for (g, row) in grounds.iter().enumerate() {
+        cd.live.push(all.len() + g);
+        cd.rows_free.push(free_row(m, row));
+        cd.rho.push(rho_ground);
+    }
+    let ties: Vec<usize> = (0..nt).collect();
+    cd.push(m, &ties, rho_tie);
+    cd.push(m, &with_friction(m, &near_rows(m, &g0, CANDIDATE_MARGIN, g_min)), 0.0);
+    cd.extend_operator(m, &solver, 0)?;
     tracing::info!(
         set = cd.live.len(),
+        grounds = grounds.len(),
         points = m.elements.num_points(),
         elements = m.elements.len(),
-        rho,
-        pattern_s = tp,
-        symbolic_s = ts - tp,
+        rho_tie,
+        reused,
+        pattern_symbolic_s = ts,
         assembly_s = t1 - ts,
         factor_s = t2 - t1,
         delassus_s = t0.elapsed().as_secs_f64() - t2,
         "interface condensation: K_rho factored, Delassus operator formed"
     );
-    Ok((assembler, solver, values, cd))
+    Ok((assembler, solver, values, cd, key))
 }
 
 /// What a live row imposes in one active-set iteration: a gap row (`dw` known, `dlambda`
@@ -183,7 +370,9 @@ impl Condensed {
         self.live
             .iter()
             .enumerate()
-            .map(|(a, &i)| match row_law[i] {
+            .map(|(a, &i)| match row_law.get(i).copied().unwrap_or(RowLaw::Free) {
+                // Grounding rows only regularise: their multiplier stays 0.
+                _ if i >= self.grounds => Law::Fixed(0.0),
                 // The row's value at the start of the step is known; its target is 0.
                 RowLaw::Constraint if i < nt => Law::Gap(-w0[a]),
                 RowLaw::Constraint if i < nt + nc => Law::Gap(-(m.contact.g0[i - nt] + w0[a])),
@@ -295,18 +484,34 @@ impl Condensed {
     /// `rho` (non-zero only for rows whose `rho C^T C` is in the factored matrix): one solve
     /// with the factor per new row, `RHS_BLOCK` at a time.
     pub fn grow(&mut self, m: &Model, solver: &SparseSolver, new: &[usize], rho: f64) -> Result<(), LinearSolverError> {
-        let all: Vec<&Vec<(usize, f64)>> = m.multiplier_rows().collect();
         let old = self.live.len();
+        self.push(m, new, rho);
+        self.extend_operator(m, solver, old)
+    }
+
+    /// Appends model multipliers `new` to the set (the operator not yet extended).
+    fn push(&mut self, m: &Model, new: &[usize], rho: f64) {
+        let all: Vec<&Vec<(usize, f64)>> = m.multiplier_rows().collect();
         for &i in new {
             debug_assert!(self.live_of[i].is_none());
             self.live_of[i] = Some(self.live.len());
             self.live.push(i);
-            self.rows_free.push(
-                all[i].iter().filter(|&&(d, _)| m.dofs.eq[d] != CONSTRAINED).map(|&(d, c)| (m.dofs.eq[d], c)).collect(),
-            );
+            self.rows_free.push(free_row(m, all[i]));
             self.rho.push(rho);
         }
+    }
+
+    /// Multipliers of the set that are model multipliers: `(position in the set, model index)`.
+    pub fn model_rows(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        self.live.iter().copied().enumerate().filter(move |&(_, i)| i < self.grounds)
+    }
+
+    /// Columns `old..` of `D` (and their transposes), for the rows appended since.
+    fn extend_operator(&mut self, m: &Model, solver: &SparseSolver, old: usize) -> Result<(), LinearSolverError> {
         let nl = self.live.len();
+        if nl == old {
+            return Ok(());
+        }
         let mut d = DMatrix::zeros(nl, nl);
         d.view_mut((0, 0), (old, old)).copy_from(&self.d);
         // Supernodal Cholesky: the new columns by forward substitution on the surface's

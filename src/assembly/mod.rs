@@ -270,6 +270,26 @@ impl SparsityPattern {
     pub fn nnz(&self) -> usize {
         self.symbolic.row_idx().len()
     }
+
+    /// Replaces the constant penalty entries (values and positions) in this pattern, which
+    /// stays as it is. Returns `false`, leaving the old entries, if an entry between free DOFs
+    /// has no place in it (the pattern must then be rebuilt with it).
+    pub fn set_penalty(&mut self, dofs: &DofMap, penalty: &[(usize, usize, f64)]) -> bool {
+        let (col_ptr, row_idx) = (self.symbolic.col_ptr(), self.symbolic.row_idx());
+        let mut scatter = Vec::with_capacity(penalty.len());
+        for &(i, j, v) in penalty {
+            let (ri, cj) = (dofs.eq[i], dofs.eq[j]);
+            if ri == CONSTRAINED || cj == CONSTRAINED {
+                continue;
+            }
+            match row_idx[col_ptr[cj]..col_ptr[cj + 1]].binary_search(&ri) {
+                Ok(p) => scatter.push((col_ptr[cj] + p, v)),
+                Err(_) => return false,
+            }
+        }
+        self.penalty_scatter = scatter;
+        true
+    }
 }
 
 /// Read-only inputs of one assembly.

@@ -177,25 +177,32 @@ impl SparseSolver {
         for s in 0..ns {
             super_of[begin[s]..end[s]].iter_mut().for_each(|v| *v = s);
         }
-        // Supernodes reached from the touched equations: their own and, in elimination order,
-        // those holding the below-diagonal rows of a reached one.
-        let mut reached = vec![false; ns];
-        for col in cols {
+        // Columns of W non-zero on each supernode: those touching it or any descendant
+        // (W(:, j) is non-zero on the elimination-tree ancestors of column j's equations). In
+        // elimination order a supernode's set is complete before it passes it to its parent,
+        // the supernode of its first below-diagonal row.
+        let mut cols_of: Vec<Vec<usize>> = vec![Vec::new(); ns];
+        for (j, col) in cols.iter().enumerate() {
             for &(e, _) in col {
-                reached[super_of[inv[e]]] = true;
+                cols_of[super_of[inv[e]]].push(j);
             }
         }
         for s in 0..ns {
-            if reached[s] {
-                for &r in factor.supernode(s).pattern() {
-                    reached[super_of[r]] = true;
-                }
+            if cols_of[s].is_empty() {
+                continue;
+            }
+            cols_of[s].sort_unstable();
+            cols_of[s].dedup();
+            if let Some(&r) = factor.supernode(s).pattern().first() {
+                let own = std::mem::take(&mut cols_of[s]);
+                cols_of[super_of[r]].extend_from_slice(&own);
+                cols_of[s] = own;
             }
         }
         // Compact row numbering: reached supernodes in order, their columns contiguous.
         let mut offset = vec![usize::MAX; ns];
         let mut m = 0;
-        for s in (0..ns).filter(|&s| reached[s]) {
+        for s in (0..ns).filter(|&s| !cols_of[s].is_empty()) {
             offset[s] = m;
             m += end[s] - begin[s];
         }
@@ -206,21 +213,30 @@ impl SparseSolver {
                 w[(compact(inv[e]), j)] += c;
             }
         }
-        for s in (0..ns).filter(|&s| reached[s]) {
+        // Per supernode, only its own columns: gathered, solved with the diagonal block,
+        // pushed to the rows below by one product, scattered back.
+        for s in (0..ns).filter(|&s| !cols_of[s].is_empty()) {
             let node = factor.supernode(s);
             let size = end[s] - begin[s];
+            let js = &cols_of[s];
             let (l_top, l_bot) = node.val().split_at_row(size);
-            let mut w_top = w.as_mut().subrows_mut(offset[s], size);
-            solve_lower_triangular_in_place(l_top, w_top.as_mut(), Par::Seq);
+            let mut block = Mat::<f64>::from_fn(size, js.len(), |i, k| w[(offset[s] + i, js[k])]);
+            solve_lower_triangular_in_place(l_top, block.as_mut(), Par::Seq);
+            for (k, &j) in js.iter().enumerate() {
+                for i in 0..size {
+                    w[(offset[s] + i, j)] = block[(i, k)];
+                }
+            }
             let pattern = node.pattern();
             if pattern.is_empty() {
                 continue;
             }
-            let mut update = Mat::<f64>::zeros(pattern.len(), nb);
-            matmul(update.as_mut(), Accum::Replace, l_bot, w_top.as_ref(), 1.0, Par::Seq);
-            for j in 0..nb {
-                for (k, &r) in pattern.iter().enumerate() {
-                    w[(compact(r), j)] -= update[(k, j)];
+            let mut update = Mat::<f64>::zeros(pattern.len(), js.len());
+            matmul(update.as_mut(), Accum::Replace, l_bot, block.as_ref(), 1.0, Par::Seq);
+            let rows: Vec<usize> = pattern.iter().map(|&r| compact(r)).collect();
+            for (k, &j) in js.iter().enumerate() {
+                for (p, &r) in rows.iter().enumerate() {
+                    w[(r, j)] -= update[(p, k)];
                 }
             }
         }
@@ -231,7 +247,8 @@ impl SparseSolver {
             rows = nb,
             reached_equations = m,
             supernodes = ns,
-            reached_supernodes = reached.iter().filter(|&&r| r).count(),
+            reached_supernodes = cols_of.iter().filter(|c| !c.is_empty()).count(),
+            column_visits = cols_of.iter().map(|c| c.len()).sum::<usize>(),
             "interface operator by forward substitution"
         );
         Some(DMatrix::from_fn(nb, nb - from, |i, j| out[(i, j)]))
