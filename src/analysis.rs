@@ -93,6 +93,8 @@ pub struct StaticAnalysis<'m> {
     last_sets: Option<(Vec<bool>, Vec<FrictionStatus>)>,
     /// What the condensed pattern was built from (handed on with [`Self::into_reuse`]).
     reuse_key: Option<condensed::ReuseKey>,
+    /// Whether the set-up reused the previous model's pattern and symbolic factorisation.
+    reused: bool,
 }
 
 /// Small sliding pairs from the reference geometry: a converged state whose nodes in contact
@@ -154,8 +156,14 @@ impl<'m> StaticAnalysis<'m> {
         Some(SolverReuse::new(key, self.assembler, self.solver))
     }
 
+    /// Whether this analysis was set up on the previous model's pattern and symbolic
+    /// factorisation (numeric refactorisation only).
+    pub fn structure_reused(&self) -> bool {
+        self.reused
+    }
+
     fn condensed(model: &'m Model, reuse: Option<SolverReuse>) -> Result<Self, AnalysisError> {
-        let (assembler, solver, values, cd, key) = condensed::setup(model, true, reuse)?;
+        let (assembler, solver, values, cd, key, reused) = condensed::setup(model, true, reuse)?;
         Ok(StaticAnalysis {
             model,
             assembler,
@@ -172,6 +180,7 @@ impl<'m> StaticAnalysis<'m> {
             last_gross_sliding: None,
             last_sets: None,
             reuse_key: Some(key),
+            reused,
         })
     }
 
@@ -223,6 +232,7 @@ impl<'m> StaticAnalysis<'m> {
             last_gross_sliding: None,
             last_sets: None,
             reuse_key: None,
+            reused: false,
         })
     }
 

@@ -34,6 +34,8 @@ const S0: f64 = 100.0;
 const ANGLE_DEG: f64 = 10.0;
 const TRAVEL: f64 = 1.6;
 const STEPS: usize = 30;
+/// Pressure on the upper block of the contact scenes.
+const CONTACT_P: f64 = 50.0;
 
 fn cut_line() -> [Point2<f64>; 2] {
     let s = ANGLE_DEG.to_radians().tan();
@@ -365,35 +367,40 @@ fn j2_history_stays_on_its_points() {
 /// down; the contact pressure is p at every multiplier node and the stress uniform after every
 /// move, to 1e-8 (round-off). Small sliding (reference pairing, the surface moves 1 mm < the
 /// pairing reach) and finite sliding (re-paired every step, 1.5 mm).
+/// The contact patch scene below: the upper block pressed on the lower block's virtual top
+/// surface, which moves down by `travel` over `steps` steps after the load.
+fn moving_contact_model(sliding: Sliding, travel: f64, steps: usize) -> Model {
+    let hyp = PlaneHypothesis::PlaneStrain;
+    let mut b = ModelBuilder::new(hyp);
+    let mi = b.add_material("steel", Material::Elastic(Elastic { young: E, poisson: NU, hypothesis: hyp }));
+    let lower = generate::rectangle(0.0, 0.0, 4.0, 3.0, 8, 6, 1.0, 1.0, CellKind::Quad4).unwrap();
+    let upper = generate::rectangle(0.0, 2.63, 4.0, 1.0, 7, 3, 1.0, 1.0, CellKind::Tri3).unwrap();
+    let lo = b.add_body("lower", lower, mi, Formulation::Standard, 1.0);
+    let up = b.add_body("upper", upper, mi, Formulation::Standard, 1.0);
+    b.fix(lo, "bottom", 1, 0.0).unwrap();
+    b.fix(lo, "bottom_left", 0, 0.0).unwrap();
+    b.fix(up, "top_left", 0, 0.0).unwrap();
+    b.pressure(up, "top", CONTACT_P).unwrap();
+    let motion = b.add_curve(LoadPath::new(vec![(0.0, 0.0), (1.0, 0.0), (2.0, 1.0)]).unwrap());
+    b.add_cut("worn_top", lo, vec![Point2::new(-1.0, 2.63), Point2::new(5.0, 2.63)], false, false).unwrap();
+    b.set_cut_motion("worn_top", SurfaceMotion::NormalOffset { distance: travel, curve: motion }).unwrap();
+    let params = ContactParams { sliding, ..Default::default() };
+    b.add_contact("c", up, &["bottom".to_string()], lo, ContactOther::Cut("worn_top".into()), params).unwrap();
+    let times: Vec<f64> = std::iter::once(1.0).chain((1..=steps).map(|i| 1.0 + i as f64 / steps as f64)).collect();
+    b.build(
+        LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0), (2.0, 1.0)]).unwrap(),
+        times,
+        NewtonParams::default(),
+        LinearSolverKind::Cholesky,
+    )
+    .unwrap()
+}
+
 #[test]
 fn contact_patch_test_on_a_moving_surface() {
-    const P: f64 = 50.0;
+    const P: f64 = CONTACT_P;
     for (sliding, travel, steps) in [(Sliding::Small, 1.0, 8), (Sliding::Finite, 1.5, 12)] {
-        let hyp = PlaneHypothesis::PlaneStrain;
-        let mut b = ModelBuilder::new(hyp);
-        let mi = b.add_material("steel", Material::Elastic(Elastic { young: E, poisson: NU, hypothesis: hyp }));
-        let lower = generate::rectangle(0.0, 0.0, 4.0, 3.0, 8, 6, 1.0, 1.0, CellKind::Quad4).unwrap();
-        let upper = generate::rectangle(0.0, 2.63, 4.0, 1.0, 7, 3, 1.0, 1.0, CellKind::Tri3).unwrap();
-        let lo = b.add_body("lower", lower, mi, Formulation::Standard, 1.0);
-        let up = b.add_body("upper", upper, mi, Formulation::Standard, 1.0);
-        b.fix(lo, "bottom", 1, 0.0).unwrap();
-        b.fix(lo, "bottom_left", 0, 0.0).unwrap();
-        b.fix(up, "top_left", 0, 0.0).unwrap();
-        b.pressure(up, "top", P).unwrap();
-        let motion = b.add_curve(LoadPath::new(vec![(0.0, 0.0), (1.0, 0.0), (2.0, 1.0)]).unwrap());
-        b.add_cut("worn_top", lo, vec![Point2::new(-1.0, 2.63), Point2::new(5.0, 2.63)], false, false).unwrap();
-        b.set_cut_motion("worn_top", SurfaceMotion::NormalOffset { distance: travel, curve: motion }).unwrap();
-        let params = ContactParams { sliding, ..Default::default() };
-        b.add_contact("c", up, &["bottom".to_string()], lo, ContactOther::Cut("worn_top".into()), params).unwrap();
-        let times: Vec<f64> = std::iter::once(1.0).chain((1..=steps).map(|i| 1.0 + i as f64 / steps as f64)).collect();
-        let model = b
-            .build(
-                LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0), (2.0, 1.0)]).unwrap(),
-                times,
-                NewtonParams::default(),
-                LinearSolverKind::Cholesky,
-            )
-            .unwrap();
+        let model = moving_contact_model(sliding, travel, steps);
         let mut s = StaticAnalysis::initial_state_of(&model);
         let mut count = 0;
         run(&model, &mut s, RunOptions::default(), |r, st, m| {
@@ -432,4 +439,40 @@ fn contact_patch_test_on_a_moving_surface() {
         .unwrap();
         assert_eq!(count, steps + 1);
     }
+}
+
+/// The condensed solver's structure handed from one surface position to the next (what a
+/// run does) gives, bit for bit, what a solver built afresh for the moved surface gives (what
+/// a restart does), and it is actually reused: the surface crosses cells, the ghost penalty
+/// and the contact rows move, and the pattern of `K_rho` stays (grounding rows regularise the
+/// upper block, which only contact holds vertically) unless the DOF map changes (the surface
+/// passing a row of nodes switches them off: twice in this 1 mm descent through 0.5 mm cells).
+#[test]
+fn reused_solver_structure_equals_a_fresh_set_up_bit_for_bit() {
+    let steps = 8;
+    let model = moving_contact_model(Sliding::Small, 1.0, steps);
+    let mut current = model.clone();
+    let mut state = StaticAnalysis::initial_state_of(&model);
+    let mut reuse = None;
+    let mut reused_steps = 0;
+    let mut previous_dofs: Option<Vec<usize>> = None;
+    for (k, &t) in model.times.iter().enumerate() {
+        current.place_surfaces(t).unwrap();
+        let mut fresh_state = state.clone();
+        let mut handed = StaticAnalysis::with_reuse(&current, reuse.take()).unwrap();
+        handed.advance_to(&mut state, k + 1, t).unwrap();
+        let same_dofs = previous_dofs.as_ref() == Some(&current.dofs.eq);
+        assert_eq!(handed.structure_reused(), same_dofs, "step {}: reused exactly when the DOF map is kept", k + 1);
+        previous_dofs = Some(current.dofs.eq.clone());
+        reused_steps += usize::from(handed.structure_reused());
+        reuse = handed.into_reuse();
+        let mut fresh = StaticAnalysis::new(&current).unwrap();
+        assert!(!fresh.structure_reused());
+        fresh.advance_to(&mut fresh_state, k + 1, t).unwrap();
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&state.u), bits(&fresh_state.u), "step {}: displacements", k + 1);
+        assert_eq!(bits(&state.multipliers), bits(&fresh_state.multipliers), "step {}: multipliers", k + 1);
+    }
+    // Every model after the first but the two where nodes were switched off.
+    assert_eq!(reused_steps, steps - 2, "set-ups on the previous structure");
 }

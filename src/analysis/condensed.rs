@@ -219,7 +219,7 @@ pub(super) fn setup(
     m: &Model,
     parallel: bool,
     reuse: Option<SolverReuse>,
-) -> Result<(Assembler, SparseSolver, Vec<f64>, Condensed, ReuseKey), LinearSolverError> {
+) -> Result<(Assembler, SparseSolver, Vec<f64>, Condensed, ReuseKey, bool), LinearSolverError> {
     let nt = m.constraints.len();
     let all: Vec<&Vec<(usize, f64)>> = m.multiplier_rows().collect();
     let g0: Vec<f64> = m.contact.g0.clone();
@@ -340,7 +340,7 @@ pub(super) fn setup(
         delassus_s = t0.elapsed().as_secs_f64() - t2,
         "interface condensation: K_rho factored, Delassus operator formed"
     );
-    Ok((assembler, solver, values, cd, key))
+    Ok((assembler, solver, values, cd, key, reused))
 }
 
 /// What a live row imposes in one active-set iteration: a gap row (`dw` known, `dlambda`
