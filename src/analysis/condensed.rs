@@ -121,12 +121,17 @@ pub(super) fn ground_rows(m: &Model) -> Vec<Vec<(usize, f64)>> {
             }
         }
     }
-    let mut parts: Vec<usize> = roots.clone();
-    parts.sort_unstable();
-    parts.dedup();
+    // Nodes of each part, parts in order of their smallest node.
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); nn];
+    for (a, &r) in roots.iter().enumerate() {
+        members[r].push(a);
+    }
+    let mut prescribed_of: Vec<Vec<usize>> = vec![Vec::new(); nn];
+    for &(d, _) in &m.prescribed {
+        prescribed_of[roots[d / 2]].push(d);
+    }
     let mut rows = Vec::new();
-    for &part in &parts {
-        let nodes: Vec<usize> = (0..nn).filter(|&a| roots[a] == part).collect();
+    for (part, nodes) in members.iter().enumerate().filter(|(_, v)| v.len() > 1) {
         let centre = nodes.iter().fold(nalgebra::Vector2::zeros(), |s, &a| s + m.coords[a].coords) / nodes.len() as f64;
         let size = nodes.iter().map(|&a| (m.coords[a].coords - centre).norm()).fold(0.0, f64::max);
         if size <= 0.0 {
@@ -134,12 +139,8 @@ pub(super) fn ground_rows(m: &Model) -> Vec<Vec<(usize, f64)>> {
         }
         // Gram matrix of the rigid modes (x, y, rotation) over the part's prescribed DOFs.
         let mut gram = nalgebra::Matrix3::<f64>::zeros();
-        for &(d, _) in &m.prescribed {
-            let a = d / 2;
-            if roots[a] != part {
-                continue;
-            }
-            let r = (m.coords[a].coords - centre) / size;
+        for &d in &prescribed_of[part] {
+            let r = (m.coords[d / 2].coords - centre) / size;
             let mode =
                 if d % 2 == 0 { nalgebra::Vector3::new(1.0, 0.0, -r.y) } else { nalgebra::Vector3::new(0.0, 1.0, r.x) };
             gram += mode * mode.transpose();
@@ -153,20 +154,20 @@ pub(super) fn ground_rows(m: &Model) -> Vec<Vec<(usize, f64)>> {
         if cand.len() < 2 {
             cand = nodes.iter().copied().filter(free).collect();
         }
-        // Extreme candidate by distance from `from` (first in node order on ties).
-        let extreme = |set: &[usize], from: nalgebra::Vector2<f64>, far: bool| {
-            set.iter().copied().fold(None, |best: Option<(usize, f64)>, a| {
+        // Candidate farthest from `from` (the first in node order on ties).
+        let farthest = |from: nalgebra::Vector2<f64>| {
+            cand.iter().copied().fold(None, |best: Option<(usize, f64)>, a| {
                 let dist = (m.coords[a].coords - from).norm();
                 match best {
-                    Some((_, bd)) if (far && bd >= dist) || (!far && bd <= dist) => best,
+                    Some((_, bd)) if bd >= dist => best,
                     _ => Some((a, dist)),
                 }
             })
         };
         // Far apart (a well-conditioned support), and chosen from what a run does not change
         // (a surface update keeps them, and so the pattern of `K_rho`).
-        let Some((a, _)) = extreme(&cand, centre, true) else { continue };
-        let Some((b, _)) = extreme(&cand, m.coords[a].coords, true) else { continue };
+        let Some((a, _)) = farthest(centre) else { continue };
+        let Some((b, _)) = farthest(m.coords[a].coords) else { continue };
         let dist = (m.coords[b].coords - m.coords[a].coords).norm();
         rows.push(vec![(2 * a, 1.0)]);
         rows.push(vec![(2 * a + 1, 1.0)]);
