@@ -454,7 +454,9 @@ fn partial_slip_stick_zone_never_wears() {
 /// outer surface into contact, which slips): its peak over a tenth of the run is more than 5
 /// times its mean over the first 1% (measured 8.6; 9.0 with a tighter jump controller,
 /// depth_fraction 0.02, pressure_change 0.05, prediction_tolerance 0.003, 792 computed
-/// cycles). Then it decays as the scar becomes conformal: over the last 30% of the run it is
+/// cycles). Then it decays as the slip zones unload onto the stick zone (which ends on one
+/// multiplier node carrying 99% of the load: below the mesh resolution, see the README):
+/// over the last 30% of the run it is
 /// below a fifth of that peak (measured 0.096; 0.033 with the tighter controller, whose
 /// depths agree to 2.5%: the late rate is small and jump-sensitive, the bound sits above
 /// both and far below no decay).
