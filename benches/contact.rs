@@ -1,7 +1,10 @@
 //! Criterion bench: issue 4's Hertz contact (cylinder on block, frictionless, condensed solve),
 //! whole process (mesh, model, factorisation, Delassus operator, active set) and the solve
 //! alone on a built model. `MORTEX_BENCH_H` sets the block core element (default 0.01 mm; the
-//! CLI's `mortex bench --hertz` runs the issue's three sizes).
+//! CLI's `mortex bench --hertz` runs the issue's three sizes). And the condensed solver's set-up
+//! on the McColl fretting model (wear_cases/mccoll_fretting.toml, 17k DOFs): built afresh
+//! (pattern, symbolic and numeric factorisation, interface operator) against handed on from the
+//! previous model of a run (numeric factorisation and interface operator only).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use mortex::analysis::StaticAnalysis;
@@ -31,6 +34,26 @@ fn benches(c: &mut Criterion) {
             })
         });
     }
+    g.finish();
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("wear_cases/mccoll_fretting.toml");
+    let model = match mortex::case::load(&path) {
+        Ok(c) => c.model,
+        Err(e) => panic!("McColl case: {e}"),
+    };
+    let mut g = c.benchmark_group("mccoll_condensed_setup");
+    g.sample_size(10);
+    g.bench_function("fresh", |b| b.iter(|| black_box(StaticAnalysis::new(&model).is_ok())));
+    let mut reuse = StaticAnalysis::new(&model).ok().and_then(|a| a.into_reuse());
+    g.bench_function("reused_structure", |b| {
+        b.iter(|| {
+            let a = match StaticAnalysis::with_reuse(&model, reuse.take()) {
+                Ok(a) => a,
+                Err(e) => panic!("setup: {e}"),
+            };
+            assert!(a.structure_reused());
+            reuse = a.into_reuse();
+        })
+    });
     g.finish();
 }
 
