@@ -42,6 +42,17 @@ pub struct RunTimings {
     pub solve: f64,
     /// Wear: step integrals, cycle update with its jump, surface move, re-cut and re-pairing.
     pub wear: f64,
+    /// Condensed solver set-ups, and how many of them reused the previous model's pattern and
+    /// symbolic factorisation (numeric refactorisation only).
+    pub setups: usize,
+    pub reused_setups: usize,
+}
+
+impl RunTimings {
+    fn count_setup(&mut self, analysis: &StaticAnalysis) {
+        self.setups += 1;
+        self.reused_setups += usize::from(analysis.structure_reused());
+    }
 }
 
 /// Runs every remaining output step of `model` from `state` (a fresh initial state or a
@@ -149,6 +160,7 @@ where
         let mut analysis = StaticAnalysis::with_reuse(&current, reuse.take())?;
         analysis.set_parallel(options.parallel);
         analysis.resume(state)?;
+        timings.count_setup(&analysis);
         for k in state.step..ramp_steps {
             let u_prev = state.u.clone();
             let report = analysis.advance_to(state, k + 1, model.times[k])?;
@@ -175,6 +187,7 @@ where
                 let mut analysis = StaticAnalysis::with_reuse(&repaired, reuse.take())?;
                 analysis.set_parallel(options.parallel);
                 timings.setup += t0.elapsed().as_secs_f64();
+                timings.count_setup(&analysis);
                 let report =
                     wear_step(&repaired, &mut analysis, state, i, step_time(i), n, cycle.increments, &mut timings)?;
                 reuse = analysis.into_reuse();
@@ -188,6 +201,7 @@ where
             analysis.set_parallel(options.parallel);
             analysis.resume(state)?;
             timings.setup += t0.elapsed().as_secs_f64();
+            timings.count_setup(&analysis);
             for i in state.wear.increment..cycle.increments {
                 let report =
                     wear_step(&current, &mut analysis, state, i, step_time(i), n, cycle.increments, &mut timings)?;

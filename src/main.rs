@@ -200,6 +200,12 @@ fn bench_wear(path: PathBuf, at: &[u64]) -> Result<(), String> {
         timings.wear / state.wear.computed_cycles.max(1) as f64,
         output / state.wear.computed_cycles.max(1) as f64
     );
+    if timings.setups > 0 {
+        println!(
+            "solver set-ups: {}, {} of them numeric only (pattern and symbolic factorisation of the previous surface position kept)",
+            timings.setups, timings.reused_setups
+        );
+    }
     let _ = std::fs::remove_file(&file);
     let _ = std::fs::remove_file(file.with_extension("xdmf"));
     Ok(())
