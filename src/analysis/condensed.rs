@@ -5,13 +5,16 @@
 //! ties, active normals and sticking nodes; multiplier rows `dlambda_a = ...` for open nodes and
 //! `dlambda_t + mu s dlambda_n = ...` for slipping ones). `K` alone is singular when a body is held
 //! only by contact (a loaded cylinder), so it is regularised exactly: with
-//! `K_rho = K + rho C^T C` (`C` the live multiplier rows) and `dw = C du`,
+//! `K_rho = K + rho C^T C` over some of the live rows `C` (ties and rigid sets, and grounding
+//! rows with multiplier 0 on bodies that only contact holds, see [`ground_rows`]; never a
+//! contact row, so the pattern of `K_rho` does not move with the surfaces) and `dw = C du`,
 //!
 //! `K_rho du = r_u - C^T dlambda + rho C^T dw`  =>  `du = z + Y (rho dw - dlambda)`,
 //! `z = K_rho^{-1} r_u`, `Y = K_rho^{-1} C^T`, and `dw = C z + D (rho dw - dlambda)` with the
 //! Delassus operator `D = C K_rho^{-1} C^T` (L x L, L = live multipliers).
 //!
-//! `K_rho` is factored once (Cholesky) and `D` computed once per model; every load step costs
+//! `K_rho` is factored once (Cholesky) and `D` computed once per model (the next model of a
+//! run keeps the pattern and symbolic factorisation, see [`SolverReuse`]); every load step costs
 //! two solves with the factor and two internal-force evaluations, and every active-set
 //! iteration one dense L x L solve in (`dlambda` of gap rows, `dw` of multiplier rows). The
 //! iterates are those of the monolithic Newton (the same linear systems, rearranged), so both
