@@ -8,7 +8,7 @@
 //! stiffness is assembled and factored once for the whole run, and each step is one solve plus
 //! one residual check.
 
-use crate::assembly::{Assembler, AssemblyInput, AssemblyOutput, SparsityPattern};
+use crate::assembly::{Assembler, AssemblyInput, AssemblyOutput, SparsityPattern, CONSTRAINED};
 use crate::fem::material::{PlasticState, Stress4};
 use crate::model::Model;
 use crate::solver::dense::DenseLu;
@@ -666,7 +666,6 @@ impl<'m> StaticAnalysis<'m> {
         let m = self.model;
         let p = m.newton;
         let (nt, nc, nfr) = (m.constraints.len(), m.contact.rows.len(), m.contact.friction_rows.len());
-        let nf = m.dofs.num_free;
         let all: Vec<&Vec<(usize, f64)>> = m.multiplier_rows().collect();
         let mut u = state.u.clone();
         for (d, v) in m.prescribed_at(t) {
@@ -688,7 +687,13 @@ impl<'m> StaticAnalysis<'m> {
             // Force scale of the step: what the start of the step has seen too (a contact that opens
             // leaves the bodies unloaded, where the final forces are all round-off).
             let scale0 = norm(&f_ext).max(norm(&self.trial_f_int)).max(norm(&ct));
-            let mut z: Vec<f64> = m.dofs.free.iter().map(|&g| f_ext[g] - self.trial_f_int[g] - ct[g]).collect();
+            // Over the equations of K_rho; switched-off DOFs take no load (they stay where they are).
+            let mut z: Vec<f64> = cd
+                .equations
+                .free
+                .iter()
+                .map(|&g| if m.dofs.eq[g] == CONSTRAINED { 0.0 } else { f_ext[g] - self.trial_f_int[g] - ct[g] })
+                .collect();
             let solve_err = |iteration: usize| move |source| NewtonError::Linear { step, iteration, source };
             self.solver.solve(&mut z).map_err(solve_err(0))?;
             let slip0: Vec<f64> = (0..nfr)
@@ -775,7 +780,7 @@ impl<'m> StaticAnalysis<'m> {
                     }
                 }
                 // du = z + K_rho^{-1} C^T (rho dw - dlambda).
-                let mut y = vec![0.0; nf];
+                let mut y = vec![0.0; cd.equations.num_free];
                 for (a, row) in cd.rows_free.iter().enumerate() {
                     let v = cd.rho[a] * dw[a] - dlam[a];
                     for &(e, c) in row {
@@ -784,8 +789,10 @@ impl<'m> StaticAnalysis<'m> {
                 }
                 self.solver.solve(&mut y).map_err(solve_err(iterations))?;
                 u.clone_from(&u_start);
-                for (i, &g) in m.dofs.free.iter().enumerate() {
-                    u[g] += z[i] + y[i];
+                for (i, &g) in cd.equations.free.iter().enumerate() {
+                    if m.dofs.eq[g] != CONSTRAINED {
+                        u[g] += z[i] + y[i];
+                    }
                 }
                 let mut mu = lam0.clone();
                 for (a, i) in cd.model_rows() {

@@ -445,8 +445,9 @@ fn contact_patch_test_on_a_moving_surface() {
 /// run does) gives, bit for bit, what a solver built afresh for the moved surface gives (what
 /// a restart does), and it is actually reused: the surface crosses cells, the ghost penalty
 /// and the contact rows move, and the pattern of `K_rho` stays (grounding rows regularise the
-/// upper block, which only contact holds vertically) unless the DOF map changes (the surface
-/// passing a row of nodes switches them off: twice in this 1 mm descent through 0.5 mm cells).
+/// upper block, which only contact holds vertically), also when the model's DOF map changes
+/// (the surface passing a row of nodes switches them off: twice in this 1 mm descent through
+/// 0.5 mm cells; they stay decoupled equations of `K_rho`).
 #[test]
 fn reused_solver_structure_equals_a_fresh_set_up_bit_for_bit() {
     let steps = 8;
@@ -454,17 +455,18 @@ fn reused_solver_structure_equals_a_fresh_set_up_bit_for_bit() {
     let mut current = model.clone();
     let mut state = StaticAnalysis::initial_state_of(&model);
     let mut reuse = None;
-    let mut reused_steps = 0;
+    let mut dof_map_changes = 0;
     let mut previous_dofs: Option<Vec<usize>> = None;
     for (k, &t) in model.times.iter().enumerate() {
         current.place_surfaces(t).unwrap();
         let mut fresh_state = state.clone();
         let mut handed = StaticAnalysis::with_reuse(&current, reuse.take()).unwrap();
         handed.advance_to(&mut state, k + 1, t).unwrap();
-        let same_dofs = previous_dofs.as_ref() == Some(&current.dofs.eq);
-        assert_eq!(handed.structure_reused(), same_dofs, "step {}: reused exactly when the DOF map is kept", k + 1);
+        assert_eq!(handed.structure_reused(), k > 0, "step {}: every set-up after the first reuses", k + 1);
+        if previous_dofs.as_ref().is_some_and(|p| p != &current.dofs.eq) {
+            dof_map_changes += 1;
+        }
         previous_dofs = Some(current.dofs.eq.clone());
-        reused_steps += usize::from(handed.structure_reused());
         reuse = handed.into_reuse();
         let mut fresh = StaticAnalysis::new(&current).unwrap();
         assert!(!fresh.structure_reused());
@@ -473,6 +475,6 @@ fn reused_solver_structure_equals_a_fresh_set_up_bit_for_bit() {
         assert_eq!(bits(&state.u), bits(&fresh_state.u), "step {}: displacements", k + 1);
         assert_eq!(bits(&state.multipliers), bits(&fresh_state.multipliers), "step {}: multipliers", k + 1);
     }
-    // Every model after the first but the two where nodes were switched off.
-    assert_eq!(reused_steps, steps - 2, "set-ups on the previous structure");
+    // Two rows of nodes passed, and their switching off did not cost a new pattern.
+    assert_eq!(dof_map_changes, 2, "DOF map changes");
 }

@@ -20,7 +20,7 @@
 //! iterates are those of the monolithic Newton (the same linear systems, rearranged), so both
 //! agree to round-off (tested). Live rows: ties, paired contact normals, friction rows.
 
-use crate::assembly::{Assembler, AssemblyInput, AssemblyOutput, SparsityPattern, CONSTRAINED};
+use crate::assembly::{Assembler, AssemblyInput, AssemblyOutput, DofMap, SparsityPattern, CONSTRAINED};
 use crate::contact::{row_laws, FrictionStatus, RowLaw};
 use crate::fem::material::{PlasticState, Stress4};
 use crate::model::Model;
@@ -51,6 +51,11 @@ pub(super) struct Condensed {
     pub log: Vec<Vec<usize>>,
     /// Number of model multipliers: set entries `i >= grounds` are grounding rows.
     pub grounds: usize,
+    /// Equations of `K_rho`: every DOF that is not prescribed. Switched-off DOFs (the model's
+    /// `held`, constrained in its DOF map) stay equations here, decoupled with a diagonal `E`
+    /// and a zero right-hand side (so they keep their value exactly): a surface passing a row
+    /// of nodes then leaves the pattern as it is.
+    pub equations: DofMap,
 }
 
 /// Whether a model is solved by condensation: contact present and every body linear elastic.
@@ -182,9 +187,16 @@ pub(super) fn ground_rows(m: &Model) -> Vec<Vec<(usize, f64)>> {
     rows
 }
 
-/// A row over global DOFs as a row over free equations.
-fn free_row(m: &Model, row: &[(usize, f64)]) -> Vec<(usize, f64)> {
-    row.iter().filter(|&&(d, _)| m.dofs.eq[d] != CONSTRAINED).map(|&(d, c)| (m.dofs.eq[d], c)).collect()
+/// A row over global DOFs as a row over the equations of `K_rho` (without the model's
+/// constrained DOFs: prescribed and switched off).
+fn free_row(m: &Model, equations: &DofMap, row: &[(usize, f64)]) -> Vec<(usize, f64)> {
+    row.iter().filter(|&&(d, _)| m.dofs.eq[d] != CONSTRAINED).map(|&(d, c)| (equations.eq[d], c)).collect()
+}
+
+/// The equations of `K_rho`: all DOFs but the prescribed ones.
+fn solver_equations(m: &Model) -> DofMap {
+    let prescribed: Vec<usize> = m.prescribed.iter().map(|p| p.0).collect();
+    DofMap::new(m.num_nodes(), &prescribed)
 }
 
 /// The solver structure of one condensed set-up, kept for the next model of the same run (the
@@ -252,13 +264,14 @@ pub(super) fn setup(
     pairs.extend(regularisation.iter().map(|&(i, j, _)| (i, j)));
     pairs.sort_unstable();
     pairs.dedup();
-    let key = ReuseKey { eq: m.dofs.eq.clone(), elements: m.elements.len(), pairs };
+    let equations = solver_equations(m);
+    let key = ReuseKey { eq: equations.eq.clone(), elements: m.elements.len(), pairs };
     let mut penalty = m.penalty.clone();
     penalty.extend_from_slice(&regularisation);
     let t0 = std::time::Instant::now();
     let build = |pairs: &[(usize, usize)]| {
         let structure: Vec<(usize, usize, f64)> = pairs.iter().map(|&(i, j)| (i, j, 0.0)).collect();
-        SparsityPattern::with_constraints(m.num_nodes(), &m.elements, &m.dofs, &[], &structure, 0, &[])
+        SparsityPattern::with_constraints(m.num_nodes(), &m.elements, &equations, &[], &structure, 0, &[])
     };
     let mut reused = false;
     let (mut assembler, mut solver) = match reuse {
@@ -272,7 +285,7 @@ pub(super) fn setup(
             (Assembler::new(pattern, &m.elements), solver)
         }
     };
-    if !assembler.pattern.set_penalty(&m.dofs, &penalty) {
+    if !assembler.pattern.set_penalty(&equations, &penalty) {
         // A ghost entry outside the structural couplings (a band body without its reach):
         // the pattern of this model's own entries, built afresh.
         tracing::debug!("penalty entries outside the structural pattern: pattern rebuilt");
@@ -281,7 +294,7 @@ pub(super) fn setup(
         own.sort_unstable();
         own.dedup();
         let mut pattern = build(&own);
-        pattern.set_penalty(&m.dofs, &penalty);
+        pattern.set_penalty(&equations, &penalty);
         solver = SparseSolver::new(&pattern.symbolic, LinearSolverKind::Cholesky)?;
         assembler = Assembler::new(pattern, &m.elements);
         reused = false;
@@ -310,6 +323,24 @@ pub(super) fn setup(
         },
         parallel,
     );
+    // Switched-off DOFs exactly decoupled (a support below the material threshold may still
+    // carry a sliver of element stiffness): the other equations are those of the model's
+    // own DOF map, the held ones keep `du = 0`.
+    {
+        let (col_ptr, row_idx) = (assembler.pattern.symbolic.col_ptr(), assembler.pattern.symbolic.row_idx());
+        for &d in m.held.iter().flatten() {
+            let e = equations.eq[d];
+            for p in col_ptr[e]..col_ptr[e + 1] {
+                let r = row_idx[p];
+                values[p] = if r == e { e_max } else { 0.0 };
+                if r != e {
+                    if let Ok(q) = row_idx[col_ptr[r]..col_ptr[r + 1]].binary_search(&e) {
+                        values[col_ptr[r] + q] = 0.0;
+                    }
+                }
+            }
+        }
+    }
     let t1 = t0.elapsed().as_secs_f64();
     solver.factor(&values)?;
     let t2 = t0.elapsed().as_secs_f64();
@@ -321,16 +352,17 @@ pub(super) fn setup(
         d: DMatrix::zeros(0, 0),
         log: vec![],
         grounds: all.len(),
+        equations,
     };
     for (g, row) in grounds.iter().enumerate() {
         cd.live.push(all.len() + g);
-        cd.rows_free.push(free_row(m, row));
+        cd.rows_free.push(free_row(m, &cd.equations, row));
         cd.rho.push(rho_ground);
     }
     let ties: Vec<usize> = (0..nt).collect();
     cd.push(m, &ties, rho_tie);
     cd.push(m, &with_friction(m, &near_rows(m, &g0, CANDIDATE_MARGIN, g_min)), 0.0);
-    cd.extend_operator(m, &solver, 0)?;
+    cd.extend_operator(&solver, 0)?;
     tracing::info!(
         set = cd.live.len(),
         grounds = grounds.len(),
@@ -490,7 +522,7 @@ impl Condensed {
     pub fn grow(&mut self, m: &Model, solver: &SparseSolver, new: &[usize], rho: f64) -> Result<(), LinearSolverError> {
         let old = self.live.len();
         self.push(m, new, rho);
-        self.extend_operator(m, solver, old)
+        self.extend_operator(solver, old)
     }
 
     /// Appends model multipliers `new` to the set (the operator not yet extended).
@@ -500,7 +532,7 @@ impl Condensed {
             debug_assert!(self.live_of[i].is_none());
             self.live_of[i] = Some(self.live.len());
             self.live.push(i);
-            self.rows_free.push(free_row(m, all[i]));
+            self.rows_free.push(free_row(m, &self.equations, all[i]));
             self.rho.push(rho);
         }
     }
@@ -511,7 +543,7 @@ impl Condensed {
     }
 
     /// Columns `old..` of `D` (and their transposes), for the rows appended since.
-    fn extend_operator(&mut self, m: &Model, solver: &SparseSolver, old: usize) -> Result<(), LinearSolverError> {
+    fn extend_operator(&mut self, solver: &SparseSolver, old: usize) -> Result<(), LinearSolverError> {
         let nl = self.live.len();
         if nl == old {
             return Ok(());
@@ -532,7 +564,7 @@ impl Condensed {
             self.d = d;
             return Ok(());
         }
-        let nf = m.dofs.num_free;
+        let nf = self.equations.num_free;
         // Blocks of RHS_BLOCK new rows, solved on the rayon threads (the triangular solves of
         // one block run on one core); each returns its columns of D over all set rows.
         let starts: Vec<usize> = (old..nl).step_by(RHS_BLOCK).collect();
