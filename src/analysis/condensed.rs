@@ -621,42 +621,42 @@ mod tests {
 
     /// Two blocks in contact (the lower one on rollers with a pin, the upper one pressed), with
     /// the upper block's own supports `upper_fix` (set, component).
-    fn blocks(upper_fix: &[(&str, usize)]) -> (Model, std::ops::Range<usize>) {
+    type TestResult<T> = Result<T, Box<dyn std::error::Error>>;
+
+    fn blocks(upper_fix: &[(&str, usize)]) -> TestResult<(Model, std::ops::Range<usize>)> {
         let hyp = PlaneHypothesis::PlaneStrain;
         let mut b = ModelBuilder::new(hyp);
         let mi = b.add_material("steel", Material::Elastic(Elastic { young: 210e3, poisson: 0.3, hypothesis: hyp }));
-        let lower = generate::rectangle(0.0, 0.0, 4.0, 2.0, 8, 4, 1.0, 1.0, CellKind::Quad4).unwrap();
-        let upper = generate::rectangle(0.0, 2.0, 4.0, 1.0, 7, 3, 1.0, 1.0, CellKind::Quad4).unwrap();
+        let lower = generate::rectangle(0.0, 0.0, 4.0, 2.0, 8, 4, 1.0, 1.0, CellKind::Quad4)?;
+        let upper = generate::rectangle(0.0, 2.0, 4.0, 1.0, 7, 3, 1.0, 1.0, CellKind::Quad4)?;
         let n_lower = lower.nodes.len();
         let n_upper = upper.nodes.len();
         let lo = b.add_body("lower", lower, mi, Formulation::Standard, 1.0);
         let up = b.add_body("upper", upper, mi, Formulation::Standard, 1.0);
-        b.fix(lo, "bottom", 1, 0.0).unwrap();
-        b.fix(lo, "bottom_left", 0, 0.0).unwrap();
+        b.fix(lo, "bottom", 1, 0.0)?;
+        b.fix(lo, "bottom_left", 0, 0.0)?;
         for &(set, comp) in upper_fix {
-            b.fix(up, set, comp, 0.0).unwrap();
+            b.fix(up, set, comp, 0.0)?;
         }
-        b.pressure(up, "top", 10.0).unwrap();
-        let other = ContactOther::Edges(b.global_edges(lo, &["top".to_string()]).unwrap());
-        b.add_contact("c", up, &["bottom".to_string()], lo, other, Default::default()).unwrap();
-        let model = b
-            .build(
-                LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)]).unwrap(),
-                vec![1.0],
-                NewtonParams::default(),
-                LinearSolverKind::Cholesky,
-            )
-            .unwrap();
-        (model, n_lower..n_lower + n_upper)
+        b.pressure(up, "top", 10.0)?;
+        let other = ContactOther::Edges(b.global_edges(lo, &["top".to_string()])?);
+        b.add_contact("c", up, &["bottom".to_string()], lo, other, Default::default())?;
+        let model = b.build(
+            LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)])?,
+            vec![1.0],
+            NewtonParams::default(),
+            LinearSolverKind::Cholesky,
+        )?;
+        Ok((model, n_lower..n_lower + n_upper))
     }
 
     /// A body that only contact holds (or that its supports leave a rigid mode) gets three
     /// grounding rows on two of its own free nodes; a body whose supports fix all three rigid
     /// modes (rollers along the bottom plus a pin) gets none.
     #[test]
-    fn grounding_rows_on_the_bodies_contact_holds() {
+    fn grounding_rows_on_the_bodies_contact_holds() -> TestResult<()> {
         for fix in [vec![], vec![("top_left", 0)], vec![("top", 0)]] {
-            let (model, upper_nodes) = blocks(&fix);
+            let (model, upper_nodes) = blocks(&fix)?;
             let rows = ground_rows(&model);
             assert_eq!(rows.len(), 3, "upper supports {fix:?}");
             let mut nodes: Vec<usize> = rows.iter().flatten().map(|&(d, _)| d / 2).collect();
@@ -668,7 +668,8 @@ mod tests {
             }
         }
         // Rollers (u_y) along the upper block's top and a pin (u_x) at a corner: supported.
-        let (model, _) = blocks(&[("top", 1), ("top_left", 0)]);
+        let (model, _) = blocks(&[("top", 1), ("top_left", 0)])?;
         assert!(ground_rows(&model).is_empty());
+        Ok(())
     }
 }
