@@ -61,6 +61,12 @@ pub enum AnalysisError {
          check for a tangential load above mu times the normal load)"
     )]
     SlidingBeyondPairing { step: usize, time: f64, slide: f64, width: f64 },
+    #[error(
+        "step {step} (time {time}): finite sliding: the pairing of the step did not settle in {pairings} \
+         re-pairings (last pressure change {change:.2e} of the largest): the step slides too far for the \
+         re-pairing to follow; raise [steps] increments"
+    )]
+    PairingNotSettled { step: usize, time: f64, pairings: usize, change: f64 },
     #[error("step {step} (time {time}): moving the virtual surfaces: {source}")]
     Surface { step: usize, time: f64, source: crate::model::ModelError },
     #[error("cycle {cycle}: wear of '{surface}': {msg}")]
@@ -153,7 +159,7 @@ impl<'m> StaticAnalysis<'m> {
     /// The solver structure this analysis can hand to the next model's (condensed only).
     pub fn into_reuse(self) -> Option<SolverReuse> {
         let key = self.reuse_key?;
-        Some(SolverReuse::new(key, self.assembler, self.solver))
+        Some(SolverReuse::new(key, self.assembler, self.solver, self.values))
     }
 
     /// Whether this analysis was set up on the previous model's pattern and symbolic

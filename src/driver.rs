@@ -49,6 +49,13 @@ pub struct RunTimings {
 }
 
 impl RunTimings {
+    fn add(&mut self, o: &RunTimings) {
+        self.setup += o.setup;
+        self.solve += o.solve;
+        self.wear += o.wear;
+        self.setups += o.setups;
+        self.reused_setups += o.reused_setups;
+    }
     fn count_setup(&mut self, analysis: &StaticAnalysis) {
         self.setups += 1;
         self.reused_setups += usize::from(analysis.structure_reused());
@@ -92,20 +99,21 @@ where
             let recut = current.place_surfaces(t).map_err(|source| AnalysisError::Surface { step, time: t, source })?;
             tracing::debug!(step, moved = recut.moved, cut_by_degree = ?recut.cut_cells_by_degree, held = recut.held_dofs, "surfaces re-cut");
         }
-        let repaired;
-        let step_model = if current.has_finite_sliding() {
-            repaired = current.repaired(&state.u);
-            &repaired
-        } else {
-            &current
-        };
-        let mut analysis = StaticAnalysis::with_reuse(step_model, reuse.take())?;
+        if current.has_finite_sliding() {
+            let same_bulk = !current.has_moving_surfaces() && k > state.step.min(k);
+            let mut timings = RunTimings::default();
+            solve_paired_step(&current, state, &mut reuse, same_bulk, step, t, options, &mut timings, |m, _, s, r, _| {
+                observer(&r, s, m).map_err(|msg| AnalysisError::Observer { step, msg })
+            })?;
+            continue;
+        }
+        let mut analysis = StaticAnalysis::with_reuse(&current, reuse.take())?;
         analysis.set_parallel(options.parallel);
         let report = analysis.advance_to(state, step, t)?;
         reuse = analysis.into_reuse();
         // The interface log of a per-step operator means nothing to the next step.
         state.interface_log.clear();
-        observer(&report, state, step_model).map_err(|msg| AnalysisError::Observer { step, msg })?;
+        observer(&report, state, &current).map_err(|msg| AnalysisError::Observer { step, msg })?;
     }
     Ok(RunTimings::default())
 }
@@ -181,19 +189,28 @@ where
         let n = state.wear.cycle;
         let step_time = |i: usize| cycle.start + cycle.period * (n as f64 + (i + 1) as f64 / cycle.increments as f64);
         if current.has_finite_sliding() {
-            for i in state.wear.increment..cycle.increments {
-                let t0 = clock();
-                let repaired = current.repaired(&state.u);
-                let mut analysis = StaticAnalysis::with_reuse(&repaired, reuse.take())?;
-                analysis.set_parallel(options.parallel);
-                timings.setup += t0.elapsed().as_secs_f64();
-                timings.count_setup(&analysis);
-                let report =
-                    wear_step(&repaired, &mut analysis, state, i, step_time(i), n, cycle.increments, &mut timings)?;
-                reuse = analysis.into_reuse();
-                state.interface_log.clear();
-                observer(&report, state, &repaired)
-                    .map_err(|msg| AnalysisError::Observer { step: report.step, msg })?;
+            let first = state.wear.increment;
+            for i in first..cycle.increments {
+                let step = state.step + 1;
+                // The surfaces moved before the cycle's first increment: its set-up refactors.
+                let same_bulk = i > first;
+                let mut solve_timings = RunTimings::default();
+                solve_paired_step(
+                    &current,
+                    state,
+                    &mut reuse,
+                    same_bulk,
+                    step,
+                    step_time(i),
+                    options,
+                    &mut solve_timings,
+                    |m, analysis, state, report, u_start| {
+                        let report =
+                            integrate_step_wear(m, analysis, state, u_start, report, i, n, cycle.increments, &mut timings)?;
+                        observer(&report, state, m).map_err(|msg| AnalysisError::Observer { step: report.step, msg })
+                    },
+                )?;
+                timings.add(&solve_timings);
             }
         } else {
             let t0 = clock();
@@ -234,12 +251,29 @@ fn wear_step(
 ) -> Result<StepReport, AnalysisError> {
     let u_prev = state.u.clone();
     let t0 = std::time::Instant::now();
-    let mut report = analysis.advance_to(state, state.step + 1, t)?;
+    let report = analysis.advance_to(state, state.step + 1, t)?;
+    timings.solve += t0.elapsed().as_secs_f64();
+    integrate_step_wear(m, analysis, state, &u_prev, report, i, n, increments, timings)
+}
+
+#[allow(clippy::too_many_arguments)]
+/// The wear of increment `i` of computed cycle `n` that just converged (from `u_prev`), and at
+/// the cycle's last increment the cycle's wear applied with its jump.
+fn integrate_step_wear(
+    m: &Model,
+    analysis: &StaticAnalysis,
+    state: &mut SimState,
+    u_prev: &[f64],
+    mut report: StepReport,
+    i: usize,
+    n: u64,
+    increments: usize,
+    timings: &mut RunTimings,
+) -> Result<StepReport, AnalysisError> {
     let t1 = std::time::Instant::now();
-    timings.solve += (t1 - t0).as_secs_f64();
     report.cycle = n as usize + 1;
     report.increment = i + 1;
-    accumulate_step_wear(m, state, &u_prev);
+    accumulate_step_wear(m, state, u_prev);
     state.wear.increment = i + 1;
     if i + 1 == increments {
         let count = m.cycle.map_or(1, |c| c.count as u64);
@@ -254,6 +288,92 @@ fn wear_step(
     }
     timings.wear += t1.elapsed().as_secs_f64();
     Ok(report)
+}
+
+/// Re-pairings of one finite-sliding step at most before it is refused (the pairing of a step
+/// that slides within the element size settles in two or three).
+pub const MAX_PAIRINGS: usize = 12;
+
+/// A re-pairing has settled when no contact pressure moved by more than this fraction of the
+/// largest pressure (0.01%: far below the discretisation error of the tractions).
+pub const PAIRING_TOLERANCE: f64 = 1e-4;
+
+/// Solves output step `step` (to time `t`) of a finite-sliding model in the pairing of the
+/// step's own end configuration, a fixed point on the pairing:
+///
+/// ```text
+/// u_pair = u_start
+/// repeat: pair the surfaces in X + u_pair (slips measured from u_start);
+///         solve the step from the start state -> u, p
+///         until p moved by at most PAIRING_TOLERANCE p_max;  u_pair = u
+/// ```
+///
+/// so that the end of a step does not depend on how far it slid (the pairing of the step's
+/// start lags the stroke by the whole increment: on a curved contact a step sliding several
+/// elements then reads the counter-surface's indentation where it no longer is). Between
+/// re-pairings only the contact rows change: `K_rho` keeps its factorisation. `same_bulk`: the
+/// structure handed in `reuse` was set up on `current`'s bulk. `then` gets the step's model,
+/// its analysis, the converged state and the report; its result is returned.
+#[allow(clippy::too_many_arguments)]
+fn solve_paired_step<R>(
+    current: &Model,
+    state: &mut SimState,
+    reuse: &mut Option<crate::analysis::SolverReuse>,
+    same_bulk: bool,
+    step: usize,
+    t: f64,
+    options: RunOptions,
+    timings: &mut RunTimings,
+    then: impl FnOnce(&Model, &StaticAnalysis, &mut SimState, StepReport, &[f64]) -> Result<R, AnalysisError>,
+) -> Result<R, AnalysisError> {
+    let start = state.clone();
+    let mut u_pair = state.u.clone();
+    let mut last_pressure: Option<Vec<f64>> = None;
+    let mut change = f64::INFINITY;
+    let mut iterations = 0;
+    for pairing in 1..=MAX_PAIRINGS {
+        let t0 = std::time::Instant::now();
+        let model = current.repaired_at(&u_pair, &start.u);
+        let handed = reuse.take().map(|r| if same_bulk || pairing > 1 { r.with_same_bulk() } else { r });
+        let mut analysis = StaticAnalysis::with_reuse(&model, handed)?;
+        analysis.set_parallel(options.parallel);
+        timings.setup += t0.elapsed().as_secs_f64();
+        timings.count_setup(&analysis);
+        if pairing > 1 {
+            *state = start.clone();
+        }
+        let t1 = std::time::Instant::now();
+        let mut report = analysis.advance_to(state, step, t)?;
+        timings.solve += t1.elapsed().as_secs_f64();
+        iterations += report.iterations;
+        let nt = model.constraints.len();
+        let pressure: Vec<f64> =
+            (0..model.contact.rows.len()).map(|k| (-state.multipliers[nt + k]).max(0.0)).collect();
+        if let Some(last) = &last_pressure {
+            let p_max = pressure.iter().fold(0.0_f64, |a, &b| a.max(b)).max(f64::MIN_POSITIVE);
+            change = pressure.iter().zip(last).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / p_max;
+        }
+        tracing::debug!(step, pairing, change, "finite sliding: step solved in its pairing");
+        if change <= PAIRING_TOLERANCE || (pairing == 1 && !state_slid(&model, state, &start.u)) {
+            report.iterations = iterations;
+            let out = then(&model, &analysis, state, report, &start.u);
+            *reuse = analysis.into_reuse();
+            // The interface log of a per-step operator means nothing to the next step.
+            state.interface_log.clear();
+            return out;
+        }
+        *reuse = analysis.into_reuse();
+        last_pressure = Some(pressure);
+        u_pair.clone_from(&state.u);
+    }
+    *state = start;
+    Err(AnalysisError::PairingNotSettled { step, time: t, pairings: MAX_PAIRINGS, change })
+}
+
+/// Whether a converged step moved the paired surfaces at all from the start state (a step at
+/// rest, as the ramp of a held stroke, keeps its pairing: no re-pairing needed).
+fn state_slid(m: &Model, state: &SimState, u_start: &[f64]) -> bool {
+    m.contact.rows.iter().flatten().any(|&(d, _)| state.u[d] != u_start[d])
 }
 
 /// Adds the wear of the step that just converged (from `u_prev` to `state.u`) to the cycle's

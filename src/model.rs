@@ -320,20 +320,27 @@ impl Model {
     }
 
     /// This model with the finite-sliding contact pairs re-paired in the configuration
-    /// `x = X + u` (the converged state at the start of a step): the mortar integrals, normals
-    /// and tangents are recomputed on the displaced surfaces (a virtual surface moves with its
-    /// host: its pieces keep their host reference coordinates), and the rows are shifted so
-    /// that they stay linear in the total displacement:
-    /// `g(u') = g_x + C_x (u' - u)`, i.e. `g0 = g_x - C_x u`; slips are measured from
-    /// `friction_s0 = T_x u`. Multiplier nodes, their number and order do not change, so the
-    /// state carries over. Small-sliding pairs keep their reference rows.
+    /// `x = X + u` (a virtual surface moves with its host: its pieces keep their host reference
+    /// coordinates), slips measured from `u` (see [`Model::repaired_at`]).
     pub fn repaired(&self, u: &[f64]) -> Model {
+        self.repaired_at(u, u)
+    }
+
+    /// This model with the finite-sliding contact pairs re-paired in the configuration
+    /// `x = X + u_pair`: the mortar integrals, normals and tangents are recomputed on the
+    /// displaced surfaces, and the rows are shifted so that they stay linear in the total
+    /// displacement, `g(u') = g_x + C_x (u' - u_pair)`, i.e. `g0 = g_x - C_x u_pair`; slips of
+    /// the step are measured from the step's start, `friction_s0 = T_x u_start`. The driver
+    /// pairs a step in its own end configuration (a fixed point on `u_pair`, see
+    /// [`crate::driver`]). Multiplier nodes, their number and order do not change, so the state
+    /// carries over. Small-sliding pairs keep their reference rows.
+    pub fn repaired_at(&self, u_pair: &[f64], u_start: &[f64]) -> Model {
         let mut m = self.clone();
-        let x = |n: usize| self.coords[n] + Vector2::new(u[2 * n], u[2 * n + 1]);
+        let x = |n: usize| self.coords[n] + Vector2::new(u_pair[2 * n], u_pair[2 * n + 1]);
         let hosts = self.hosts();
         for (pair, c) in self.contact.pairs.iter().enumerate().filter(|(_, c)| c.sliding == Sliding::Finite) {
             let rows = crate::contact::pair_rows(&hosts, c, &x);
-            crate::contact::install_rows(&mut m.contact, pair, rows, u);
+            crate::contact::install_rows(&mut m.contact, pair, rows, u_pair, u_start);
         }
         m
     }
@@ -1800,7 +1807,7 @@ impl Model {
             let coords = &self.coords;
             let rows = crate::contact::pair_rows(&self.hosts(), &self.contact.pairs[pair], &|n| coords[n]);
             let zero = vec![0.0; self.dofs.num_dofs];
-            crate::contact::install_rows(&mut self.contact, pair, rows, &zero);
+            crate::contact::install_rows(&mut self.contact, pair, rows, &zero, &zero);
         }
     }
 }

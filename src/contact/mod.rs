@@ -276,10 +276,19 @@ pub fn gross_sliding(status: &[FrictionStatus]) -> Option<usize> {
 }
 
 /// Largest slide of a node in contact from its pairing, and the contact width (the sum of
-/// `int Phi` over the nodes in contact). Small sliding pairs from the reference geometry: a
-/// converged state whose nodes slid further than the contact is wide has left its range.
+/// `int Phi` over the nodes in contact), over the small-sliding pairs. Small sliding pairs
+/// from the reference geometry: a converged state whose nodes slid further than the contact is
+/// wide has left its range. (Finite sliding pairs each step in its own end configuration.)
 pub fn slide_from_pairing(m: &ContactSet, u: &[f64], status: &[FrictionStatus]) -> Option<(f64, f64)> {
-    let in_contact: Vec<usize> = (0..status.len()).filter(|&j| status[j] != FrictionStatus::Open).collect();
+    let small = |k: usize| {
+        m.pairs
+            .iter()
+            .find(|c| (c.first_row..c.first_row + c.multipliers.num_nodes).contains(&k))
+            .is_some_and(|c| c.sliding == Sliding::Small)
+    };
+    let in_contact: Vec<usize> = (0..status.len())
+        .filter(|&j| status[j] != FrictionStatus::Open && small(m.friction_normal[j]))
+        .collect();
     if in_contact.is_empty() {
         return None;
     }
@@ -418,20 +427,21 @@ fn with_pairing<T>(
     }
 }
 
-/// Writes a pair's rows into the model: `g0 = g_x - C_x u` and `s0 = T_x u` keep the rows
-/// linear in the total displacement `u` when they were paired in a displaced configuration
-/// (zero `u`: the reference pairing).
-pub fn install_rows(m: &mut ContactSet, pair: usize, rows: Vec<ContactRow>, u: &[f64]) {
+/// Writes a pair's rows into the model: `g0 = g_x - C_x u_pair` keeps the gaps linear in the
+/// total displacement when the rows were paired in the displaced configuration `X + u_pair`,
+/// and `s0 = T_x u_start` measures the step's slips from its start (zero displacements: the
+/// reference pairing).
+pub fn install_rows(m: &mut ContactSet, pair: usize, rows: Vec<ContactRow>, u_pair: &[f64], u_start: &[f64]) {
     let (first, friction_row) = (m.pairs[pair].first_row, m.pairs[pair].friction_row.clone());
     for (l, r) in rows.into_iter().enumerate() {
         let k = first + l;
-        let cu: f64 = r.normal.iter().map(|&(d, v)| v * u[d]).sum();
+        let cu: f64 = r.normal.iter().map(|&(d, v)| v * u_pair[d]).sum();
         m.g0[k] = r.g0 - cu;
         m.phi[k] = r.phi;
         m.rows[k] = r.normal;
         m.tangents[k] = r.tangent.clone();
         if let Some(j) = friction_row[l] {
-            m.friction_s0[j] = r.tangent.iter().map(|&(d, v)| v * u[d]).sum();
+            m.friction_s0[j] = r.tangent.iter().map(|&(d, v)| v * u_start[d]).sum();
             m.friction_rows[j] = r.tangent;
         }
     }
