@@ -157,22 +157,37 @@ fn checkpoint_bits(file: &Path, step: usize) -> Vec<u64> {
 /// (surfaces, depths, sums, counters, jump controller) and scar, bit for bit.
 #[test]
 fn kill_minus_nine_during_wear_with_jumps_then_resume_is_bit_identical() {
+    kill_during_wear(false);
+}
+
+/// The same with finite sliding: every step paired in its own end configuration (a fixed point
+/// of solves from the step's start), wear swept along the stroke; a restart builds its solver
+/// afresh where the run kept its factorisation between re-pairings.
+#[test]
+fn kill_minus_nine_during_finite_sliding_wear_then_resume_is_bit_identical() {
+    kill_during_wear(true);
+}
+
+fn kill_during_wear(finite: bool) {
     use std::process::{Command, Stdio};
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let sliding = if finite { "friction = 0.9\nsliding = \"finite\"" } else { "friction = 0.9" };
+    let tag = if finite { "_finite" } else { "" };
     let text = std::fs::read_to_string(root.join("wear_cases/mccoll_fretting.toml"))
         .unwrap()
+        .replace("friction = 0.9", sliding)
         .replace("divisions = [30, 160]", "divisions = [14, 60]")
         .replace("divisions = [120, 30]", "divisions = [50, 12]")
         .replace("cycles = 18000", "cycles = 400")
         .replace("increments = 20", "increments = 8")
         .replace("checkpoint_every = 200", "checkpoint_every = 1");
     assert!(text.contains("cycles = 400") && text.contains("divisions = [14, 60]"));
-    let case = tmpfile("kill_wear.toml");
+    let case = tmpfile(&format!("kill_wear{tag}.toml"));
     std::fs::write(&case, text).unwrap();
     let exe = env!("CARGO_BIN_EXE_mortex");
     let run =
         |args: &[&str]| Command::new(exe).args(args).stdout(Stdio::null()).stderr(Stdio::null()).status().unwrap();
-    let reference = tmpfile("kill_wear_ref.h5");
+    let reference = tmpfile(&format!("kill_wear{tag}_ref.h5"));
     let started = std::time::Instant::now();
     assert!(run(&["run", case.to_str().unwrap(), "--quiet", "-o", reference.to_str().unwrap()]).success());
     let wall = started.elapsed();
@@ -186,7 +201,7 @@ fn kill_minus_nine_during_wear_with_jumps_then_resume_is_bit_identical() {
     };
     let mut resumed_from = vec![];
     for (i, fraction) in [0.15, 0.32, 0.5, 0.67, 0.85].into_iter().enumerate() {
-        let Some((k, cont)) = kill_then_resume(&case, &format!("kill_wear_{i}"), wall.mul_f64(fraction), i == 1) else {
+        let Some((k, cont)) = kill_then_resume(&case, &format!("kill_wear{tag}_{i}"), wall.mul_f64(fraction), i == 1) else {
             continue;
         };
         let k_end = *checkpoint::available_steps(&cont).unwrap().last().unwrap();
@@ -197,6 +212,6 @@ fn kill_minus_nine_during_wear_with_jumps_then_resume_is_bit_identical() {
         );
         resumed_from.push(k);
     }
-    eprintln!("wear run ({computed} wear updates, {k_ref} steps): resumed from steps {resumed_from:?}");
+    eprintln!("wear run{tag} ({computed} wear updates, {k_ref} steps, {wall:?}): resumed from steps {resumed_from:?}");
     assert!(resumed_from.len() >= 3, "most kills must land mid-run (resumed from {resumed_from:?})");
 }
