@@ -1,10 +1,11 @@
-//! The run driver: every run, resume and (next) wear loop goes through [`run`].
+//! The run driver: every run, resume and wear loop goes through [`run`].
 //!
 //! ```text
 //! for each remaining output step k (time t_k, cycle c, increment i):
 //!     move the virtual surfaces to their position at t_k and re-cut (fixed points)
-//!     re-pair finite-sliding contact pairs in the converged configuration
-//!     solve the step (condensed interface solve for elastic contact, Newton otherwise)
+//!     solve the step (condensed interface solve for elastic contact, Newton otherwise);
+//!     finite sliding: in the pairing of the step's own end configuration (a fixed point,
+//!     see `solve_paired_step`)
 //!     hand the converged state and the step's discretisation to the observer (output)
 //! ```
 //!

@@ -235,8 +235,8 @@ pub struct ContactParams {
     /// Coarse-grained: spaced like the other side's elements near each vertex (removes the
     /// traction oscillation of a mortar side finer than the other side's elements).
     pub multipliers: MultiplierSpace,
-    /// Small sliding: mortar pairing once, from the reference geometry. Finite: re-paired from
-    /// the converged configuration at the start of every step (see [`Model::repaired`]).
+    /// Small sliding: mortar pairing once, from the reference geometry. Finite: every step
+    /// paired in its own end configuration (see [`Model::repaired_at`] and the driver).
     pub sliding: Sliding,
 }
 

@@ -159,8 +159,8 @@ pub struct ContactSpec {
     /// Multiplier space on the mortar surface (default coarse-grained: spaced like the other
     /// side's elements where the mortar side is finer, classical elsewhere).
     pub multipliers: Option<MultiplierSpace>,
-    /// "small" (default: pairing from the reference geometry) or "finite" (re-paired every
-    /// step, for strokes longer than the contact).
+    /// "small" (default: pairing from the reference geometry) or "finite" (every step paired
+    /// in its own end configuration, for strokes longer than the contact).
     #[serde(default)]
     pub sliding: crate::model::Sliding,
 }
