@@ -149,8 +149,21 @@ impl<'m> StaticAnalysis<'m> {
     /// condensed solver's pattern and symbolic factorisation of the previous model are reused
     /// when its structure is the same (see [`SolverReuse`]).
     pub fn with_reuse(model: &'m Model, reuse: Option<SolverReuse>) -> Result<Self, AnalysisError> {
+        Self::for_pairings(model, reuse, false)
+    }
+
+    /// As [`Self::with_reuse`]; `surface_compliance`: the bulk will serve many pairings of a
+    /// finite-sliding model (a run without moving surfaces), so the interface operator of each
+    /// is formed from the surfaces' compliance, itself formed once per bulk (see the
+    /// `condensed` module). The choice must depend on the case alone: both operators are exact
+    /// but differ in round-off, and a restart must make the same choice.
+    pub fn for_pairings(
+        model: &'m Model,
+        reuse: Option<SolverReuse>,
+        surface_compliance: bool,
+    ) -> Result<Self, AnalysisError> {
         if condensed::applies(model) {
-            Self::condensed(model, reuse)
+            Self::condensed(model, reuse, surface_compliance)
         } else {
             Self::with_condensation(model, false)
         }
@@ -159,7 +172,8 @@ impl<'m> StaticAnalysis<'m> {
     /// The solver structure this analysis can hand to the next model's (condensed only).
     pub fn into_reuse(self) -> Option<SolverReuse> {
         let key = self.reuse_key?;
-        Some(SolverReuse::new(key, self.assembler, self.solver, self.values))
+        let compliance = self.condensed.and_then(|c| c.compliance);
+        Some(SolverReuse::new(key, self.assembler, self.solver, self.values, compliance))
     }
 
     /// Whether this analysis was set up on the previous model's pattern and symbolic
@@ -168,8 +182,8 @@ impl<'m> StaticAnalysis<'m> {
         self.reused
     }
 
-    fn condensed(model: &'m Model, reuse: Option<SolverReuse>) -> Result<Self, AnalysisError> {
-        let (assembler, solver, values, cd, key, reused) = condensed::setup(model, true, reuse)?;
+    fn condensed(model: &'m Model, reuse: Option<SolverReuse>, compliance: bool) -> Result<Self, AnalysisError> {
+        let (assembler, solver, values, cd, key, reused) = condensed::setup(model, true, reuse, compliance)?;
         Ok(StaticAnalysis {
             model,
             assembler,
@@ -194,7 +208,7 @@ impl<'m> StaticAnalysis<'m> {
     /// monolithic saddle-point solve.
     pub fn with_condensation(model: &'m Model, condense: bool) -> Result<Self, AnalysisError> {
         if condense && condensed::applies(model) {
-            return Self::condensed(model, None);
+            return Self::condensed(model, None, false);
         }
         // Constraint rows are scaled by `alpha ~ E / |C|` in the matrix so that both blocks of the
         // saddle point have the same magnitude: the LU factorisation then keeps its accuracy.

@@ -105,9 +105,19 @@ where
             // Without moving surfaces every step has the bulk the first one set up.
             let same_bulk = !current.has_moving_surfaces() && k > first;
             let mut timings = RunTimings::default();
-            solve_paired_step(&current, state, &mut reuse, same_bulk, step, t, options, &mut timings, |m, _, s, r, _| {
-                observer(&r, s, m).map_err(|msg| AnalysisError::Observer { step, msg })
-            })?;
+            let compliance = !current.has_moving_surfaces();
+            solve_paired_step(
+                &current,
+                state,
+                &mut reuse,
+                same_bulk,
+                compliance,
+                step,
+                t,
+                options,
+                &mut timings,
+                |m, _, s, r, _| observer(&r, s, m).map_err(|msg| AnalysisError::Observer { step, msg }),
+            )?;
             continue;
         }
         let mut analysis = StaticAnalysis::with_reuse(&current, reuse.take())?;
@@ -203,6 +213,7 @@ where
                     state,
                     &mut reuse,
                     same_bulk,
+                    false,
                     step,
                     step_time(i),
                     options,
@@ -321,7 +332,9 @@ const PAIRING_CONTRACTION_FLOOR: f64 = 0.1;
 /// start lags the stroke by the whole increment: on a curved contact a step sliding several
 /// elements then reads the counter-surface's indentation where it no longer is). Between
 /// re-pairings only the contact rows change: `K_rho` keeps its factorisation. `same_bulk`: the
-/// structure handed in `reuse` was set up on `current`'s bulk. `then` gets the step's model,
+/// structure handed in `reuse` was set up on `current`'s bulk; `surface_compliance`: see
+/// [`StaticAnalysis::for_pairings`] (on for runs whose surfaces stay where they are, where one
+/// bulk serves every step). `then` gets the step's model,
 /// its analysis, the converged state and the report; its result is returned.
 #[allow(clippy::too_many_arguments)]
 fn solve_paired_step<R>(
@@ -329,6 +342,7 @@ fn solve_paired_step<R>(
     state: &mut SimState,
     reuse: &mut Option<crate::analysis::SolverReuse>,
     same_bulk: bool,
+    surface_compliance: bool,
     step: usize,
     t: f64,
     options: RunOptions,
@@ -344,7 +358,7 @@ fn solve_paired_step<R>(
         let t0 = std::time::Instant::now();
         let model = current.repaired_at(&u_pair, &start.u);
         let handed = reuse.take().map(|r| if same_bulk || pairing > 1 { r.with_same_bulk() } else { r });
-        let mut analysis = StaticAnalysis::with_reuse(&model, handed)?;
+        let mut analysis = StaticAnalysis::for_pairings(&model, handed, surface_compliance)?;
         analysis.set_parallel(options.parallel);
         timings.setup += t0.elapsed().as_secs_f64();
         timings.count_setup(&analysis);

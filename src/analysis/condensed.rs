@@ -56,6 +56,145 @@ pub(super) struct Condensed {
     /// and a zero right-hand side (so they keep their value exactly): a surface passing a row
     /// of nodes then leaves the pattern as it is.
     pub equations: DofMap,
+    /// Finite sliding: the compliance of every equation a row of the model can touch, from
+    /// which the operator of any pairing is a small dense product (see [`Compliance`]).
+    pub compliance: Option<Compliance>,
+}
+
+/// The surface compliance `F = S K_rho^{-1} S^T` over a fixed, sorted set of equations `S`: every
+/// equation a contact row of the model can touch at any pairing (both sides of every pair:
+/// mortar vertices or their host nodes, the other side's edge nodes or its cut cells' nodes),
+/// and those of the tie and grounding rows. Formed once per surface position (the bulk),
+/// the Delassus operator of a re-pairing is then `D = C_S F C_S^T`, a product over the rows'
+/// few coefficients, instead of a substitution through the factor per row. The set depends on
+/// the geometry alone, so a restart forms the same `F`, bit for bit.
+pub(super) struct Compliance {
+    eqs: Vec<usize>,
+    /// Position of each equation of `K_rho` in `eqs`.
+    pos: Vec<Option<u32>>,
+    f: DMatrix<f64>,
+}
+
+/// Largest compliance set formed (a dense `n x n` block; beyond it the operator is formed by
+/// substitution per row).
+const MAX_COMPLIANCE: usize = 4000;
+
+impl Compliance {
+    /// The equations of the compliance set of `m` (see [`Compliance`]).
+    fn equations_of(m: &Model, equations: &DofMap, grounds: &[Vec<(usize, f64)>]) -> Vec<usize> {
+        let mut nodes: Vec<usize> = Vec::new();
+        for c in &m.contact.pairs {
+            for &n in &c.side.nodes {
+                match &c.virtual_mortar {
+                    Some(vm) if n >= vm.base => nodes.extend(vm.interpolation[n - vm.base].iter().map(|&(g, _)| g)),
+                    _ => nodes.push(n),
+                }
+            }
+            match &c.other {
+                crate::contact::PairedSide::Edges(edges) => nodes.extend(edges.iter().flatten()),
+                crate::contact::PairedSide::Embedded { host, embedding } => {
+                    let body = &m.bodies[*host];
+                    for piece in &embedding.pieces {
+                        nodes.extend(body.mesh.cells[piece.cell].nodes().iter().map(|&a| a + body.node_offset));
+                    }
+                }
+            }
+        }
+        let mut dofs: Vec<usize> = nodes.iter().flat_map(|&n| [2 * n, 2 * n + 1]).collect();
+        for row in m.constraints.iter().chain(grounds) {
+            dofs.extend(row.iter().map(|&(d, _)| d));
+        }
+        let mut eqs: Vec<usize> =
+            dofs.into_iter().filter(|&d| m.dofs.eq[d] != CONSTRAINED).map(|d| equations.eq[d]).collect();
+        eqs.sort_unstable();
+        eqs.dedup();
+        eqs
+    }
+
+    /// Forms `F` over `eqs` with the factor of `K_rho`.
+    fn new(solver: &SparseSolver, eqs: Vec<usize>, num_equations: usize) -> Result<Self, LinearSolverError> {
+        let rows: Vec<Vec<(usize, f64)>> = eqs.iter().map(|&e| vec![(e, 1.0)]).collect();
+        let f = operator_columns(solver, &rows, 0, num_equations)?;
+        let mut pos = vec![None; num_equations];
+        for (i, &e) in eqs.iter().enumerate() {
+            pos[e] = Some(i as u32);
+        }
+        Ok(Compliance { eqs, pos, f })
+    }
+
+    /// Columns `old..` of `C F C^T` for the rows `rows` (all set rows), or `None` if a row
+    /// touches an equation outside the set.
+    fn columns(&self, rows: &[Vec<(usize, f64)>], old: usize) -> Option<DMatrix<f64>> {
+        let local: Vec<Vec<(usize, f64)>> = rows
+            .iter()
+            .map(|r| r.iter().map(|&(e, c)| self.pos.get(e).copied().flatten().map(|i| (i as usize, c))).collect())
+            .collect::<Option<_>>()?;
+        let (nl, ns) = (rows.len(), self.eqs.len());
+        let mut out = DMatrix::zeros(nl, nl - old);
+        let mut fr = vec![0.0; ns];
+        for b in old..nl {
+            fr.iter_mut().for_each(|v| *v = 0.0);
+            for &(j, c) in &local[b] {
+                for (v, f) in fr.iter_mut().zip(self.f.column(j).iter()) {
+                    *v += c * f;
+                }
+            }
+            for (a, row) in local.iter().enumerate() {
+                out[(a, b - old)] = row.iter().map(|&(i, c)| c * fr[i]).sum();
+            }
+        }
+        Some(out)
+    }
+}
+
+/// Columns `old..` of the operator `B K_rho^{-1} B^T` for the rows `rows` of `B` (over the
+/// equations of `K_rho`): an `n x (n - old)` block. Supernodal substitution where the factor
+/// allows it, else solves with the factor, `RHS_BLOCK` rows at a time on the rayon threads.
+fn operator_columns(
+    solver: &SparseSolver,
+    rows: &[Vec<(usize, f64)>],
+    old: usize,
+    nf: usize,
+) -> Result<DMatrix<f64>, LinearSolverError> {
+    let nl = rows.len();
+    if let Some(block) = solver.congruence(rows, old) {
+        return Ok(block);
+    }
+    let mut out = DMatrix::zeros(nl, nl - old);
+    let starts: Vec<usize> = (old..nl).step_by(RHS_BLOCK).collect();
+    // The blocks already use the threads: faer's own parallelism inside each block's
+    // triangular solves only adds synchronisation (futex/yield storms), so it is switched
+    // off for the duration.
+    let par = faer::get_global_parallelism();
+    faer::set_global_parallelism(faer::Par::Seq);
+    let cols: Vec<Result<Vec<Vec<f64>>, LinearSolverError>> = starts
+        .par_iter()
+        .map(|&start| {
+            let nb = RHS_BLOCK.min(nl - start);
+            let mut rhs = vec![0.0; nf * nb];
+            for b in 0..nb {
+                for &(e, c) in &rows[start + b] {
+                    rhs[b * nf + e] += c;
+                }
+            }
+            solver.solve_many(&mut rhs, nb)?;
+            Ok((0..nb)
+                .map(|b| {
+                    let col = &rhs[b * nf..(b + 1) * nf];
+                    rows.iter().map(|row| row.iter().map(|&(e, c)| c * col[e]).sum()).collect()
+                })
+                .collect())
+        })
+        .collect();
+    faer::set_global_parallelism(par);
+    for (&start, block) in starts.iter().zip(cols) {
+        for (b, col) in block?.into_iter().enumerate() {
+            for (a, v) in col.into_iter().enumerate() {
+                out[(a, start - old + b)] = v;
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// Whether a model is solved by condensation: contact present and every body linear elastic.
@@ -216,6 +355,8 @@ pub struct SolverReuse {
     /// then the numeric factorisation is kept too, and only the interface operator is formed.
     values: Vec<f64>,
     same_bulk: bool,
+    /// The surface compliance on that bulk (finite sliding).
+    compliance: Option<Compliance>,
 }
 
 /// What the pattern of `K_rho` is built from.
@@ -227,8 +368,14 @@ pub(super) struct ReuseKey {
 }
 
 impl SolverReuse {
-    pub(super) fn new(key: ReuseKey, assembler: Assembler, solver: SparseSolver, values: Vec<f64>) -> Self {
-        SolverReuse { key, assembler, solver, values, same_bulk: false }
+    pub(super) fn new(
+        key: ReuseKey,
+        assembler: Assembler,
+        solver: SparseSolver,
+        values: Vec<f64>,
+        compliance: Option<Compliance>,
+    ) -> Self {
+        SolverReuse { key, assembler, solver, values, same_bulk: false, compliance }
     }
 
     /// For a next model that differs from this one only in its contact rows (a re-pairing of
@@ -249,6 +396,7 @@ pub(super) fn setup(
     m: &Model,
     parallel: bool,
     reuse: Option<SolverReuse>,
+    surface_compliance: bool,
 ) -> Result<(Assembler, SparseSolver, Vec<f64>, Condensed, ReuseKey, bool), LinearSolverError> {
     let nt = m.constraints.len();
     let all: Vec<&Vec<(usize, f64)>> = m.multiplier_rows().collect();
@@ -288,12 +436,13 @@ pub(super) fn setup(
         SparsityPattern::with_constraints(m.num_nodes(), &m.elements, &equations, &[], &structure, 0, &[])
     };
     let mut reused = false;
-    let mut kept_values = None;
+    let (mut kept_values, mut kept_compliance) = (None, None);
     let (mut assembler, mut solver) = match reuse {
         Some(r) if r.key == key => {
             reused = true;
             if r.same_bulk {
                 kept_values = Some(r.values);
+                kept_compliance = r.compliance;
             }
             (r.assembler, r.solver)
         }
@@ -321,11 +470,27 @@ pub(super) fn setup(
     let (values, t1, t2) = match kept_values {
         Some(values) if values.len() == assembler.pattern.nnz() => (values, ts, ts),
         _ => {
+            kept_compliance = None;
             let values = factor_bulk(m, &mut assembler, &mut solver, &equations, e_max, parallel)?;
             let (t1, t2) = (ts, t0.elapsed().as_secs_f64());
             (values, t1, t2)
         }
     };
+    // Many re-pairings on the same bulk (finite sliding, surfaces at rest): the operator of
+    // each pairing from the compliance of the surfaces (formed on the first, kept while the
+    // bulk is). It costs about twenty substitutions of the operator (McColl scene: 0.25 s
+    // against 11-70 ms), so a wear cycle of a few increments does without.
+    let compliance = if surface_compliance && m.has_finite_sliding() {
+        let eqs = Compliance::equations_of(m, &equations, &grounds);
+        match kept_compliance {
+            Some(c) if c.eqs == eqs => Some(c),
+            _ if eqs.len() <= MAX_COMPLIANCE => Some(Compliance::new(&solver, eqs, equations.num_free)?),
+            _ => None,
+        }
+    } else {
+        None
+    };
+    let t3 = t0.elapsed().as_secs_f64();
     let mut cd = Condensed {
         live: vec![],
         live_of: vec![None; all.len()],
@@ -335,6 +500,7 @@ pub(super) fn setup(
         log: vec![],
         grounds: all.len(),
         equations,
+        compliance,
     };
     for (g, row) in grounds.iter().enumerate() {
         cd.live.push(all.len() + g);
@@ -355,7 +521,8 @@ pub(super) fn setup(
         pattern_symbolic_s = ts,
         bulk_kept = t2 == ts,
         assembly_and_factor_s = t2 - t1,
-        delassus_s = t0.elapsed().as_secs_f64() - t2,
+        compliance_s = t3 - t2,
+        delassus_s = t0.elapsed().as_secs_f64() - t3,
         "interface condensation: K_rho factored, Delassus operator formed"
     );
     Ok((assembler, solver, values, cd, key, reused))
@@ -579,65 +746,24 @@ impl Condensed {
         self.live.iter().copied().enumerate().filter(move |&(_, i)| i < self.grounds)
     }
 
-    /// Columns `old..` of `D` (and their transposes), for the rows appended since.
+    /// Columns `old..` of `D` (and their transposes), for the rows appended since: from the
+    /// compliance where it holds every row, else by substitution through the factor.
     fn extend_operator(&mut self, solver: &SparseSolver, old: usize) -> Result<(), LinearSolverError> {
         let nl = self.live.len();
         if nl == old {
             return Ok(());
         }
+        let block = match self.compliance.as_ref().and_then(|c| c.columns(&self.rows_free, old)) {
+            Some(block) => block,
+            None => operator_columns(solver, &self.rows_free, old, self.equations.num_free)?,
+        };
         let mut d = DMatrix::zeros(nl, nl);
         d.view_mut((0, 0), (old, old)).copy_from(&self.d);
-        // Supernodal Cholesky: the new columns by forward substitution on the surface's
-        // elimination-tree ancestors only.
-        if let Some(block) = solver.congruence(&self.rows_free, old) {
-            for b in 0..nl - old {
-                for a in 0..nl {
-                    d[(a, old + b)] = block[(a, b)];
-                    if a < old {
-                        d[(old + b, a)] = block[(a, b)];
-                    }
-                }
-            }
-            self.d = d;
-            return Ok(());
-        }
-        let nf = self.equations.num_free;
-        // Blocks of RHS_BLOCK new rows, solved on the rayon threads (the triangular solves of
-        // one block run on one core); each returns its columns of D over all set rows.
-        let starts: Vec<usize> = (old..nl).step_by(RHS_BLOCK).collect();
-        let rows_free = &self.rows_free;
-        // The blocks already use the threads: faer's own parallelism inside each block's
-        // triangular solves only adds synchronisation (futex/yield storms), so it is switched
-        // off for the duration.
-        let par = faer::get_global_parallelism();
-        faer::set_global_parallelism(faer::Par::Seq);
-        let cols: Vec<Result<Vec<Vec<f64>>, LinearSolverError>> = starts
-            .par_iter()
-            .map(|&start| {
-                let nb = RHS_BLOCK.min(nl - start);
-                let mut rhs = vec![0.0; nf * nb];
-                for b in 0..nb {
-                    for &(e, c) in &rows_free[start + b] {
-                        rhs[b * nf + e] += c;
-                    }
-                }
-                solver.solve_many(&mut rhs, nb)?;
-                Ok((0..nb)
-                    .map(|b| {
-                        let col = &rhs[b * nf..(b + 1) * nf];
-                        rows_free.iter().map(|row| row.iter().map(|&(e, c)| c * col[e]).sum()).collect()
-                    })
-                    .collect())
-            })
-            .collect();
-        faer::set_global_parallelism(par);
-        for (&start, block) in starts.iter().zip(cols) {
-            for (b, col) in block?.into_iter().enumerate() {
-                for (a, v) in col.into_iter().enumerate() {
-                    d[(a, start + b)] = v;
-                    if a < old {
-                        d[(start + b, a)] = v;
-                    }
+        for b in 0..nl - old {
+            for a in 0..nl {
+                d[(a, old + b)] = block[(a, b)];
+                if a < old {
+                    d[(old + b, a)] = block[(a, b)];
                 }
             }
         }
