@@ -185,7 +185,7 @@ where
         for k in state.step..ramp_steps {
             let u_prev = state.u.clone();
             let report = analysis.advance_to(state, k + 1, model.times[k])?;
-            accumulate_step_wear(&current, state, &u_prev);
+            accumulate_step_wear(&current, state, &u_prev, None);
             if k + 1 == ramp_steps {
                 // The ramp's wear (sliding under the rising load) counts, applied once.
                 apply_wear(&current, state, cycle.count as u64, false, None)?;
@@ -218,9 +218,9 @@ where
                     step_time(i),
                     options,
                     &mut solve_timings,
-                    |m, analysis, state, report, u_start| {
+                    |m, analysis, state, report, start| {
                         let report =
-                            integrate_step_wear(m, analysis, state, u_start, report, i, n, cycle.increments, &mut timings)?;
+                            integrate_step_wear(m, analysis, state, start, report, i, n, cycle.increments, &mut timings)?;
                         observer(&report, state, m).map_err(|msg| AnalysisError::Observer { step: report.step, msg })
                     },
                 )?;
@@ -263,21 +263,21 @@ fn wear_step(
     increments: usize,
     timings: &mut RunTimings,
 ) -> Result<StepReport, AnalysisError> {
-    let u_prev = state.u.clone();
+    let start = state.clone();
     let t0 = std::time::Instant::now();
     let report = analysis.advance_to(state, state.step + 1, t)?;
     timings.solve += t0.elapsed().as_secs_f64();
-    integrate_step_wear(m, analysis, state, &u_prev, report, i, n, increments, timings)
+    integrate_step_wear(m, analysis, state, &start, report, i, n, increments, timings)
 }
 
 #[allow(clippy::too_many_arguments)]
-/// The wear of increment `i` of computed cycle `n` that just converged (from `u_prev`), and at
+/// The wear of increment `i` of computed cycle `n` that just converged (from `start`), and at
 /// the cycle's last increment the cycle's wear applied with its jump.
 fn integrate_step_wear(
     m: &Model,
     analysis: &StaticAnalysis,
     state: &mut SimState,
-    u_prev: &[f64],
+    start: &SimState,
     mut report: StepReport,
     i: usize,
     n: u64,
@@ -287,7 +287,7 @@ fn integrate_step_wear(
     let t1 = std::time::Instant::now();
     report.cycle = n as usize + 1;
     report.increment = i + 1;
-    accumulate_step_wear(m, state, u_prev);
+    accumulate_step_wear(m, state, &start.u, Some(&start.multipliers));
     state.wear.increment = i + 1;
     if i + 1 == increments {
         let count = m.cycle.map_or(1, |c| c.count as u64);
@@ -347,7 +347,7 @@ fn solve_paired_step<R>(
     t: f64,
     options: RunOptions,
     timings: &mut RunTimings,
-    then: impl FnOnce(&Model, &StaticAnalysis, &mut SimState, StepReport, &[f64]) -> Result<R, AnalysisError>,
+    then: impl FnOnce(&Model, &StaticAnalysis, &mut SimState, StepReport, &SimState) -> Result<R, AnalysisError>,
 ) -> Result<R, AnalysisError> {
     let start = state.clone();
     let mut u_pair = state.u.clone();
@@ -384,7 +384,7 @@ fn solve_paired_step<R>(
         tracing::debug!(step, pairing, change, estimate, "finite sliding: step solved in its pairing");
         if change == 0.0 || estimate <= PAIRING_TOLERANCE || (pairing == 1 && !state_slid(&model, state, &start.u)) {
             report.iterations = iterations;
-            let out = then(&model, &analysis, state, report, &start.u);
+            let out = then(&model, &analysis, state, report, &start);
             *reuse = analysis.into_reuse();
             // The interface log of a per-step operator means nothing to the next step.
             state.interface_log.clear();
@@ -408,19 +408,32 @@ fn state_slid(m: &Model, state: &SimState, u_start: &[f64]) -> bool {
 /// volumes and work.
 ///
 /// Small sliding keeps the reference pairing (the material points that meet stay paired, as in
-/// its mechanics). Under finite sliding the step's work `p |ds|` of each multiplier row lands on
-/// the other side's material that slid under it: the step is swept in sub-positions, each a
-/// slide of at most half the wearing surface's smallest segment, paired where the surfaces meet
-/// halfway through it and taking its share `p |ds| / n` (the pressure of the converged step, in
-/// the mortar side's frame). The work, and so the worn area, is that of the whole step exactly;
-/// only where it lands follows the path (sampling one position per step aliases: spikes in the
-/// scar at the increment ends). The mortar side's own wear stays on its nodes: one position.
-fn accumulate_step_wear(m: &Model, state: &mut SimState, u_prev: &[f64]) {
+/// its mechanics) and the converged step's tractions. Under finite sliding the step's work of
+/// each multiplier row lands on the other side's material that slid under it: the step is swept
+/// in sub-positions, each a slide of at most half the wearing surface's smallest segment, paired
+/// where the surfaces meet halfway through it, with the tractions (in the mortar side's frame)
+/// interpolated linearly from the step's start (`lambda_prev`) to its end: the work of a row is
+/// `(p_start + p_end) / 2 |ds|` on both sides, exact for tractions linear over the step (the
+/// mortar side's own wear stays on its nodes: one position at mid-step). The worn area balances
+/// that work exactly; only where it lands follows the path (sampling one position per step
+/// aliases: spikes in the scar at the increment ends).
+fn accumulate_step_wear(m: &Model, state: &mut SimState, u_prev: &[f64], lambda_prev: Option<&[f64]>) {
     let hosts = m.hosts();
     for (w, ws) in m.wear.surfaces.iter().enumerate() {
+        let finite = m.contact.pairs[ws.contact].sliding == crate::contact::Sliding::Finite;
+        let lambda_prev = lambda_prev.filter(|_| finite);
         let subs = sweep_positions(m, ws, u_prev, &state.u, &state.multipliers);
         let lerp = |f: f64| -> Vec<f64> { u_prev.iter().zip(&state.u).map(|(a, b)| a + f * (b - a)).collect() };
         for j in 0..subs {
+            let lambda: Vec<f64>;
+            let multipliers = match lambda_prev {
+                Some(l0) => {
+                    let f = (j as f64 + 0.5) / subs as f64;
+                    lambda = l0.iter().zip(&state.multipliers).map(|(a, b)| a + f * (b - a)).collect();
+                    &lambda
+                }
+                None => &state.multipliers,
+            };
             let (ua, ub);
             let (from, to): (&[f64], &[f64]) = if subs == 1 {
                 (u_prev, &state.u)
@@ -437,7 +450,7 @@ fn accumulate_step_wear(m: &Model, state: &mut SimState, u_prev: &[f64]) {
                 &m.surfaces[ws.surface],
                 from,
                 to,
-                &state.multipliers,
+                multipliers,
                 &x,
             );
             let wear = &mut state.wear;
