@@ -412,7 +412,8 @@ fn state_slid(m: &Model, state: &SimState, u_start: &[f64]) -> bool {
 /// each multiplier row lands on the other side's material that slid under it: the step is swept
 /// in sub-positions, each a slide of at most half the wearing surface's smallest segment, paired
 /// where the surfaces meet halfway through it, with the tractions (in the mortar side's frame)
-/// interpolated linearly from the step's start (`lambda_prev`) to its end: the work of a row is
+/// interpolated linearly from the step's start (`lambda_prev`) to its end, each shear as the
+/// fraction of the pressure it mobilises at the end: the Archard work of a row is
 /// `(p_start + p_end) / 2 |ds|` on both sides, exact for tractions linear over the step (the
 /// mortar side's own wear stays on its nodes: one position at mid-step). The worn area balances
 /// that work exactly; only where it lands follows the path (sampling one position per step
@@ -429,7 +430,27 @@ fn accumulate_step_wear(m: &Model, state: &mut SimState, u_prev: &[f64], lambda_
             let multipliers = match lambda_prev {
                 Some(l0) => {
                     let f = (j as f64 + 0.5) / subs as f64;
-                    lambda = l0.iter().zip(&state.multipliers).map(|(a, b)| a + f * (b - a)).collect();
+                    // A shear is its mobilised fraction of the pressure at the end of the step
+                    // (at its start if the node left contact) times the interpolated pressure:
+                    // the shear of a step that starts from stick or at a stroke reversal reaches
+                    // mu p after an elastic slip far below the step's slide.
+                    let (nt, nc) = (m.constraints.len(), m.contact.rows.len());
+                    let (l1, pressure) = (&state.multipliers, |l: &[f64], k: usize| (-l[nt + k]).max(0.0));
+                    lambda = (0..l1.len())
+                        .map(|i| {
+                            if i < nt + nc {
+                                return l0[i] + f * (l1[i] - l0[i]);
+                            }
+                            let k = m.contact.friction_normal[i - nt - nc];
+                            let (p0, p1) = (pressure(l0, k), pressure(l1, k));
+                            let (q, p) = if p1 > 0.0 { (l1[i], p1) } else { (l0[i], p0) };
+                            if p > 0.0 {
+                                q / p * (p0 + f * (p1 - p0))
+                            } else {
+                                0.0
+                            }
+                        })
+                        .collect();
                     &lambda
                 }
                 None => &state.multipliers,

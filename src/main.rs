@@ -293,7 +293,8 @@ fn check(path: PathBuf) -> Result<(), String> {
     }
     for ci in &m.contact.pairs {
         println!(
-            "  contact '{}': mortar '{}', {:?} multipliers ({} nodes), mu = {}, {:?} sliding",
+            "  contact '{}': mortar '{}', {:?} multipliers ({} nodes), mu = {}, {:?} sliding (case key \
+             contacts.sliding; default: finite for a wearing pair whose stroke exceeds half its element)",
             ci.name, m.bodies[ci.mortar].name, ci.space, ci.multipliers.num_nodes, ci.mu, ci.sliding
         );
     }

@@ -738,6 +738,18 @@ impl ModelBuilder {
         Ok(v)
     }
 
+    /// Smallest edge length of a body's edge sets (a contact surface's element size).
+    pub fn smallest_edge(&self, body: usize, sets: &[String]) -> Result<f64, ModelError> {
+        let mesh = &self.bodies[body].mesh;
+        let mut h = f64::INFINITY;
+        for set in sets {
+            for e in self.edge_set(body, set, "contact surface")? {
+                h = h.min((mesh.nodes[e[1]] - mesh.nodes[e[0]]).norm());
+            }
+        }
+        Ok(h)
+    }
+
     /// Resultant force at the first node of a node or edge set (the master of a rigid set).
     pub fn total_load(&mut self, body: usize, set: &str, f: Vector2<f64>) -> Result<(), ModelError> {
         let nodes = self.node_set_or_edges(body, set)?;

@@ -171,7 +171,7 @@ fn kill_minus_nine_during_finite_sliding_wear_then_resume_is_bit_identical() {
 fn kill_during_wear(finite: bool) {
     use std::process::{Command, Stdio};
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let sliding = if finite { "friction = 0.9\nsliding = \"finite\"" } else { "friction = 0.9" };
+    let sliding = if finite { "friction = 0.9\nsliding = \"finite\"" } else { "friction = 0.9\nsliding = \"small\"" };
     let tag = if finite { "_finite" } else { "" };
     let text = std::fs::read_to_string(root.join("wear_cases/mccoll_fretting.toml"))
         .unwrap()

@@ -159,10 +159,11 @@ pub struct ContactSpec {
     /// Multiplier space on the mortar surface (default coarse-grained: spaced like the other
     /// side's elements where the mortar side is finer, classical elsewhere).
     pub multipliers: Option<MultiplierSpace>,
-    /// "small" (default: pairing from the reference geometry) or "finite" (every step paired
-    /// in its own end configuration, for strokes longer than the contact).
-    #[serde(default)]
-    pub sliding: crate::model::Sliding,
+    /// "small" (pairing from the reference geometry) or "finite" (every step paired in its own
+    /// end configuration). Default: finite for a pair that wears and whose prescribed stroke
+    /// (peak to peak) exceeds half its surfaces' smallest element, small otherwise (see
+    /// [`default_sliding`]).
+    pub sliding: Option<crate::model::Sliding>,
 }
 
 /// A free virtual surface cutting a body's mesh (X-FEM): the body keeps its material on one
@@ -479,6 +480,38 @@ pub fn load(path: &Path) -> Result<Case, CaseError> {
 
 /// Parses and validates case text; `path` names the file in errors, relative mesh files are
 /// resolved against `base`.
+/// The pairing of a contact whose case does not choose one: finite sliding when the pair wears
+/// and its prescribed stroke (peak to peak) is more than half its surfaces' smallest element
+/// `h`: the scar is then swept by the stroke, which the reference pairing of small sliding
+/// cannot follow (it pairs each material point with the one it met first). Small sliding
+/// otherwise (no wear, partial slip under a tangential force, strokes within an element).
+pub fn default_sliding(wears: bool, stroke: f64, h: f64) -> crate::model::Sliding {
+    if wears && stroke > 0.5 * h {
+        crate::model::Sliding::Finite
+    } else {
+        crate::model::Sliding::Small
+    }
+}
+
+/// Largest peak-to-peak range of a displacement prescribed on the named bodies (the value times
+/// the range of its load curve); 0 where none is prescribed.
+fn prescribed_stroke(raw: &CaseFile, bodies: &[&String]) -> f64 {
+    let range = |curve: &Option<String>| -> f64 {
+        let path: Vec<f64> = match curve {
+            None => raw.steps.path.iter().map(|p| p[1]).collect(),
+            Some(n) => raw.curves.iter().find(|c| &c.name == n).map_or(vec![], |c| c.path.iter().map(|p| p[1]).collect()),
+        };
+        let (lo, hi) = path.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+        if hi >= lo { (hi - lo).abs() } else { 0.0 }
+    };
+    raw.bcs
+        .iter()
+        .filter(|bc| bodies.contains(&&bc.body))
+        .flat_map(|bc| [bc.ux, bc.uy].into_iter().flatten().map(|v| (v * range(&bc.curve)).abs()))
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max)
+}
+
 pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, CaseError> {
     let mut raw: CaseFile =
         toml::from_str(text).map_err(|e| CaseError::Toml { path: path.to_string(), message: e.to_string() })?;
@@ -682,6 +715,18 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         .map_err(|e| model_err(&cx, k("boundary"), e))?;
     }
 
+    // The smallest element of each contact's real surfaces (before worn boundaries become cuts).
+    let mut contact_spacing: Vec<f64> = Vec::with_capacity(raw.contacts.len());
+    for c in &raw.contacts {
+        let mut h = f64::INFINITY;
+        for (body, sets) in [(&c.mortar, Some(&c.mortar_surface)), (&c.other, c.other_surface.as_ref())] {
+            if let (Ok(bi), Some(sets)) = (b.body_index(body), sets) {
+                h = h.min(b.smallest_edge(bi, sets).unwrap_or(f64::INFINITY));
+            }
+        }
+        contact_spacing.push(h);
+    }
+
     // Worn real boundaries become cuts that coincide with them; contacts on those boundaries
     // use the cuts.
     let mut wear_cuts: Vec<String> = Vec::with_capacity(raw.wear.len());
@@ -779,10 +824,25 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                 cx.err(k("friction"), format!("the friction coefficient must be finite and >= 0, got {}", c.friction))
             );
         }
+        let wears = [&c.mortar_cut, &c.other_cut].into_iter().flatten().any(|cut| wear_cuts.contains(cut));
+        let sliding = match c.sliding {
+            Some(s) => s,
+            None => {
+                // Cut surfaces that do not wear: their vertex spacing.
+                let mut h = contact_spacing[i];
+                for cs in &raw.cuts {
+                    let named = |n: &Option<String>| n.as_ref() == cs.name.as_ref();
+                    if named(&c.mortar_cut) || named(&c.other_cut) {
+                        h = h.min(cs.points.windows(2).map(|w| f64::hypot(w[1][0] - w[0][0], w[1][1] - w[0][1])).fold(f64::INFINITY, f64::min));
+                    }
+                }
+                default_sliding(wears, prescribed_stroke(&raw, &[&c.mortar, &c.other]), h)
+            }
+        };
         let params = crate::model::ContactParams {
             friction: c.friction,
             multipliers: c.multipliers.unwrap_or(DEFAULT_CONTACT_MULTIPLIERS),
-            sliding: c.sliding,
+            sliding,
         };
         let added = match (&c.mortar_cut, c.mortar_surface.is_empty()) {
             (None, false) => b.add_contact(&name, mortar, &c.mortar_surface, other_body, other, params),

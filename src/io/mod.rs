@@ -22,7 +22,7 @@
 //! * Cut host bodies: `/mesh/<body>/material_fraction` `(c)`. Ties: `/mesh/ties/<tie>/points`,
 //!   `normals` `(l, 2)` of the multiplier nodes (outward normal of the patch) and per step
 //!   `/steps/NNNNNN/ties/<tie>/traction` `(l, 2)`: the traction on the patch, `t = sigma n = -lambda`.
-//! * Contacts: `/mesh/contacts/<pair>/points` `(l, 2)` (attribute `mu`) and per step
+//! * Contacts: `/mesh/contacts/<pair>/points` `(l, 2)` (attributes `mu`, `sliding`) and per step
 //!   `/steps/NNNNNN/contacts/<pair>/pressure` `(l)` (`p = -lambda_n >= 0`), `position` `(l, 2)`
 //!   (current position of the multiplier nodes); with friction also
 //!   `shear` (`lambda_t` along `t = n` turned +90 degrees), `slip` (slip of the step),
@@ -434,6 +434,11 @@ impl ResultWriter {
                     let pg = cg.create_group(&c.name)?;
                     pg.new_dataset_builder().with_data(&array2(m.num_nodes, 2, xy)).create("points")?;
                     write_attr(&pg, "mu", &c.mu)?;
+                    let sliding = match c.sliding {
+                        crate::contact::Sliding::Small => "small",
+                        crate::contact::Sliding::Finite => "finite",
+                    };
+                    write_str_attr(&pg, "sliding", sliding)?;
                 }
             }
             if !model.ties.is_empty() {
