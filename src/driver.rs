@@ -219,8 +219,17 @@ where
                     options,
                     &mut solve_timings,
                     |m, analysis, state, report, start| {
-                        let report =
-                            integrate_step_wear(m, analysis, state, start, report, i, n, cycle.increments, &mut timings)?;
+                        let report = integrate_step_wear(
+                            m,
+                            analysis,
+                            state,
+                            start,
+                            report,
+                            i,
+                            n,
+                            cycle.increments,
+                            &mut timings,
+                        )?;
                         observer(&report, state, m).map_err(|msg| AnalysisError::Observer { step: report.step, msg })
                     },
                 )?;
@@ -370,8 +379,7 @@ fn solve_paired_step<R>(
         timings.solve += t1.elapsed().as_secs_f64();
         iterations += report.iterations;
         let nt = model.constraints.len();
-        let pressure: Vec<f64> =
-            (0..model.contact.rows.len()).map(|k| (-state.multipliers[nt + k]).max(0.0)).collect();
+        let pressure: Vec<f64> = (0..model.contact.rows.len()).map(|k| (-state.multipliers[nt + k]).max(0.0)).collect();
         if let Some(last) = &last_pressure {
             let p_max = pressure.iter().fold(0.0_f64, |a, &b| a.max(b)).max(f64::MIN_POSITIVE);
             change = pressure.iter().zip(last).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / p_max;
@@ -464,16 +472,7 @@ fn accumulate_step_wear(m: &Model, state: &mut SimState, u_prev: &[f64], lambda_
                 (&ua, &ub)
             };
             let x = pairing_position(m, ws, from, to);
-            let sw = crate::wear::step_wear(
-                &m.contact,
-                &hosts,
-                ws,
-                &m.surfaces[ws.surface],
-                from,
-                to,
-                multipliers,
-                &x,
-            );
+            let sw = crate::wear::step_wear(&m.contact, &hosts, ws, &m.surfaces[ws.surface], from, to, multipliers, &x);
             let wear = &mut state.wear;
             for (a, v) in wear.cycle_volume[w].iter_mut().zip(&sw.volume) {
                 *a += v;

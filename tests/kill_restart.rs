@@ -201,7 +201,8 @@ fn kill_during_wear(finite: bool) {
     };
     let mut resumed_from = vec![];
     for (i, fraction) in [0.15, 0.32, 0.5, 0.67, 0.85].into_iter().enumerate() {
-        let Some((k, cont)) = kill_then_resume(&case, &format!("kill_wear{tag}_{i}"), wall.mul_f64(fraction), i == 1) else {
+        let Some((k, cont)) = kill_then_resume(&case, &format!("kill_wear{tag}_{i}"), wall.mul_f64(fraction), i == 1)
+        else {
             continue;
         };
         let k_end = *checkpoint::available_steps(&cont).unwrap().last().unwrap();

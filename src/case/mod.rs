@@ -499,10 +499,16 @@ fn prescribed_stroke(raw: &CaseFile, bodies: &[&String]) -> f64 {
     let range = |curve: &Option<String>| -> f64 {
         let path: Vec<f64> = match curve {
             None => raw.steps.path.iter().map(|p| p[1]).collect(),
-            Some(n) => raw.curves.iter().find(|c| &c.name == n).map_or(vec![], |c| c.path.iter().map(|p| p[1]).collect()),
+            Some(n) => {
+                raw.curves.iter().find(|c| &c.name == n).map_or(vec![], |c| c.path.iter().map(|p| p[1]).collect())
+            }
         };
         let (lo, hi) = path.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
-        if hi >= lo { (hi - lo).abs() } else { 0.0 }
+        if hi >= lo {
+            (hi - lo).abs()
+        } else {
+            0.0
+        }
     };
     raw.bcs
         .iter()
@@ -833,7 +839,12 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                 for cs in &raw.cuts {
                     let named = |n: &Option<String>| n.as_ref() == cs.name.as_ref();
                     if named(&c.mortar_cut) || named(&c.other_cut) {
-                        h = h.min(cs.points.windows(2).map(|w| f64::hypot(w[1][0] - w[0][0], w[1][1] - w[0][1])).fold(f64::INFINITY, f64::min));
+                        h = h.min(
+                            cs.points
+                                .windows(2)
+                                .map(|w| f64::hypot(w[1][0] - w[0][0], w[1][1] - w[0][1]))
+                                .fold(f64::INFINITY, f64::min),
+                        );
                     }
                 }
                 default_sliding(wears, prescribed_stroke(&raw, &[&c.mortar, &c.other]), h)

@@ -286,9 +286,8 @@ pub fn slide_from_pairing(m: &ContactSet, u: &[f64], status: &[FrictionStatus]) 
             .find(|c| (c.first_row..c.first_row + c.multipliers.num_nodes).contains(&k))
             .is_some_and(|c| c.sliding == Sliding::Small)
     };
-    let in_contact: Vec<usize> = (0..status.len())
-        .filter(|&j| status[j] != FrictionStatus::Open && small(m.friction_normal[j]))
-        .collect();
+    let in_contact: Vec<usize> =
+        (0..status.len()).filter(|&j| status[j] != FrictionStatus::Open && small(m.friction_normal[j])).collect();
     if in_contact.is_empty() {
         return None;
     }
