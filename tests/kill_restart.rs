@@ -55,6 +55,10 @@ fn kill_then_resume(case: &Path, name: &str, delay: std::time::Duration, damage:
         std::fs::write(&partial, bytes).unwrap();
         assert!(hdf5::File::open(&partial).is_err(), "{name}: the damaged file must not open");
     }
+    if !damage && !checkpoint::side_path(&partial).exists() {
+        // Killed before the first checkpoint (possibly while the file's header was written).
+        return None;
+    }
     let k = *checkpoint::available_steps(&partial).unwrap().last()?;
     let cont = tmpfile(&format!("{name}_resumed.h5"));
     let status = Command::new(exe)
