@@ -67,6 +67,12 @@ pub enum AnalysisError {
          re-pairing to follow; raise [steps] increments"
     )]
     PairingNotSettled { step: usize, time: f64, pairings: usize, change: f64 },
+    #[error(
+        "step {step} (time {time}): contact '{pair}': a node carrying pressure is paired over only {percent:.0}% \
+         of its support: the contact reached the end of the counter-surface (the prescribed stroke slides a \
+         body off the other); shorten the stroke ([[bcs]]) or extend the surface"
+    )]
+    OffCounterSurface { step: usize, time: f64, pair: String, percent: f64 },
     #[error("step {step} (time {time}): moving the virtual surfaces: {source}")]
     Surface { step: usize, time: f64, source: crate::model::ModelError },
     #[error("cycle {cycle}: wear of '{surface}': {msg}")]

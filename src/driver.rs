@@ -391,6 +391,10 @@ fn solve_paired_step<R>(
         }
         tracing::debug!(step, pairing, change, estimate, "finite sliding: step solved in its pairing");
         if change == 0.0 || estimate <= PAIRING_TOLERANCE || (pairing == 1 && !state_slid(&model, state, &start.u)) {
+            if let Err(e) = check_on_counter_surface(current, &model, state, step, t) {
+                *state = start;
+                return Err(e);
+            }
             report.iterations = iterations;
             let out = then(&model, &analysis, state, report, &start);
             *reuse = analysis.into_reuse();
@@ -404,6 +408,41 @@ fn solve_paired_step<R>(
     }
     *state = start;
     Err(AnalysisError::PairingNotSettled { step, time: t, pairings: MAX_PAIRINGS, change })
+}
+
+/// Paired share of a pressed node's support below which the contact has reached the end of its
+/// counter-surface (a node inside a long counter-surface is paired over all of it, up to the
+/// stretch of the surfaces, about the strain).
+const END_OF_SURFACE_SHARE: f64 = 0.9;
+
+/// A converged finite-sliding step whose contact reached the end of the counter-surface: a node
+/// carrying pressure is paired over less of its support (`int Phi` of the step's pairing in
+/// `paired`) than in the reference pairing of `base`. The body then rests on the other's last
+/// corner, which no stroke of a fretting or sliding-wear test means: a typed error.
+fn check_on_counter_surface(
+    base: &Model,
+    paired: &Model,
+    state: &SimState,
+    step: usize,
+    t: f64,
+) -> Result<(), AnalysisError> {
+    let nt = paired.constraints.len();
+    for c in paired.contact.pairs.iter().filter(|c| c.sliding == crate::contact::Sliding::Finite) {
+        let rows = c.first_row..c.first_row + c.multipliers.num_nodes;
+        let p_max = rows.clone().map(|k| -state.multipliers[nt + k]).fold(0.0_f64, f64::max);
+        for k in rows {
+            let (phi_ref, phi) = (base.contact.phi[k], paired.contact.phi[k]);
+            if -state.multipliers[nt + k] > 1e-6 * p_max && phi_ref > 0.0 && phi < END_OF_SURFACE_SHARE * phi_ref {
+                return Err(AnalysisError::OffCounterSurface {
+                    step,
+                    time: t,
+                    pair: c.name.clone(),
+                    percent: 100.0 * phi / phi_ref,
+                });
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Whether a converged step moved the paired surfaces at all from the start state (a step at

@@ -620,3 +620,27 @@ fn wear_bad_inputs_give_clear_errors() {
     }
     assert_eq!(bytes, std::fs::read(d.join("wear.h5")).unwrap(), "the earlier result must be untouched");
 }
+
+/// A stroke that slides the flat off from under the cylinder (McColl scene, +-2 mm on a 3 mm
+/// flat, finite sliding): a typed error naming the contact and the end of the counter-surface
+/// once the contact rests on the flat's corner, a non-zero exit, no panic, the converged steps
+/// kept, and an earlier result beside it untouched.
+#[test]
+fn a_stroke_off_the_counter_surface_is_a_clear_error() {
+    let d = tmpdir("off_surface");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let case = std::fs::read_to_string(root.join("wear_cases/mccoll_fretting.toml"))
+        .unwrap()
+        .replace("ux = 0.025", "ux = 2.0")
+        .replace("cycles = 18000", "cycles = 2");
+    assert!(case.contains("ux = 2.0"));
+    std::fs::write(d.join("off.toml"), case).unwrap();
+    std::fs::write(d.join("out.h5"), b"an earlier result").unwrap();
+    let (ok, text) = run(&["run", "off.toml", "--quiet", "-o", "out.h5"], &d);
+    assert!(!ok, "{text}");
+    assert!(!text.contains("panicked"), "{text}");
+    for needle in ["contact 'pair'", "end of the counter-surface", "[[bcs]]", "kept in"] {
+        assert!(text.contains(needle), "message should contain '{needle}':\n{text}");
+    }
+    assert_eq!(std::fs::read(d.join("out.h5")).unwrap(), b"an earlier result", "the earlier result must be untouched");
+}
