@@ -19,7 +19,7 @@
 use crate::analysis::{AnalysisError, GapSensitivity, StaticAnalysis, StepReport};
 use crate::model::Model;
 use crate::state::SimState;
-use crate::wear::{JumpPolicy, JumpScheme, RateFilter, WearLaw, WearingSurface};
+use crate::wear::{JumpPolicy, JumpScheme, RateFilter, WearLaw};
 
 /// Options of a run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -451,124 +451,32 @@ fn state_slid(m: &Model, state: &SimState, u_start: &[f64]) -> bool {
     m.contact.rows.iter().flatten().any(|&(d, _)| state.u[d] != u_start[d])
 }
 
-/// Adds the wear of the step that just converged (from `u_prev` to `state.u`) to the cycle's
-/// volumes and work.
-///
-/// Small sliding keeps the reference pairing (the material points that meet stay paired, as in
-/// its mechanics) and the converged step's tractions. Under finite sliding the step's work of
-/// each multiplier row lands on the other side's material that slid under it: the step is swept
-/// in sub-positions, each a slide of at most half the wearing surface's smallest segment, paired
-/// where the surfaces meet halfway through it, with the tractions (in the mortar side's frame)
-/// interpolated linearly from the step's start (`lambda_prev`) to its end, each shear as the
-/// fraction of the pressure it mobilises at the end: the Archard work of a row is
-/// `(p_start + p_end) / 2 |ds|` on both sides, exact for tractions linear over the step (the
-/// mortar side's own wear stays on its nodes: one position at mid-step). The worn area balances
-/// that work exactly; only where it lands follows the path (sampling one position per step
-/// aliases: spikes in the scar at the increment ends).
+/// Adds the wear of the step that just converged (from `u_prev` to `state.u`; tractions from
+/// `lambda_prev` at its start, if given) to the cycle's volumes and work (see
+/// [`crate::wear::swept_step_wear`]).
 fn accumulate_step_wear(m: &Model, state: &mut SimState, u_prev: &[f64], lambda_prev: Option<&[f64]>) {
     let hosts = m.hosts();
     for (w, ws) in m.wear.surfaces.iter().enumerate() {
-        let finite = m.contact.pairs[ws.contact].sliding == crate::contact::Sliding::Finite;
-        let lambda_prev = lambda_prev.filter(|_| finite);
-        let subs = sweep_positions(m, ws, u_prev, &state.u, &state.multipliers);
-        let lerp = |f: f64| -> Vec<f64> { u_prev.iter().zip(&state.u).map(|(a, b)| a + f * (b - a)).collect() };
-        for j in 0..subs {
-            let lambda: Vec<f64>;
-            let multipliers = match lambda_prev {
-                Some(l0) => {
-                    let f = (j as f64 + 0.5) / subs as f64;
-                    // A shear is its mobilised fraction of the pressure at the end of the step
-                    // (at its start if the node left contact) times the interpolated pressure:
-                    // the shear of a step that starts from stick or at a stroke reversal reaches
-                    // mu p after an elastic slip far below the step's slide.
-                    let (nt, nc) = (m.constraints.len(), m.contact.rows.len());
-                    let (l1, pressure) = (&state.multipliers, |l: &[f64], k: usize| (-l[nt + k]).max(0.0));
-                    lambda = (0..l1.len())
-                        .map(|i| {
-                            if i < nt + nc {
-                                return l0[i] + f * (l1[i] - l0[i]);
-                            }
-                            let k = m.contact.friction_normal[i - nt - nc];
-                            let (p0, p1) = (pressure(l0, k), pressure(l1, k));
-                            let (q, p) = if p1 > 0.0 { (l1[i], p1) } else { (l0[i], p0) };
-                            if p > 0.0 {
-                                q / p * (p0 + f * (p1 - p0))
-                            } else {
-                                0.0
-                            }
-                        })
-                        .collect();
-                    &lambda
-                }
-                None => &state.multipliers,
-            };
-            let (ua, ub);
-            let (from, to): (&[f64], &[f64]) = if subs == 1 {
-                (u_prev, &state.u)
-            } else {
-                ua = lerp(j as f64 / subs as f64);
-                ub = if j + 1 == subs { state.u.clone() } else { lerp((j + 1) as f64 / subs as f64) };
-                (&ua, &ub)
-            };
-            let x = pairing_position(m, ws, from, to);
-            let sw = crate::wear::step_wear(&m.contact, &hosts, ws, &m.surfaces[ws.surface], from, to, multipliers, &x);
-            let wear = &mut state.wear;
-            for (a, v) in wear.cycle_volume[w].iter_mut().zip(&sw.volume) {
-                *a += v;
-            }
-            for (a, v) in wear.cycle_row_work[w].iter_mut().zip(&sw.row_work) {
-                *a += v;
-            }
-            for (a, v) in wear.cycle_row_slip[w].iter_mut().zip(&sw.row_slip) {
-                *a += v;
-            }
-            wear.cycle_work[w] += sw.work;
+        let sw = crate::wear::swept_step_wear(
+            &m.contact,
+            &hosts,
+            ws,
+            &m.surfaces[ws.surface],
+            &m.coords,
+            (u_prev, &state.u),
+            (lambda_prev, &state.multipliers),
+        );
+        let wear = &mut state.wear;
+        for (a, v) in wear.cycle_volume[w].iter_mut().zip(&sw.volume) {
+            *a += v;
         }
-    }
-}
-
-/// Largest number of sub-positions of one step's sweep.
-const MAX_SWEEP_POSITIONS: usize = 512;
-
-/// How many sub-positions the step from `u_prev` to `u` is swept in for wearing surface `ws`:
-/// 1 under small sliding and for the mortar side; otherwise enough that each slides at most half
-/// the surface's smallest segment (the largest slide of a multiplier row carrying pressure).
-fn sweep_positions(m: &Model, ws: &WearingSurface, u_prev: &[f64], u: &[f64], multipliers: &[f64]) -> usize {
-    let c = &m.contact.pairs[ws.contact];
-    let mortar_side = c.virtual_mortar.as_ref().is_some_and(|v| v.surface == ws.surface);
-    if c.sliding != crate::contact::Sliding::Finite || mortar_side {
-        return 1;
-    }
-    let set = &m.contact;
-    let nt = set.first_multiplier;
-    let slide = (c.first_row..c.first_row + c.multipliers.num_nodes)
-        .filter(|&k| set.phi[k] > 0.0 && -multipliers[nt + k] > 0.0)
-        .map(|k| (set.tangents[k].iter().map(|&(d, v)| v * (u[d] - u_prev[d])).sum::<f64>() / set.phi[k]).abs())
-        .fold(0.0_f64, f64::max);
-    let v = &m.surfaces[ws.surface].vertices;
-    let h = v.windows(2).map(|s| (s[1] - s[0]).norm()).fold(f64::INFINITY, f64::min);
-    if !(slide > 0.0) || !(h > 0.0) {
-        return 1;
-    }
-    ((2.0 * slide / h).ceil() as usize).clamp(1, MAX_SWEEP_POSITIONS)
-}
-
-/// Where the pairs of `m` are paired for the part of a step from `u_prev` to `u`: the reference
-/// geometry for small sliding, the configuration halfway through it for finite.
-fn pairing_position<'a>(
-    m: &'a Model,
-    ws: &WearingSurface,
-    u_prev: &'a [f64],
-    u: &'a [f64],
-) -> impl Fn(usize) -> nalgebra::Point2<f64> + 'a {
-    let finite = m.contact.pairs[ws.contact].sliding == crate::contact::Sliding::Finite;
-    move |node: usize| {
-        let p = m.coords[node];
-        if !finite {
-            return p;
+        for (a, v) in wear.cycle_row_work[w].iter_mut().zip(&sw.row_work) {
+            *a += v;
         }
-        let (ux, uy) = (0.5 * (u_prev[2 * node] + u[2 * node]), 0.5 * (u_prev[2 * node + 1] + u[2 * node + 1]));
-        nalgebra::Point2::new(p.x + ux, p.y + uy)
+        for (a, v) in wear.cycle_row_slip[w].iter_mut().zip(&sw.row_slip) {
+            *a += v;
+        }
+        wear.cycle_work[w] += sw.work;
     }
 }
 
@@ -731,7 +639,7 @@ fn implicit_correction(
     let mut couplings = Vec::with_capacity(m.wear.surfaces.len());
     let mut surfaces = Vec::with_capacity(m.wear.surfaces.len());
     for (b, ws) in m.wear.surfaces.iter().enumerate() {
-        let x = pairing_position(m, ws, &state.u, &state.u);
+        let x = crate::wear::pairing_position(&m.contact, ws, &m.coords, &state.u, &state.u);
         let coupling = crate::wear::wear_coupling(&m.contact, &hosts, ws, &m.surfaces[ws.surface], &x)?;
         let c = &m.contact.pairs[ws.contact];
         let nv = measures[b].len();

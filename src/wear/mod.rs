@@ -278,6 +278,151 @@ pub fn step_wear(
     out
 }
 
+/// The wear of one converged step on one wearing surface, swept along the step's path.
+///
+/// Small sliding keeps the reference pairing (the material points that meet stay paired, as in
+/// its mechanics) and the converged step's tractions: one [`step_wear`]. Under finite sliding
+/// the step's work of each multiplier row lands on the other side's material that slid under
+/// it: the step is swept in sub-positions (see [`sweep_positions`]), each paired where the
+/// surfaces meet halfway through it, with the tractions (in the mortar side's frame)
+/// interpolated linearly from the step's start (`lambda.0`, if given) to its end (`lambda.1`),
+/// each shear as the fraction of the pressure it mobilises at the end (see
+/// [`interpolated_tractions`]): the Archard work of a row is `(p_start + p_end) / 2 |ds|` on
+/// both sides, exact for tractions linear over the step (the mortar side's own wear stays on its
+/// nodes: one position at mid-step). The worn area balances that work exactly; only where it
+/// lands follows the path (sampling one position per step aliases: spikes in the scar at the
+/// increment ends). `u = (u_prev, u_end)`.
+pub fn swept_step_wear(
+    set: &ContactSet,
+    hosts: &[(&Mesh2, usize)],
+    ws: &WearingSurface,
+    surface: &FreeSurface,
+    coords: &[Point2<f64>],
+    u: (&[f64], &[f64]),
+    lambda: (Option<&[f64]>, &[f64]),
+) -> StepWear {
+    let (u_prev, u_end) = u;
+    let finite = set.pairs[ws.contact].sliding == crate::contact::Sliding::Finite;
+    let lambda_prev = lambda.0.filter(|_| finite);
+    let subs = sweep_positions(set, ws, surface, u_prev, u_end, lambda.1);
+    let lerp = |f: f64| -> Vec<f64> { u_prev.iter().zip(u_end).map(|(a, b)| a + f * (b - a)).collect() };
+    let mut total: Option<StepWear> = None;
+    for j in 0..subs {
+        let f = (j as f64 + 0.5) / subs as f64;
+        let interpolated: Vec<f64>;
+        let multipliers = match lambda_prev {
+            Some(l0) => {
+                interpolated = interpolated_tractions(set, l0, lambda.1, f);
+                &interpolated
+            }
+            None => lambda.1,
+        };
+        let (ua, ub);
+        let (from, to): (&[f64], &[f64]) = if subs == 1 {
+            (u_prev, u_end)
+        } else {
+            ua = lerp(j as f64 / subs as f64);
+            ub = if j + 1 == subs { u_end.to_vec() } else { lerp((j + 1) as f64 / subs as f64) };
+            (&ua, &ub)
+        };
+        let x = pairing_position(set, ws, coords, from, to);
+        let sw = step_wear(set, hosts, ws, surface, from, to, multipliers, &x);
+        total = Some(match total {
+            None => sw,
+            Some(mut t) => {
+                t.volume.iter_mut().zip(&sw.volume).for_each(|(a, v)| *a += v);
+                t.row_work.iter_mut().zip(&sw.row_work).for_each(|(a, v)| *a += v);
+                t.row_slip.iter_mut().zip(&sw.row_slip).for_each(|(a, v)| *a += v);
+                t.work += sw.work;
+                t
+            }
+        });
+    }
+    total.unwrap_or_else(|| StepWear {
+        volume: vec![0.0; surface.vertices.len()],
+        work: 0.0,
+        row_work: vec![0.0; set.pairs[ws.contact].multipliers.num_nodes],
+        row_slip: vec![0.0; set.pairs[ws.contact].multipliers.num_nodes],
+    })
+}
+
+/// The multipliers at the fraction `f` of a step, from `l0` at its start to `l1` at its end:
+/// ties and normals linearly; a shear as its mobilised fraction `q / p` at the end of the step
+/// (at its start if the node left contact) times the interpolated pressure, since the shear of a
+/// step that starts from stick or at a stroke reversal reaches `mu p` after an elastic slip far
+/// below the step's slide.
+pub fn interpolated_tractions(set: &ContactSet, l0: &[f64], l1: &[f64], f: f64) -> Vec<f64> {
+    let (nt, nc) = (set.first_multiplier, set.rows.len());
+    let pressure = |l: &[f64], k: usize| (-l[nt + k]).max(0.0);
+    (0..l1.len())
+        .map(|i| {
+            if i < nt + nc {
+                return l0[i] + f * (l1[i] - l0[i]);
+            }
+            let k = set.friction_normal[i - nt - nc];
+            let (p0, p1) = (pressure(l0, k), pressure(l1, k));
+            let (q, p) = if p1 > 0.0 { (l1[i], p1) } else { (l0[i], p0) };
+            if p > 0.0 {
+                q / p * (p0 + f * (p1 - p0))
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
+/// Largest number of sub-positions of one step's sweep.
+pub const MAX_SWEEP_POSITIONS: usize = 512;
+
+/// How many sub-positions the step from `u_prev` to `u` is swept in for wearing surface `ws`:
+/// 1 under small sliding and for the mortar side; otherwise enough that each slides at most half
+/// the surface's smallest segment (the largest slide of a multiplier row carrying pressure).
+pub fn sweep_positions(
+    set: &ContactSet,
+    ws: &WearingSurface,
+    surface: &FreeSurface,
+    u_prev: &[f64],
+    u: &[f64],
+    multipliers: &[f64],
+) -> usize {
+    let c = &set.pairs[ws.contact];
+    let mortar_side = c.virtual_mortar.as_ref().is_some_and(|v| v.surface == ws.surface);
+    if c.sliding != crate::contact::Sliding::Finite || mortar_side {
+        return 1;
+    }
+    let nt = set.first_multiplier;
+    let slide = (c.first_row..c.first_row + c.multipliers.num_nodes)
+        .filter(|&k| set.phi[k] > 0.0 && -multipliers[nt + k] > 0.0)
+        .map(|k| (set.tangents[k].iter().map(|&(d, v)| v * (u[d] - u_prev[d])).sum::<f64>() / set.phi[k]).abs())
+        .fold(0.0_f64, f64::max);
+    let h = surface.vertices.windows(2).map(|s| (s[1] - s[0]).norm()).fold(f64::INFINITY, f64::min);
+    if !(slide > 0.0) || !(h > 0.0) {
+        return 1;
+    }
+    ((2.0 * slide / h).ceil() as usize).clamp(1, MAX_SWEEP_POSITIONS)
+}
+
+/// Where the nodes of wearing surface `ws`'s pair are paired for the part of a step from
+/// `u_prev` to `u`: the reference geometry `coords` for small sliding, the configuration halfway
+/// through it for finite.
+pub fn pairing_position<'a>(
+    set: &ContactSet,
+    ws: &WearingSurface,
+    coords: &'a [Point2<f64>],
+    u_prev: &'a [f64],
+    u: &'a [f64],
+) -> impl Fn(usize) -> Point2<f64> + 'a {
+    let finite = set.pairs[ws.contact].sliding == crate::contact::Sliding::Finite;
+    move |node: usize| {
+        let p = coords[node];
+        if !finite {
+            return p;
+        }
+        let (ux, uy) = (0.5 * (u_prev[2 * node] + u[2 * node]), 0.5 * (u_prev[2 * node + 1] + u[2 * node + 1]));
+        Point2::new(p.x + ux, p.y + uy)
+    }
+}
+
 /// `int N_i` of every vertex hat of the surface over its part inside the host.
 pub fn vertex_measure(surface: &FreeSurface) -> Vec<f64> {
     let v = &surface.vertices;
