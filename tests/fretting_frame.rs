@@ -95,9 +95,12 @@ fn finite_sliding_keeps_the_static_pressure_at_any_increment() {
     }
 }
 
+/// Final wear state of a run: flat depths, cylinder depths, worn areas, wear works, coefficients.
+type WearEnd = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
+
 /// Final wear state of the shipped McColl case at `cycles` cycles, finite sliding, `increments`
-/// per cycle: (flat depths, cylinder depths, worn areas, wear works, coefficients).
-fn finite_sliding_wear(cycles: usize, increments: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
+/// per cycle.
+fn finite_sliding_wear(cycles: usize, increments: usize) -> WearEnd {
     let text = std::fs::read_to_string("wear_cases/mccoll_fretting.toml")
         .expect("shipped case")
         .replace("cycles = 18000", &format!("cycles = {cycles}"))

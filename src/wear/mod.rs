@@ -396,7 +396,8 @@ pub fn sweep_positions(
         .map(|k| (set.tangents[k].iter().map(|&(d, v)| v * (u[d] - u_prev[d])).sum::<f64>() / set.phi[k]).abs())
         .fold(0.0_f64, f64::max);
     let h = surface.vertices.windows(2).map(|s| (s[1] - s[0]).norm()).fold(f64::INFINITY, f64::min);
-    if !(slide > 0.0) || !(h > 0.0) {
+    let usable = slide > 0.0 && slide.is_finite() && h > 0.0 && h.is_finite();
+    if !usable {
         return 1;
     }
     ((2.0 * slide / h).ceil() as usize).clamp(1, MAX_SWEEP_POSITIONS)
