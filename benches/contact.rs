@@ -1,7 +1,7 @@
-//! Criterion bench: issue 4's Hertz contact (cylinder on block, frictionless, condensed solve),
+//! Criterion bench: the Hertz contact (cylinder on block, frictionless, condensed solve),
 //! whole process (mesh, model, factorisation, Delassus operator, active set) and the solve
 //! alone on a built model. `MORTEX_BENCH_H` sets the block core element (default 0.01 mm; the
-//! CLI's `mortex bench --hertz` runs the issue's three sizes). And the condensed solver's set-up
+//! CLI's `mortex bench --hertz` runs the three target sizes). And the condensed solver's set-up
 //! on the McColl fretting model (wear_cases/mccoll_fretting.toml, 17k DOFs): built afresh
 //! (pattern, symbolic and numeric factorisation, interface operator) against handed on from the
 //! previous model of a run (numeric factorisation and interface operator only).

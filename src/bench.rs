@@ -186,7 +186,7 @@ pub fn time_embedding(n: usize, segments: usize) -> Result<EmbedTimes, crate::su
     Ok(t)
 }
 
-/// Issue 4's Hertz benchmark: cylinder R = 10 mm (half disc) on a block 40 x 20 mm, both steel,
+/// The Hertz benchmark: cylinder R = 10 mm (half disc) on a block 40 x 20 mm, both steel,
 /// plane strain, frictionless, P = 100 N/mm on the cylinder's flat top (its centre held in x),
 /// block bottom fixed. The block's core (|x| <= 0.5 mm, 0.5 mm deep) has square elements of
 /// size `h_core`, the cylinder's core (same extent along the rim) is 1.5x finer; 20 divisions

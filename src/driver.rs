@@ -103,15 +103,14 @@ where
         }
         if current.has_finite_sliding() {
             // Without moving surfaces every step has the bulk the first one set up.
-            let same_bulk = !current.has_moving_surfaces() && k > first;
-            let mut timings = RunTimings::default();
-            let compliance = !current.has_moving_surfaces();
+            let at_rest = !current.has_moving_surfaces();
+            let (same_bulk, mut timings) = (at_rest && k > first, RunTimings::default());
             solve_paired_step(
                 &current,
                 state,
                 &mut reuse,
                 same_bulk,
-                compliance,
+                at_rest,
                 step,
                 t,
                 options,
@@ -223,7 +222,7 @@ where
                             m,
                             analysis,
                             state,
-                            start,
+                            (&start.u, &start.multipliers),
                             report,
                             i,
                             n,
@@ -272,21 +271,22 @@ fn wear_step(
     increments: usize,
     timings: &mut RunTimings,
 ) -> Result<StepReport, AnalysisError> {
-    let start = state.clone();
+    let (u_prev, lambda_prev) = (state.u.clone(), state.multipliers.clone());
     let t0 = std::time::Instant::now();
     let report = analysis.advance_to(state, state.step + 1, t)?;
     timings.solve += t0.elapsed().as_secs_f64();
-    integrate_step_wear(m, analysis, state, &start, report, i, n, increments, timings)
+    integrate_step_wear(m, analysis, state, (&u_prev, &lambda_prev), report, i, n, increments, timings)
 }
 
 #[allow(clippy::too_many_arguments)]
-/// The wear of increment `i` of computed cycle `n` that just converged (from `start`), and at
-/// the cycle's last increment the cycle's wear applied with its jump.
+/// The wear of increment `i` of computed cycle `n` that just converged (from the displacements
+/// and multipliers `start`), and at the cycle's last increment the cycle's wear applied with
+/// its jump.
 fn integrate_step_wear(
     m: &Model,
     analysis: &StaticAnalysis,
     state: &mut SimState,
-    start: &SimState,
+    start: (&[f64], &[f64]),
     mut report: StepReport,
     i: usize,
     n: u64,
@@ -296,7 +296,7 @@ fn integrate_step_wear(
     let t1 = std::time::Instant::now();
     report.cycle = n as usize + 1;
     report.increment = i + 1;
-    accumulate_step_wear(m, state, &start.u, Some(&start.multipliers));
+    accumulate_step_wear(m, state, start.0, Some(start.1));
     state.wear.increment = i + 1;
     if i + 1 == increments {
         let count = m.cycle.map_or(1, |c| c.count as u64);

@@ -73,7 +73,7 @@ fn plate_hole_case() {
 /// Hill cylinder loaded to p = 187.64 MPa (c = 1.6) and unloaded: residual hoop stress in the
 /// plastic zone `sigma_t = -p + 2k (1 + ln(r/a)) - p a^2/(b^2 - a^2) (1 + b^2/r^2)`, `k = sigma_y/sqrt 3`
 /// (Hill 1950 ch. V; elastic unloading, no reverse yield since p < 2 p_e). Compared at the
-/// innermost ring of integration points. Tolerance 2% of 2k (issue: 2% for the plastic solution).
+/// innermost ring of integration points. Tolerance 2% of 2k (target: 2% for the plastic solution).
 #[test]
 fn plastic_cylinder_residual_stress() {
     let out = run_case("plastic_cylinder");
@@ -121,7 +121,7 @@ fn plastic_cylinder_residual_stress() {
 
 /// MorteX tying case: patch test through the whole tool chain (case file -> HDF5). Uniform
 /// sigma_xx = 100 MPa at every integration point of both meshes and interface traction
-/// `t = sigma . n` at every multiplier node; 1e-8 relative (issue 3 patch-test tolerance).
+/// `t = sigma . n` at every multiplier node; 1e-8 relative (the patch-test target tolerance).
 #[test]
 fn tied_patch_case() {
     let out = run_case("tied_patch");
@@ -177,7 +177,7 @@ fn block_contact_case() {
 
 /// Cattaneo-Mindlin case (two cylinders, rigid platen, normal then tangential force; see its
 /// header): from the contact CSV of the last step, the stick zone (halfway between the outermost
-/// stick node and the next slip node) within 3% of a sqrt(1 - Q/(mu P)) (issue 4 tolerance;
+/// stick node and the next slip node) within 3% of a sqrt(1 - Q/(mu P)) (target tolerance;
 /// measured -1.8% on this graded mesh), and the Coulomb law at every node in contact: slip
 /// |q| = mu p, stick |q| <= mu p (round-off, 1e-9 mu p0).
 #[test]
@@ -213,7 +213,7 @@ fn cattaneo_mindlin_case() {
 
 /// Fretting-loop case (the cattaneo_mindlin scene cycled between +-Q*, Q* = 0.5 mu P; see its
 /// header): the dissipation written per step in the HDF5 file, over the second cycle (t = 6 to
-/// 10), within 5% (issue 4 tolerance) of Mindlin-Deresiewicz, W = 4 mu^2 int_{c<|x|<a} p g_c dx
+/// 10), within 5% (target tolerance) of Mindlin-Deresiewicz, W = 4 mu^2 int_{c<|x|<a} p g_c dx
 /// (measured +0.97% on this graded mesh).
 #[test]
 fn fretting_loop_case() {

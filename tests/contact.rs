@@ -1,4 +1,4 @@
-//! Frictionless mortar contact (small sliding) — groundwork for issue 4, not its validation.
+//! Frictionless mortar contact (small sliding) — groundwork for the contact validation, not the validation itself.
 //!
 //! Contact patch test (Taylor & Papadopoulos, IJNME 31 (1991) 1203; Puso & Laursen 2004):
 //! two blocks of the same material with non-matching meshes, the upper one pressed onto the

@@ -11,7 +11,7 @@
 //!   +-----------+
 //!
 //! Small sliding: the pairing and normals come from the reference geometry (a/R = 1%).
-//! Groundwork for issue 4 (not its full validation): real surfaces only, one mesh. The
+//! Groundwork for the contact validation (not the validation itself): real surfaces only, one mesh. The
 //! half-space formulas hold to a fraction of a percent for these finite bodies.
 //! Note `half_disc`'s radial grading argument is centre/rim spacing (150: rim 150x finer).
 
@@ -126,9 +126,9 @@ fn hertz_on(gx: &[f64], gy: &[f64], rs: &[f64], ts: &[f64], virtual_top: bool) -
     HertzResult { p0: p0 / p0_exact - 1.0, a: a_fit / a_exact - 1.0, l2: (num / den).sqrt(), dofs: model.dofs.num_dofs }
 }
 
-/// Peak pressure and half-width against Hertz (issue 4 tolerances: 1% and 2%). The pressure L2
+/// Peak pressure and half-width against Hertz (target tolerances: 1% and 2%). The pressure L2
 /// error over [-2a, 2a] is reported, not asserted: these graded meshes coarsen to about a/5 at the
-/// contact edge and give 4.9% (issue target 1% on a fine mesh: not reached yet, see the note).
+/// contact edge and give 4.9% (target 1% on a fine mesh: not reached yet).
 #[test]
 fn hertz_peak_pressure_and_half_width() {
     let r = hertz(120, 60, 60, 120, 300.0, 400.0, false);
@@ -177,7 +177,7 @@ fn hertz_plateau(n_fine: usize, virtual_top: bool) -> HertzResult {
     hertz_on(&gx, &gy, &rs, &ts, virtual_top)
 }
 
-/// Issue 4's accuracy targets on a mesh uniformly fine over the contact (block 0.0025 mm,
+/// The accuracy targets on a mesh uniformly fine over the contact (block 0.0025 mm,
 /// cylinder 0.0017 mm over |x| <= 0.25 mm; 101k DOFs): p0 within 1%, a within 2%, pressure L2
 /// over [-2a, 2a] within 1%, with the block surface real and virtual. Measured: real p0 +0.09%,
 /// a -0.09%, L2 0.51%; virtual +0.12%, -0.12%, 0.71%. (`hertz_plateau_table` prints the
@@ -234,7 +234,7 @@ fn density_deviation(
     (dev, model.contact.pairs[0].multipliers.num_nodes)
 }
 
-/// Issue 4, curved-surface density contrast: a finely meshed cylinder (8x finer than the
+/// curved-surface density contrast: a finely meshed cylinder (8x finer than the
 /// block's 0.005 mm flat segments under the contact) carries the multipliers. Classical
 /// multipliers (one per cylinder node, 8 per block segment) over-constrain the coarse side and
 /// the pressure oscillates; coarse-grained ones (spaced like the block's segments) remove it.

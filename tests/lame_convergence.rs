@@ -4,7 +4,7 @@
 //! `u_r = ((1+nu)/E) [ (1 - 2 nu) A r + B / r ]`.
 //! Sketch: quarter annulus a = 1 mm, b = 2 mm, symmetry (u_y = 0 on y = 0, u_x = 0 on x = 0),
 //! pressure p = 100 MPa on r = a. Meshes 4x6, 8x12, 16x24, 32x48 (radial x angular).
-//! Expected orders for bilinear elements: 2 in L2 displacement, 1 in energy norm; the issue asks
+//! Expected orders for bilinear elements: 2 in L2 displacement, 1 in energy norm; the target asks
 //! for >= 1.9 and >= 0.9 (the polygonal boundary adds an O(h^2) geometric error only).
 
 mod common;

@@ -141,14 +141,14 @@ fn cattaneo_mindlin(n_fine: usize, core: f64, virtual_lower: bool, ratio: f64) -
     CmResult { c_err: c_num / c - 1.0, resultant, law_error, stick_intervals, q_l2, q }
 }
 
-/// Cattaneo-Mindlin at Q/(mu P) = 0.25, 0.5, 0.75 (issue 4). Meshes uniformly fine over
+/// Cattaneo-Mindlin at Q/(mu P) = 0.25, 0.5, 0.75. Meshes uniformly fine over
 /// |x| <= 0.1 mm (a = 0.0743 mm), lower surface real (classical mortar) and virtual (MorteX):
 /// lower-surface spacing 0.001 mm (upper 0.00067 mm, 224k DOFs) at 0.5 and 0.75; 0.00067 mm
 /// (upper 0.00044 mm, 427k DOFs) at 0.25, whose slip annulus is only 0.01 mm wide and whose
 /// shear is a quarter of mu p (the shear L2 error there is 4 x the pressure error of the slip
 /// zone; 0.001 mm gave 3.97% / 4.33%).
 /// Asserted: exact checks (shear resultant = Q, the Coulomb law at the nodes, one stick
-/// interval), and the issue's tolerances: stick-zone half-width within 3% of
+/// interval), and the target tolerances: stick-zone half-width within 3% of
 /// a sqrt(1 - Q/(mu P)), shear-traction L2 error over [-a, a] within 3%, and MorteX vs
 /// classical mortar within 1% at 0.5 and 0.75. At 0.25 the MorteX-classical difference is
 /// reported, not asserted: 1.17% (missed; relative to the small shear of that case).
@@ -210,7 +210,7 @@ fn cattaneo_mindlin_explore() {
     cattaneo_mindlin(n, core, std::env::var("CM_VIRTUAL").is_ok(), r);
 }
 
-/// Issue 4: the condensed solve (Cholesky of the bulk once, active-set iterations on the
+/// the condensed solve (Cholesky of the bulk once, active-set iterations on the
 /// interface unknowns) equals the monolithic saddle-point Newton to 1e-10 relative, in
 /// displacements and multipliers, over a normal step and a partial-slip tangential step, with
 /// the lower surface real and virtual.
@@ -326,8 +326,8 @@ fn fretting_explore() {
     fretting_cycle(n, 0.25, std::env::var("CM_VIRTUAL").is_ok(), k);
 }
 
-/// Issue 4: dissipated energy per fretting cycle (Q* = 0.5 mu P, second cycle, 8 increments per
-/// quarter cycle) within 5% of the analytical Mindlin-Deresiewicz value (the issue's tolerance),
+/// dissipated energy per fretting cycle (Q* = 0.5 mu P, second cycle, 8 increments per
+/// quarter cycle) within 5% of the analytical Mindlin-Deresiewicz value (the target tolerance),
 /// real and virtual lower surface; the code's two measures (sum lambda_t ds and the Q-delta loop
 /// area) within 1% of each other (backward-Euler sum vs trapezoidal area: O(increment) apart).
 /// Measured: real +1.10% / +0.65%, virtual +0.60% / +0.19% (dissipation / loop).
@@ -347,7 +347,7 @@ fn fretting_loop_dissipation() {
     }
 }
 
-/// Issue 4, bad input: a tangential force above mu P on a load-controlled platen (gross sliding,
+/// bad input: a tangential force above mu P on a load-controlled platen (gross sliding,
 /// nothing else restrains the cylinder) stops with a typed error naming the step instead of a
 /// diverging loop: in the condensed solve all nodes slip one way (GrossSliding); the monolithic
 /// solve of the small-sliding model finds a far-slid "equilibrium" on the tilted normals, caught
@@ -384,11 +384,11 @@ fn tangential_load_beyond_mu_p_is_a_clear_error() {
     }
 }
 
-/// Mindlin-Deresiewicz unloading (issue 4, fretting loop): after Q* = 0.5 mu P, the tangential
+/// Mindlin-Deresiewicz unloading (fretting loop): after Q* = 0.5 mu P, the tangential
 /// force is brought back to 0 in one increment. Reverse slip spreads inward from the edges:
 /// stick zone c' = a sqrt(1 - (Q* - Q)/(2 mu P)), traction q = q* - 2 q_d with q* the
 /// Cattaneo-Mindlin traction at Q* and q_d the Cattaneo-Mindlin traction of (Q* - Q)/2 (stick
-/// zone c'). Asserted within the issue's 5%: c' and the traction (L2 over [-a, a], relative to
+/// zone c'). Asserted within the target 5%: c' and the traction (L2 over [-a, a], relative to
 /// the L2 norm of q*). Meshes fine over |x| <= 0.1 mm with lower spacing 0.001 mm (224k DOFs).
 #[test]
 fn mindlin_deresiewicz_unloading() {

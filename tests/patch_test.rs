@@ -9,7 +9,7 @@
 //!   |  \   |    /   |
 //!   +---+--+---+----+
 //!
-//! Tolerance: relative error 1e-10 (issue 2): the exact field lies in the FE space, so only
+//! Tolerance: relative error 1e-10: the exact field lies in the FE space, so only
 //! round-off of a direct solve on a ~100-DOF system remains (~1e-14 expected).
 
 mod common;

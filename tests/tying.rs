@@ -14,7 +14,7 @@
 //!
 //! Patch test: same material in both meshes, so the exact solution is the uniform stress in
 //! both. Both multiplier spaces contain the exact (piecewise constant per side) traction, so
-//! theory says both pass; tolerance 1e-8 relative (issue 3), round-off being ~1e-12.
+//! theory says both pass; tolerance 1e-8 relative, round-off being ~1e-12.
 
 mod common;
 use common::solve;
@@ -260,7 +260,7 @@ fn density_contrast_table() {
 /// Cantilever beam 20 x 2 mm (plane strain), clamped at x = 0, shear load 10 N/mm on x = 20.
 /// Overlapping meshes: a 80 x 8 host with a finer patch (h = 0.1 mm, rotated 17 degrees) laid
 /// over its middle and tied by MorteX; reference: the same beam on the 80 x 8 conforming mesh
-/// alone. Issue 3 tolerance: tip deflection within 0.5%.
+/// alone. Target tolerance: tip deflection within 0.5%.
 fn cantilever_tip(with_patch: Option<MultiplierSpace>) -> f64 {
     let hyp = PlaneHypothesis::PlaneStrain;
     let mut b = ModelBuilder::new(hyp);
@@ -525,7 +525,7 @@ fn straight_interface_tension_is_exact_for_both_spaces() {
 /// Pure bending across the interface: linear exact traction. Host h_H = 0.125 mm (32 Quad4 over
 /// the height): the deviation then left in the coarse-grained traction is the host's own bending
 /// error (1:20, E_p = 10 E_h: 2.39 / 1.06 / 0.76 / 0.47% at h_H = 0.5 / 0.25 / 0.167 / 0.125).
-/// Issue 3 target: coarse-grained <= 1% at every ratio. The classical space over-constrains the
+/// Target: coarse-grained <= 1% at every ratio. The classical space over-constrains the
 /// blending elements: its deviation must grow with the ratio from 1:5 on and exceed the
 /// coarse-grained one at every ratio >= 1:5.
 #[test]

@@ -1,4 +1,4 @@
-//! Interface condensation for contact between linear elastic bodies (issue 4, scope 3).
+//! Interface condensation for contact between linear elastic bodies.
 //!
 //! The saddle-point system of one semi-smooth Newton iteration is
 //! `K du + C^T dlambda = r_u`, plus one law row per multiplier (gap rows `C_a du = -w_a` for

@@ -493,6 +493,33 @@ pub fn default_sliding(wears: bool, stroke: f64, h: f64) -> crate::model::Slidin
     }
 }
 
+/// Smallest element of a contact's real (edge-set) surfaces; infinite if it has none.
+fn real_surface_spacing(b: &ModelBuilder, c: &ContactSpec) -> f64 {
+    let mut h = f64::INFINITY;
+    for (body, sets) in [(&c.mortar, Some(&c.mortar_surface)), (&c.other, c.other_surface.as_ref())] {
+        if let (Ok(bi), Some(sets)) = (b.body_index(body), sets) {
+            h = h.min(b.smallest_edge(bi, sets).unwrap_or(f64::INFINITY));
+        }
+    }
+    h
+}
+
+/// [`default_sliding`] for contact `c` (after worn boundaries became cuts): whether it wears,
+/// its prescribed stroke, and its smallest element (`h_real` of its real surfaces, or the
+/// vertex spacing of its cuts).
+fn scene_sliding(raw: &CaseFile, c: &ContactSpec, h_real: f64, wear_cuts: &[String]) -> crate::model::Sliding {
+    let wears = [&c.mortar_cut, &c.other_cut].into_iter().flatten().any(|cut| wear_cuts.contains(cut));
+    let mut h = h_real;
+    for cs in &raw.cuts {
+        let named = |n: &Option<String>| n.as_ref() == cs.name.as_ref();
+        if named(&c.mortar_cut) || named(&c.other_cut) {
+            let spacing = cs.points.windows(2).map(|w| f64::hypot(w[1][0] - w[0][0], w[1][1] - w[0][1]));
+            h = h.min(spacing.fold(f64::INFINITY, f64::min));
+        }
+    }
+    default_sliding(wears, prescribed_stroke(raw, &[&c.mortar, &c.other]), h)
+}
+
 /// Largest peak-to-peak range of a displacement prescribed on the named bodies (the value times
 /// the range of its load curve); 0 where none is prescribed.
 fn prescribed_stroke(raw: &CaseFile, bodies: &[&String]) -> f64 {
@@ -722,16 +749,7 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
     }
 
     // The smallest element of each contact's real surfaces (before worn boundaries become cuts).
-    let mut contact_spacing: Vec<f64> = Vec::with_capacity(raw.contacts.len());
-    for c in &raw.contacts {
-        let mut h = f64::INFINITY;
-        for (body, sets) in [(&c.mortar, Some(&c.mortar_surface)), (&c.other, c.other_surface.as_ref())] {
-            if let (Ok(bi), Some(sets)) = (b.body_index(body), sets) {
-                h = h.min(b.smallest_edge(bi, sets).unwrap_or(f64::INFINITY));
-            }
-        }
-        contact_spacing.push(h);
-    }
+    let contact_spacing: Vec<f64> = raw.contacts.iter().map(|c| real_surface_spacing(&b, c)).collect();
 
     // Worn real boundaries become cuts that coincide with them; contacts on those boundaries
     // use the cuts.
@@ -830,26 +848,7 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                 cx.err(k("friction"), format!("the friction coefficient must be finite and >= 0, got {}", c.friction))
             );
         }
-        let wears = [&c.mortar_cut, &c.other_cut].into_iter().flatten().any(|cut| wear_cuts.contains(cut));
-        let sliding = match c.sliding {
-            Some(s) => s,
-            None => {
-                // Cut surfaces that do not wear: their vertex spacing.
-                let mut h = contact_spacing[i];
-                for cs in &raw.cuts {
-                    let named = |n: &Option<String>| n.as_ref() == cs.name.as_ref();
-                    if named(&c.mortar_cut) || named(&c.other_cut) {
-                        h = h.min(
-                            cs.points
-                                .windows(2)
-                                .map(|w| f64::hypot(w[1][0] - w[0][0], w[1][1] - w[0][1]))
-                                .fold(f64::INFINITY, f64::min),
-                        );
-                    }
-                }
-                default_sliding(wears, prescribed_stroke(&raw, &[&c.mortar, &c.other]), h)
-            }
-        };
+        let sliding = c.sliding.unwrap_or_else(|| scene_sliding(&raw, c, contact_spacing[i], &wear_cuts));
         let params = crate::model::ContactParams {
             friction: c.friction,
             multipliers: c.multipliers.unwrap_or(DEFAULT_CONTACT_MULTIPLIERS),

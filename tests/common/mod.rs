@@ -75,7 +75,7 @@ pub fn build_one_step(b: mortex::model::ModelBuilder) -> Model {
 }
 
 /// Two cylinders (R = 10 mm each, half discs), both steel (E = 210000 MPa, nu = 0.3), plane
-/// strain, touching at the origin: the Hertz / Cattaneo-Mindlin scene of issue 4 (the seed's
+/// strain, touching at the origin: the Hertz / Cattaneo-Mindlin scene of the contact validation (the seed's
 /// example; the point symmetry of the pair keeps the normal and tangential problems uncoupled,
 /// which a cylinder on a shear-loaded block does not quite do). Each mesh is uniformly fine over
 /// |x| <= `core` and as deep (upper: 2 core / (1.5 n_fine), lower: 2 core / n_fine) and coarse
