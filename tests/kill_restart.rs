@@ -17,9 +17,16 @@ fn tmpfile(name: &str) -> PathBuf {
 /// `--restart` from what it left; with `damage`, the left `.h5.partial` is first made unreadable
 /// (its first 8 KiB zeroed, the superblock with them), as a kill during an HDF5 metadata update
 /// can leave it, so the resume must come from the side copy of the last checkpoint. Returns the step it resumed from and the continuation's file,
-/// or `None` if the run finished first or was killed before its first checkpoint. A killed run
+/// or `None` if the run finished first, was killed before its first checkpoint or after its
+/// last one. A killed run
 /// must never leave an XDMF beside a file it does not describe.
-fn kill_then_resume(case: &Path, name: &str, delay: std::time::Duration, damage: bool) -> Option<(usize, PathBuf)> {
+fn kill_then_resume(
+    case: &Path,
+    name: &str,
+    delay: std::time::Duration,
+    damage: bool,
+    last_step: usize,
+) -> Option<(usize, PathBuf)> {
     use std::process::{Command, Stdio};
     let exe = env!("CARGO_BIN_EXE_mortex");
     let out = tmpfile(&format!("{name}.h5"));
@@ -60,6 +67,11 @@ fn kill_then_resume(case: &Path, name: &str, delay: std::time::Duration, damage:
         return None;
     }
     let k = *checkpoint::available_steps(&partial).unwrap().last()?;
+    if k == last_step {
+        // Killed after the last step's checkpoint, while the run was finishing its files: the
+        // restart rightly refuses ("nothing to run").
+        return None;
+    }
     let cont = tmpfile(&format!("{name}_resumed.h5"));
     let status = Command::new(exe)
         .args([
@@ -121,7 +133,8 @@ fn kill_minus_nine_then_resume_is_bit_identical() {
     for (i, fraction) in [0.15, 0.32, 0.5, 0.67, 0.85].into_iter().enumerate() {
         // The third kill also damages what the run left (resume from the side checkpoint).
         let damage = i == 2;
-        let Some((k, cont)) = kill_then_resume(&case, &format!("kill_{i}"), wall.mul_f64(fraction), damage) else {
+        let Some((k, cont)) = kill_then_resume(&case, &format!("kill_{i}"), wall.mul_f64(fraction), damage, k_ref)
+        else {
             continue;
         };
         let (k_end, b) = last(&cont);
@@ -205,7 +218,8 @@ fn kill_during_wear(finite: bool) {
     };
     let mut resumed_from = vec![];
     for (i, fraction) in [0.15, 0.32, 0.5, 0.67, 0.85].into_iter().enumerate() {
-        let Some((k, cont)) = kill_then_resume(&case, &format!("kill_wear{tag}_{i}"), wall.mul_f64(fraction), i == 1)
+        let Some((k, cont)) =
+            kill_then_resume(&case, &format!("kill_wear{tag}_{i}"), wall.mul_f64(fraction), i == 1, k_ref)
         else {
             continue;
         };
