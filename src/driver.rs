@@ -542,9 +542,12 @@ fn apply_wear(
         return Err(AnalysisError::Wear {
             cycle: 1,
             surface: m.wear.surfaces.iter().map(|s| s.name.as_str()).collect::<Vec<_>>().join(", "),
-            msg: "no wear in the first cycle: the wearing surfaces never slid under pressure (zero stroke, or not \
-                  in contact); nothing would ever wear"
-                .into(),
+            msg: format!(
+                "no wear in the first cycle: the wearing surfaces never slid under pressure at the {} increments \
+                 of the cycle (zero stroke, not in contact, or too few steps.increments to sample the stroke); \
+                 nothing would ever wear",
+                m.cycle.map_or(0, |c| c.increments)
+            ),
         });
     }
     // The cycle's wear volumes and work as applied: the computed ones, or (implicit) those at

@@ -211,13 +211,61 @@ fn bench_wear(path: PathBuf, at: &[u64]) -> Result<(), String> {
     Ok(())
 }
 
+/// A material as a user writes it: `elastic, E = 200 GPa, nu = 0.3`.
+fn describe_material(m: &mortex::fem::material::Material, units: case::Units) -> String {
+    use mortex::fem::material::Material;
+    let e = m.elastic();
+    let elastic = format!("E = {}, nu = {}", units.stress(e.young), e.poisson);
+    match m {
+        Material::Elastic(_) => format!("elastic, {elastic}"),
+        Material::J2Plastic(p) => format!(
+            "J2 plastic, {elastic}, yield stress {}, isotropic hardening {}, kinematic hardening {}",
+            units.stress(p.yield_stress),
+            units.stress(p.isotropic_hardening),
+            units.stress(p.kinematic_hardening)
+        ),
+    }
+}
+
+/// The output steps a run will compute: all of them, or with cycle jumps the range the jump
+/// policy allows (the adaptive jump decides during the run).
+fn computed_steps(m: &mortex::model::Model) -> String {
+    use mortex::wear::JumpPolicy;
+    let (Some(cy), false) = (m.cycle, m.wear.is_empty()) else {
+        return format!("{} output steps", m.times.len());
+    };
+    let ramp = m.times.len().saturating_sub(cy.count * cy.increments);
+    let steps = |cycles: usize| cycles * cy.increments + ramp;
+    match m.wear.jump {
+        JumpPolicy::Fixed(1) => format!("{} output steps", m.times.len()),
+        JumpPolicy::Fixed(n) => {
+            let cycles = cy.count.div_ceil(n as usize);
+            format!("{} output steps ({cycles} computed cycles, jumps of {n})", steps(cycles))
+        }
+        JumpPolicy::Adaptive { max_jump, .. } => {
+            let fewest = cy.count.div_ceil(max_jump.max(1) as usize);
+            let range = if fewest > 1 { format!("between {} and", steps(fewest)) } else { "at most".into() };
+            format!(
+                "{range} {} output steps: the adaptive cycle jump computes a part of the {} cycles, decided during \
+                 the run",
+                m.times.len(),
+                cy.count
+            )
+        }
+    }
+}
+
 fn check(path: PathBuf) -> Result<(), String> {
     let c = case::load(&path).map_err(|e| e.to_string())?;
     let m = &c.model;
     println!("case '{}' ({}): valid", c.name, path.display());
-    println!("  hypothesis: {:?}", m.hypothesis);
+    let hypothesis = match m.hypothesis {
+        mortex::fem::material::PlaneHypothesis::PlaneStrain => "plane strain",
+        mortex::fem::material::PlaneHypothesis::PlaneStress => "plane stress",
+    };
+    println!("  hypothesis: {hypothesis}; units: {}", if c.units == case::Units::Metre { "m, N, Pa" } else { "mm, N, MPa" });
     for (i, mat) in m.materials.iter().enumerate() {
-        println!("  material '{}': {:?}", m.material_names[i], mat);
+        println!("  material '{}': {}", m.material_names[i], describe_material(mat, c.units));
     }
     for b in &m.bodies {
         let nq = b.mesh.cells.iter().filter(|c| c.kind == mortex::mesh::CellKind::Quad4).count();
@@ -273,10 +321,10 @@ fn check(path: PathBuf) -> Result<(), String> {
     println!("  DOFs: {} total, {} free, {} prescribed", m.dofs.num_dofs, m.dofs.num_free, m.prescribed.len());
     println!("  integration points: {} ({} with history)", m.elements.num_points(), m.elements.num_states());
     println!(
-        "  steps: {} output steps to t = {}, {}",
-        m.times.len(),
+        "  steps: to t = {}, {}; {}",
         m.end_time(),
-        if m.is_linear() { "linear (one factorisation)" } else { "nonlinear (Newton)" }
+        if m.is_linear() { "linear (one factorisation)" } else { "nonlinear (Newton)" },
+        computed_steps(m)
     );
     if let Some(cy) = &m.cycle {
         println!(
@@ -342,6 +390,7 @@ fn run(
             (cp, out)
         }
     };
+    let units = c.units;
     let wear_cycles = match (model.wear.is_empty(), model.cycle) {
         (false, Some(cy)) => Some(cy.count as u64),
         _ => None,
@@ -391,8 +440,12 @@ fn run(
                 let w = &s.wear;
                 let deepest = w.depth.iter().flatten().fold(0.0_f64, |a, &b| a.max(b));
                 bar.set_message(format!(
-                    "computed {}, jump {}, inc {}, max wear {:.3e}, {} it",
-                    w.computed_cycles, w.jump, r.increment, deepest, r.iterations
+                    "computed {}, jump {}, inc {}, max wear depth {}, {} it",
+                    w.computed_cycles,
+                    w.jump,
+                    r.increment,
+                    units.length(deepest),
+                    r.iterations
                 ));
                 bar.set_position(w.cycle);
             } else {
@@ -413,16 +466,19 @@ fn run(
         Ok(()) => {
             if wear_cycles.is_some() {
                 let w = &state.wear;
-                let deepest: Vec<String> =
-                    w.depth.iter().map(|d| format!("{:.4e}", d.iter().fold(0.0_f64, |a, &b| a.max(b)))).collect();
-                println!(
-                    "{}: {} cycles ({} computed), max wear depth [{}], worn area {:?}",
-                    c.name,
-                    w.cycle,
-                    w.computed_cycles,
-                    deepest.join(", "),
-                    w.worn_area
-                );
+                let scars: Vec<String> = model
+                    .wear
+                    .surfaces
+                    .iter()
+                    .zip(&w.depth)
+                    .zip(&w.worn_area)
+                    .map(|((s, d), area)| {
+                        let deepest = d.iter().fold(0.0_f64, |a, &b| a.max(b));
+                        let unit = if units == case::Units::Metre { "m²" } else { "mm²" };
+                        format!("{}: max depth {}, worn area {area:.4e} {unit}", s.name, units.length(deepest))
+                    })
+                    .collect();
+                println!("{}: {} cycles ({} computed); {}", c.name, w.cycle, w.computed_cycles, scars.join("; "));
             }
             println!(
                 "{}: {} steps, {} Newton iterations, {:.2} s -> {} (+ {})",

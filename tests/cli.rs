@@ -458,8 +458,8 @@ fn a_failed_run_keeps_its_steps_beside_an_earlier_result() {
 
 /// Output selection: with `fields_every = 4` and `checkpoint_every = 5` over 10 steps, step
 /// groups exist only at steps with a snapshot (4, 5, 8, 10: full fields at 4, 8 and the last,
-/// checkpoints at 5 and 10), the per-step series holds all 10 rows, and the XDMF lists the
-/// full-field steps only (4, 8, 10).
+/// checkpoints at 5 and 10), the per-step series holds all 10 rows, and the XDMF lists every
+/// step, the bodies with the fields of the latest full-field step (none before step 4).
 #[test]
 fn output_selection_writes_series_every_step_and_fields_every_k() {
     let d = tmpdir("select");
@@ -476,9 +476,19 @@ fn output_selection_writes_series_every_step_and_fields_every_k() {
     assert!(f.group("steps/000005").unwrap().link_exists("checkpoint"));
     assert!(!f.group("steps/000005").unwrap().link_exists("block"), "step 5 has no full fields");
     let xdmf = std::fs::read_to_string(d.join("results/sel.xdmf")).unwrap();
-    let listed: Vec<&str> = xdmf.matches("<Grid Name=\"step_").collect();
-    assert_eq!(listed.len(), 3, "{xdmf}");
-    assert!(xdmf.contains("step_4\"") && xdmf.contains("step_8\"") && xdmf.contains("step_10\""));
+    // Every step is a time; the bodies show the fields of the latest step that holds them.
+    let listed: Vec<&str> = xdmf.split("<Grid Name=\"step_").skip(1).collect();
+    assert_eq!(listed.len(), 10, "{xdmf}");
+    for (k, grid) in listed.iter().enumerate() {
+        let fields = grid.find("/steps/").map(|i| &grid[i + 7..i + 13]);
+        let expected = match k + 1 {
+            1..=3 => None,
+            4..=7 => Some("000004"),
+            8 | 9 => Some("000008"),
+            _ => Some("000010"),
+        };
+        assert_eq!(fields, expected, "step {}: {grid}", k + 1);
+    }
 }
 
 /// A tie whose closed boundary loop has an edge on the host's own boundary (a fine patch over a
@@ -534,7 +544,8 @@ pressure = 10.0
 }
 
 /// Wear input errors: negative or NaN coefficient, a wearing cut in contact with nothing, an
-/// unknown cut, zero stroke (nothing ever wears), wear deeper than the prepared band; restarts
+/// unknown cut, one increment per cycle, a wearing body surface in contact with nothing (named
+/// by its `surface` key), zero stroke (nothing ever wears), wear deeper than the prepared band; restarts
 /// from a checkpoint of another case or a damaged file. Each a clear error naming the file and
 /// key (or what is wrong), non-zero exit, no panic, and the earlier result untouched.
 #[test]
@@ -569,6 +580,22 @@ fn wear_bad_inputs_give_clear_errors() {
         "no_cycle",
         &sub("cycle = [1.0, 2.0]\ncycles = 20\n", ""),
         &["no_cycle.toml", "wear", "steps.cycle"],
+    );
+    expect_error(
+        &d,
+        "one_increment",
+        &sub("increments = 4", "increments = 1"),
+        &["one_increment.toml", "steps.increments", "only the cycle's end"],
+    );
+    // A wearing surface given by body and surface is named by those keys.
+    let mccoll = std::fs::read_to_string(root.join("wear_cases/mccoll_fretting.toml")).unwrap();
+    let from = "body = \"cylinder\"\nsurface = [\"arc\"]\ncoefficient";
+    assert!(mccoll.contains(from));
+    expect_error(
+        &d,
+        "by_surface",
+        &mccoll.replace(from, "body = \"cylinder\"\nsurface = [\"top\"]\ncoefficient"),
+        &["by_surface.toml", "wear[1].surface", "not in contact"],
     );
     expect_error(
         &d,
@@ -617,6 +644,15 @@ fn wear_bad_inputs_give_clear_errors() {
     for (from, needle) in [("other.h5", "other.h5"), ("damaged.h5", "damaged.h5")] {
         let (ok, text) = run(&["run", "wear.toml", "--quiet", "--restart", from, "-o", "cont.h5"], &d);
         assert!(!ok && text.contains(needle) && !text.contains("panicked"), "{from}:\n{text}");
+    }
+    // A run killed before its first checkpoint: its partial file holds only the start of an HDF5
+    // file (no side copy), its contact CSV three steps. The message says what happened.
+    std::fs::write(d.join("early.h5.partial"), &bytes[..512]).unwrap();
+    std::fs::write(d.join("early_contact.csv.partial"), "step,time,pair\n1,1,c\n2,2,c\n3,3,c\n").unwrap();
+    let (ok, text) = run(&["run", "wear.toml", "--quiet", "--restart", "early.h5.partial", "-o", "cont.h5"], &d);
+    assert!(!ok && !text.contains("panicked"), "{text}");
+    for needle in ["early.h5.partial", "stopped before its first checkpoint, at output step 3", "start it again"] {
+        assert!(text.contains(needle), "message should contain '{needle}':\n{text}");
     }
     assert_eq!(bytes, std::fs::read(d.join("wear.h5")).unwrap(), "the earlier result must be untouched");
 }

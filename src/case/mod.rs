@@ -3,10 +3,12 @@
 //!
 //! Units are the user's, consistent; the shipped cases use mm, N, MPa (so stiffness in MPa,
 //! pressure in MPa, forces in N, distributed loads in N/mm, plane-strain forces per mm of depth).
+//! `problem.units` says which system the numbers are in, for what the command line prints.
 //!
 //! ```toml
 //! [problem]
 //! hypothesis = "plane_strain"          # or "plane_stress"
+//! units = "mm"                         # mm, N, MPa (default); or "m": m, N, Pa
 //!
 //! [[materials]]
 //! name = "steel"
@@ -228,6 +230,52 @@ pub struct ProblemSpec {
     pub hypothesis: PlaneHypothesis,
     #[serde(default)]
     pub description: String,
+    #[serde(default)]
+    pub units: Units,
+}
+
+/// The case's consistent unit system, for what the command line prints (the engine itself is
+/// unit-free): lengths in mm with stresses in MPa (N, mm, MPa: the default), or SI (m, N, Pa).
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq, Default)]
+pub enum Units {
+    #[default]
+    #[serde(rename = "mm")]
+    Millimetre,
+    #[serde(rename = "m")]
+    Metre,
+}
+
+impl Units {
+    /// A length with the unit that reads best (nm to m), four significant digits.
+    pub fn length(self, v: f64) -> String {
+        let metres = v * if self == Units::Millimetre { 1e-3 } else { 1.0 };
+        let (scale, unit) = match metres.abs() {
+            a if a >= 1.0 => (1.0, "m"),
+            a if a >= 1e-3 => (1e3, "mm"),
+            a if a >= 1e-6 || a == 0.0 => (1e6, "µm"),
+            _ => (1e9, "nm"),
+        };
+        format!("{} {unit}", significant(metres * scale))
+    }
+
+    /// A stress with the unit that reads best (Pa to GPa), four significant digits.
+    pub fn stress(self, v: f64) -> String {
+        let pascal = v * if self == Units::Millimetre { 1e6 } else { 1.0 };
+        let (scale, unit) = match pascal.abs() {
+            a if a >= 1e9 => (1e-9, "GPa"),
+            a if a >= 1e6 => (1e-6, "MPa"),
+            a if a >= 1e3 => (1e-3, "kPa"),
+            _ => (1.0, "Pa"),
+        };
+        format!("{} {unit}", significant(pascal * scale))
+    }
+}
+
+/// `v` with four significant digits, without trailing zeros.
+fn significant(v: f64) -> String {
+    let digits = if v == 0.0 { 0 } else { (3 - v.abs().log10().floor() as i32).max(0) as usize };
+    let s = format!("{v:.digits$}");
+    if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
 }
 
 #[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
@@ -425,6 +473,8 @@ pub struct OutputSpec {
 /// A validated case: the model plus run options.
 pub struct Case {
     pub name: String,
+    /// The unit system the case's numbers are in (for printing).
+    pub units: Units,
     pub source: PathBuf,
     pub model: Model,
     pub output: PathBuf,
@@ -884,10 +934,12 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         if w.cut.is_some() && !declared {
             return Err(cx.err(k("cut"), format!("no cut named '{cut}'")));
         }
+        // A surface given as `body` + `surface` is named by those keys, not by its internal cut.
+        let surface_key = if w.cut.is_some() { "cut" } else { "surface" };
         b.set_cut_wear(cut, w.law, w.coefficient, w.max_depth).map_err(|e| {
             let key = match &e {
-                ModelError::Wear { key, .. } => k(key),
-                _ => k("cut"),
+                ModelError::Wear { key, .. } if *key != "cut" => k(key),
+                _ => k(surface_key),
             };
             model_err(&cx, key, e)
         })?;
@@ -984,6 +1036,13 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
             if increments == 0 || ramp == 0 {
                 return Err(cx.err("steps.increments", "increments and ramp_increments must be at least 1"));
             }
+            if increments == 1 && !raw.wear.is_empty() {
+                return Err(cx.err(
+                    "steps.increments",
+                    "a wear run needs several increments per cycle: one increment samples only the cycle's end, \
+                     where the stroke is back where it started, so nothing would slide (4 or more resolve a stroke)",
+                ));
+            }
             if n.checked_mul(increments).is_none_or(|v| v > MAX_OUTPUT_STEPS) {
                 return Err(cx.err(
                     "steps.cycles",
@@ -1069,7 +1128,10 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
             ModelError::Wear { surface, key, .. } => wear_cuts
                 .iter()
                 .position(|w| w == surface)
-                .map(|i| format!("wear[{i}].{key}"))
+                .map(|i| match (*key, raw.wear[i].cut.is_some()) {
+                    ("cut", false) => format!("wear[{i}].surface"),
+                    _ => format!("wear[{i}].{key}"),
+                })
                 .unwrap_or_else(|| "wear".into()),
             _ => "bcs".into(),
         };
@@ -1078,6 +1140,7 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
     let output = raw.output.file.clone().unwrap_or_else(|| PathBuf::from("results").join(format!("{name}.h5")));
     Ok(Case {
         name: name.to_string(),
+        units: raw.problem.units,
         source: PathBuf::from(path),
         model,
         output,

@@ -37,6 +37,12 @@ pub enum CheckpointError {
     TimeMismatch { path: String, step: usize, found: f64, expected: f64 },
     #[error("{path}: the checkpoint is at step {step}, but the case has only {steps} output steps")]
     BeyondCase { path: String, step: usize, steps: usize },
+    #[error(
+        "{path}: the run was stopped before its first checkpoint{}: there is nothing to resume from; start it \
+         again (without --restart)",
+        reached.map(|k| format!(", at output step {k}")).unwrap_or_default()
+    )]
+    StoppedBeforeCheckpoint { path: String, reached: Option<usize> },
 }
 
 const HISTORY_COLS: usize = 9;
@@ -205,19 +211,43 @@ pub fn side_path(partial: &Path) -> PathBuf {
 /// Where the checkpoints of `path` can be read: `path` itself, or, if it cannot be read (a run
 /// killed while HDF5 updated its metadata), the side copy of its latest checkpoint.
 fn readable_source(path: &Path) -> Result<(PathBuf, Vec<usize>), CheckpointError> {
+    let stopped_early = || CheckpointError::StoppedBeforeCheckpoint {
+        path: path.display().to_string(),
+        reached: steps_reached(path),
+    };
     match steps_in(path) {
+        Ok(steps) if steps.is_empty() && is_partial(path) => Err(stopped_early()),
         Ok(steps) => Ok((path.to_path_buf(), steps)),
         Err(e) => {
             let side = side_path(path);
             match side.exists().then(|| steps_in(&side)) {
-                Some(Ok(steps)) => {
+                Some(Ok(steps)) if !steps.is_empty() => {
                     tracing::warn!(file = %path.display(), side = %side.display(), error = %e, "damaged file: resuming from the side copy of its last checkpoint");
                     Ok((side, steps))
                 }
+                // A run killed before its first checkpoint leaves a partial file HDF5 may not
+                // open, and no side copy.
+                _ if is_partial(path) => Err(stopped_early()),
                 _ => Err(e),
             }
         }
     }
+}
+
+/// Whether `path` is a run's partial result (`<name>.h5.partial`).
+fn is_partial(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e == "partial")
+}
+
+/// The output steps a stopped run reached: the rows of its per-step series, or, when HDF5
+/// cannot open its partial file, the last row of the contact CSV it streams beside it.
+fn steps_reached(path: &Path) -> Option<usize> {
+    if let Ok(n) = hdf5::File::open(path).and_then(|f| f.dataset("series/step")).map(|d| d.size()) {
+        return Some(n);
+    }
+    let name = path.to_str()?.strip_suffix(".h5.partial")?;
+    let csv = std::fs::read_to_string(format!("{name}_contact.csv.partial")).ok()?;
+    csv.lines().filter_map(|l| l.split(',').next()?.parse::<usize>().ok()).next_back()
 }
 
 /// Steps that hold a checkpoint, in increasing order: those of `path`, or of the side copy of

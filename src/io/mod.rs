@@ -14,15 +14,17 @@
 //! * `/steps/NNNNNN/` (snapshot steps only: full fields, or a checkpoint) attributes `time`,
 //!   `load_factor`, `iterations`, `cutbacks`,
 //!   `residual`; per body `displacement` `(n, 3)` (z = 0, for ParaView's warp), `stress` `(n, 4)`
-//!   nodal `[xx, yy, zz, xy]` (lumped L2 projection), `von_mises` `(n)`, `eqps` `(n)`,
-//!   `reaction` `(n, 2)`, `cell_stress` `(c, 4)`, `cell_eqps` `(c)`; `/steps/NNNNNN/points/stress`
+//!   nodal `[xx, yy, zz, xy]` (lumped L2 projection) and `stress_tensor` `(n, 6)` (the same as
+//!   XDMF's symmetric `[xx, xy, xz, yy, yz, zz]`), `von_mises` `(n)`, `eqps` `(n)`,
+//!   `reaction` `(n, 2)`, `cell_stress` `(c, 4)`, `cell_stress_tensor` `(c, 6)`, `cell_eqps` `(c)`; `/steps/NNNNNN/points/stress`
 //!   `(p, 4)` and `eqps` `(p)` at the integration points (with moving surfaces also their
 //!   `coordinates` `(p, 2)`: cut band cells of bodies without history take exact rules).
 //! * `/time`, `/load_factor` `(steps)`: written when the file is closed.
 //! * Cut host bodies: `/mesh/<body>/material_fraction` `(c)`. Ties: `/mesh/ties/<tie>/points`,
 //!   `normals` `(l, 2)` of the multiplier nodes (outward normal of the patch) and per step
 //!   `/steps/NNNNNN/ties/<tie>/traction` `(l, 2)`: the traction on the patch, `t = sigma n = -lambda`.
-//! * Contacts: `/mesh/contacts/<pair>/points` `(l, 2)` (attributes `mu`, `sliding`) and per step
+//! * Contacts: `/mesh/contacts/<pair>/points` `(l, 2)`, `segments` `(l - 1, 2)` i64 (attributes
+//!   `mu`, `sliding`) and per step
 //!   `/steps/NNNNNN/contacts/<pair>/pressure` `(l)` (`p = -lambda_n >= 0`), `position` `(l, 2)`
 //!   (current position of the multiplier nodes); with friction also
 //!   `shear` (`lambda_t` along `t = n` turned +90 degrees), `slip` (slip of the step),
@@ -43,8 +45,10 @@
 //! chunked and deflate-compressed (with shuffle; see [`put`]). The file is written as
 //! `<name>.h5.partial` and renamed when closed, so an earlier result is never replaced by a
 //! half-written file; a run that stops on an error keeps its `.h5.partial` when a result of
-//! that name already exists. The XDMF (steps with full fields) is written once, when the file
-//! is renamed into place, so it never describes another file. The contact CSV is written as
+//! that name already exists. The XDMF (see [`ResultWriter::finish`]: bodies with the fields of
+//! the latest step that holds them, contact and worn surfaces as polylines) is written once,
+//! when the file is renamed into place, so it never describes another file. A wear run always
+//! writes full fields at its last step. The contact CSV is written as
 //! the run goes (`<name>_contact.csv.partial`, renamed at the end).
 //!
 //! HDF5 has no journal: a process killed while the library updates the file's metadata can
@@ -84,6 +88,8 @@ pub struct ResultWriter {
     cut_bodies: Vec<String>,
     /// Bodies whose material fraction changes (moving surfaces): written per step.
     moving_bodies: Vec<String>,
+    /// Contact pairs: name, multiplier nodes, with friction (XDMF polylines).
+    contact_meta: Vec<(String, usize, bool)>,
     /// Contact profiles (CSV rows), streamed to `<name>_contact.csv.partial` step by step.
     contact_csv: Option<(std::io::BufWriter<std::fs::File>, PathBuf, PathBuf)>,
     /// A checkpoint every this many output steps (0: none).
@@ -114,11 +120,15 @@ struct Series {
 /// `/wear`, one row per wear update (each computed cycle's end, and the end of the ramp):
 /// `step`, `cycle` (cycles done, jumps included), `computed_cycles`, `jump` (u64), and per
 /// wearing surface `/wear/<cut>/{vertices (rows, v, 2), depth (rows, v), worn_area, work,
-/// max_depth}` (vertices in the order the case gave them).
+/// max_depth}` and `segments` `(v - 1, 2)` i64 (`v` rows when closed), vertices in the order
+/// the case gave them.
 struct WearSeries {
     scalars: [hdf5::Dataset; 4],
     surfaces: Vec<[hdf5::Dataset; 5]>,
     rows: usize,
+    /// Per surface: name and vertex count (XDMF polylines); per row: its output step.
+    meta: Vec<(String, usize, usize)>,
+    row_steps: Vec<usize>,
 }
 
 impl WearSeries {
@@ -127,9 +137,16 @@ impl WearSeries {
         let u = |name: &str| g.new_dataset::<u64>().chunk(SERIES_CHUNK).shape(0..).create(name);
         let scalars = [u("step")?, u("cycle")?, u("computed_cycles")?, u("jump")?];
         let mut surfaces = vec![];
+        let mut meta = vec![];
         for w in &model.wear.surfaces {
-            let v = model.surfaces[w.surface].vertices.len();
+            let surface = &model.surfaces[w.surface];
+            let v = surface.vertices.len();
             let sg = g.create_group(&w.name)?;
+            // The polyline's segments (vertex pairs, in the order of `vertices`): ParaView's
+            // topology of the worn surface.
+            let segs = segments(v, surface.base.closed);
+            meta.push((w.name.clone(), v, segs.nrows()));
+            put(&sg, "segments", &segs)?;
             let f = |name: &str| sg.new_dataset::<f64>().chunk(SERIES_CHUNK).shape(0..).create(name);
             surfaces.push([
                 sg.new_dataset::<f64>().chunk((SERIES_CHUNK, v, 2)).shape((0.., v, 2)).create("vertices")?,
@@ -139,7 +156,7 @@ impl WearSeries {
                 f("max_depth")?,
             ]);
         }
-        Ok(WearSeries { scalars, surfaces, rows: 0 })
+        Ok(WearSeries { scalars, surfaces, rows: 0, meta, row_steps: vec![] })
     }
 
     fn append(&mut self, model: &Model, report: &StepReport, state: &SimState) -> hdf5::Result<()> {
@@ -176,8 +193,29 @@ impl WearSeries {
             }
         }
         self.rows += 1;
+        self.row_steps.push(report.step);
         Ok(())
     }
+}
+
+/// A stress `[xx, yy, zz, xy]` as XDMF's symmetric `Tensor6` `[xx, xy, xz, yy, yz, zz]`.
+fn tensor6(s: &[f64; 4]) -> [f64; 6] {
+    [s[0], s[3], 0.0, s[1], 0.0, s[2]]
+}
+
+/// Whether `state` is the last step of a wear run: its last cycle's wear has been applied (the
+/// step count of a run with cycle jumps is not known in advance).
+fn wear_run_ends(model: &Model, state: &SimState) -> bool {
+    !model.wear.is_empty()
+        && state.wear.increment == 0
+        && model.cycle.is_some_and(|c| state.wear.cycle >= c.count as u64)
+}
+
+/// Segments `(i, i + 1)` of a polyline of `n` vertices (and `(n - 1, 0)` when closed), i64.
+fn segments(n: usize, closed: bool) -> Array2<i64> {
+    let m = if closed { n } else { n.saturating_sub(1) };
+    let ids: Vec<i64> = (0..m).flat_map(|i| [i as i64, ((i + 1) % n.max(1)) as i64]).collect();
+    Array2::from_shape_vec((m, 2), ids).unwrap_or_else(|_| Array2::zeros((0, 2)))
 }
 
 /// Rows of a series chunk (a chunk holds this many steps).
@@ -376,6 +414,13 @@ impl ResultWriter {
             body_meta: vec![],
             cut_bodies: vec![],
             moving_bodies: vec![],
+            contact_meta: model
+                .contact
+                .pairs
+                .iter()
+                .filter(|c| c.multipliers.num_nodes > 0)
+                .map(|c| (c.name.clone(), c.multipliers.num_nodes, c.mu > 0.0))
+                .collect(),
             contact_csv,
             checkpoint_every: 1,
             fields_every: 1,
@@ -433,6 +478,9 @@ impl ResultWriter {
                     let xy: Vec<f64> = m.points.iter().flat_map(|p| [p.x, p.y]).collect();
                     let pg = cg.create_group(&c.name)?;
                     pg.new_dataset_builder().with_data(&array2(m.num_nodes, 2, xy)).create("points")?;
+                    // Multiplier nodes run along the mortar side: consecutive nodes make the
+                    // contact surface's polyline in ParaView.
+                    pg.new_dataset_builder().with_data(&segments(m.num_nodes, false)).create("segments")?;
                     write_attr(&pg, "mu", &c.mu)?;
                     let sliding = match c.sliding {
                         crate::contact::Sliding::Small => "small",
@@ -491,7 +539,7 @@ impl ResultWriter {
         let Some(file) = self.file.as_ref() else {
             return Ok(());
         };
-        let full = report.step % self.fields_every == 0 || report.step >= self.last_step;
+        let full = report.step % self.fields_every == 0 || report.step >= self.last_step || wear_run_ends(model, state);
         let checkpoint = self.checkpoint_every > 0 && report.step % self.checkpoint_every == 0;
         let fields: Vec<Vec<crate::contact::ContactNodeState>> = (0..model.contact.pairs.len())
             .map(|pair| crate::contact::contact_field(&model.contact, state, pair))
@@ -614,11 +662,15 @@ impl ResultWriter {
             put(&bg, "displacement", &array2(n, 3, disp))?;
             let s: Vec<f64> = fields.stress[n0..n0 + n].iter().flat_map(|s| *s).collect();
             put(&bg, "stress", &array2(n, 4, s))?;
+            let t: Vec<f64> = fields.stress[n0..n0 + n].iter().flat_map(tensor6).collect();
+            put(&bg, "stress_tensor", &array2(n, 6, t))?;
             put(&bg, "von_mises", &Array1::from(fields.von_mises[n0..n0 + n].to_vec()))?;
             put(&bg, "eqps", &Array1::from(fields.eqps[n0..n0 + n].to_vec()))?;
             put(&bg, "reaction", &array2(n, 2, reactions[2 * n0..2 * (n0 + n)].to_vec()))?;
             let cs: Vec<f64> = fields.cell_stress[c0..c0 + nc].iter().flat_map(|s| *s).collect();
             put(&bg, "cell_stress", &array2(nc, 4, cs))?;
+            let ct: Vec<f64> = fields.cell_stress[c0..c0 + nc].iter().flat_map(tensor6).collect();
+            put(&bg, "cell_stress_tensor", &array2(nc, 6, ct))?;
             put(&bg, "cell_eqps", &Array1::from(fields.cell_eqps[c0..c0 + nc].to_vec()))?;
         }
         let pg = g.create_group("points")?;
@@ -728,59 +780,136 @@ impl ResultWriter {
         Ok(self.final_path.clone())
     }
 
+    /// The XDMF companion: one temporal collection over the output steps (every step up to
+    /// [`XDMF_MAX_STEPS`], otherwise evenly picked ones plus every step with full fields and
+    /// every wear update). At each time ParaView shows the bodies with the fields of the latest
+    /// step that holds them (displacement, stress as a symmetric tensor, von Mises, plastic
+    /// strain, reactions, material fraction of cut cells), each contact's multiplier nodes as a
+    /// polyline with that step's pressure, shear, slip and status, and each wearing surface as
+    /// it stands after the latest wear update, with its depth.
     fn xdmf_text(&self) -> String {
-        let h5name = self.final_path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let h5 = self.final_path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
         let mut x = String::new();
-        let _ = writeln!(x, "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n  <Grid Name=\"series\" GridType=\"Collection\" CollectionType=\"Temporal\">");
-        let item = |dims: String, ty: &str, path: String| {
-            format!("<DataItem Dimensions=\"{dims}\" NumberType=\"{ty}\" Precision=\"8\" Format=\"HDF\">{h5name}:{path}</DataItem>")
-        };
-        for &(step, time, _, _) in self.steps.iter().filter(|s| s.3) {
+        let _ = writeln!(x, "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>");
+        let _ = writeln!(x, "  <Grid Name=\"run\" GridType=\"Collection\" CollectionType=\"Temporal\">");
+        let rows = self.steps.len();
+        let wear = self.series.wear.as_ref().filter(|w| w.rows > 0);
+        let wear_steps: &[usize] = wear.map(|w| w.row_steps.as_slice()).unwrap_or(&[]);
+        let every = rows.div_ceil(XDMF_MAX_STEPS).max(1);
+        let (mut fields_step, mut wear_row) = (None, None);
+        for (k, &(step, time, _, full)) in self.steps.iter().enumerate() {
+            if full {
+                fields_step = Some(step);
+            }
+            let updated = wear_steps.binary_search(&step).ok();
+            if updated.is_some() {
+                wear_row = updated;
+            }
+            if !(k % every == 0 || k + 1 == rows || full || updated.is_some()) {
+                continue;
+            }
             let _ = writeln!(x, "   <Grid Name=\"step_{step}\" GridType=\"Collection\" CollectionType=\"Spatial\">\n    <Time Value=\"{time:e}\"/>");
-            for (name, n, nc, tl) in &self.body_meta {
-                let sg = format!("/steps/{step:06}/{name}");
-                let _ = writeln!(x, "    <Grid Name=\"{name}\" GridType=\"Uniform\">");
-                let _ = writeln!(
-                    x,
-                    "     <Topology TopologyType=\"Mixed\" NumberOfElements=\"{nc}\">{}</Topology>",
-                    item(format!("{tl}"), "Int", format!("/mesh/{name}/topology"))
-                );
-                let _ = writeln!(
-                    x,
-                    "     <Geometry GeometryType=\"XY\">{}</Geometry>",
-                    item(format!("{n} 2"), "Float", format!("/mesh/{name}/nodes"))
-                );
-                for (attr, kind, comps, centre, count) in [
-                    ("displacement", "Vector", 3, "Node", n),
-                    ("stress", "Vector", 4, "Node", n),
-                    ("von_mises", "Scalar", 1, "Node", n),
-                    ("eqps", "Scalar", 1, "Node", n),
-                    ("reaction", "Vector", 2, "Node", n),
-                    ("cell_stress", "Vector", 4, "Cell", nc),
-                    ("cell_eqps", "Scalar", 1, "Cell", nc),
-                ] {
-                    let dims = if comps == 1 { format!("{count}") } else { format!("{count} {comps}") };
-                    let _ = writeln!(
-                        x,
-                        "     <Attribute Name=\"{attr}\" AttributeType=\"{kind}\" Center=\"{centre}\">{}</Attribute>",
-                        item(dims, "Float", format!("{sg}/{attr}"))
-                    );
+            if let Some(f) = fields_step {
+                self.xdmf_bodies(&mut x, &h5, f);
+            }
+            for (name, l, friction) in &self.contact_meta {
+                let series = format!("/series/contacts/{name}");
+                let mut attrs = vec![("pressure", "Float", 8)];
+                if *friction {
+                    attrs.extend([("shear", "Float", 8), ("slip", "Float", 8), ("accumulated_slip", "Float", 8), ("status", "UChar", 1)]);
                 }
-                if self.cut_bodies.contains(name) {
-                    let at = if self.moving_bodies.contains(name) {
-                        format!("{sg}/material_fraction")
-                    } else {
-                        format!("/mesh/{name}/material_fraction")
-                    };
-                    let _ = writeln!(x, "     <Attribute Name=\"material_fraction\" AttributeType=\"Scalar\" Center=\"Cell\">{}</Attribute>", item(format!("{nc}"), "Float", at));
+                let attrs: Vec<(&str, String)> =
+                    attrs.into_iter().map(|(a, ty, prec)| (a, slab(&h5, &format!("{series}/{a}"), k, rows, &[*l], ty, prec))).collect();
+                let geometry = slab(&h5, &format!("{series}/position"), k, rows, &[*l, 2], "Float", 8);
+                polyline_grid(&mut x, &h5, name, &format!("/mesh/contacts/{name}/segments"), l.saturating_sub(1), &geometry, &attrs);
+            }
+            if let (Some(w), Some(r)) = (wear, wear_row) {
+                for (name, v, segments) in &w.meta {
+                    let geometry = slab(&h5, &format!("/wear/{name}/vertices"), r, w.rows, &[*v, 2], "Float", 8);
+                    let depth = slab(&h5, &format!("/wear/{name}/depth"), r, w.rows, &[*v], "Float", 8);
+                    polyline_grid(&mut x, &h5, name, &format!("/wear/{name}/segments"), *segments, &geometry, &[("depth", depth)]);
                 }
-                let _ = writeln!(x, "    </Grid>");
             }
             let _ = writeln!(x, "   </Grid>");
         }
         let _ = writeln!(x, "  </Grid>\n </Domain>\n</Xdmf>");
         x
     }
+
+    /// The bodies' grids of one step with full fields.
+    fn xdmf_bodies(&self, x: &mut String, h5: &str, step: usize) {
+        let item = |dims: String, ty: &str, path: String| {
+            format!("<DataItem Dimensions=\"{dims}\" NumberType=\"{ty}\" Precision=\"8\" Format=\"HDF\">{h5}:{path}</DataItem>")
+        };
+        for (name, n, nc, tl) in &self.body_meta {
+            let sg = format!("/steps/{step:06}/{name}");
+            let _ = writeln!(x, "    <Grid Name=\"{name}\" GridType=\"Uniform\">");
+            let _ = writeln!(
+                x,
+                "     <Topology TopologyType=\"Mixed\" NumberOfElements=\"{nc}\">{}</Topology>",
+                item(format!("{tl}"), "Int", format!("/mesh/{name}/topology"))
+            );
+            let _ = writeln!(x, "     <Geometry GeometryType=\"XY\">{}</Geometry>", item(format!("{n} 2"), "Float", format!("/mesh/{name}/nodes")));
+            for (attr, data, kind, comps, centre, count) in [
+                ("displacement", "displacement", "Vector", 3, "Node", n),
+                ("stress", "stress_tensor", "Tensor6", 6, "Node", n),
+                ("von_mises", "von_mises", "Scalar", 1, "Node", n),
+                ("eqps", "eqps", "Scalar", 1, "Node", n),
+                ("reaction", "reaction", "Vector", 2, "Node", n),
+                ("cell_stress", "cell_stress_tensor", "Tensor6", 6, "Cell", nc),
+                ("cell_eqps", "cell_eqps", "Scalar", 1, "Cell", nc),
+            ] {
+                let dims = if comps == 1 { format!("{count}") } else { format!("{count} {comps}") };
+                let _ = writeln!(
+                    x,
+                    "     <Attribute Name=\"{attr}\" AttributeType=\"{kind}\" Center=\"{centre}\">{}</Attribute>",
+                    item(dims, "Float", format!("{sg}/{data}"))
+                );
+            }
+            if self.cut_bodies.contains(name) {
+                let at = if self.moving_bodies.contains(name) {
+                    format!("{sg}/material_fraction")
+                } else {
+                    format!("/mesh/{name}/material_fraction")
+                };
+                let _ = writeln!(x, "     <Attribute Name=\"material_fraction\" AttributeType=\"Scalar\" Center=\"Cell\">{}</Attribute>", item(format!("{nc}"), "Float", at));
+            }
+            let _ = writeln!(x, "    </Grid>");
+        }
+    }
+}
+
+/// Largest number of evenly picked output steps the XDMF lists (each is a few kilobytes of
+/// XML); steps with full fields and wear updates are always listed.
+const XDMF_MAX_STEPS: usize = 2000;
+
+/// An XDMF hyperslab: row `row` of a dataset of shape `(rows, rest...)`.
+fn slab(h5: &str, path: &str, row: usize, rows: usize, rest: &[usize], ty: &str, precision: usize) -> String {
+    let dims: Vec<String> = rest.iter().map(|d| d.to_string()).collect();
+    let dims = dims.join(" ");
+    let rank = rest.len() + 1;
+    let zeros = " 0".repeat(rest.len());
+    let ones = " 1".repeat(rest.len());
+    format!(
+        "<DataItem ItemType=\"HyperSlab\" Dimensions=\"{dims}\" Type=\"HyperSlab\"><DataItem Dimensions=\"3 {rank}\" \
+         Format=\"XML\">{row}{zeros} 1{ones} 1 {dims}</DataItem><DataItem Dimensions=\"{rows} {dims}\" NumberType=\"{ty}\" \
+         Precision=\"{precision}\" Format=\"HDF\">{h5}:{path}</DataItem></DataItem>"
+    )
+}
+
+/// A polyline grid: segments from `segments_path`, geometry and node attributes given as data
+/// items.
+fn polyline_grid(x: &mut String, h5: &str, name: &str, segments_path: &str, segments: usize, geometry: &str, attrs: &[(&str, String)]) {
+    let _ = writeln!(x, "    <Grid Name=\"{name}\" GridType=\"Uniform\">");
+    let _ = writeln!(
+        x,
+        "     <Topology TopologyType=\"Polyline\" NodesPerElement=\"2\" NumberOfElements=\"{segments}\"><DataItem Dimensions=\"{segments} 2\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">{h5}:{segments_path}</DataItem></Topology>"
+    );
+    let _ = writeln!(x, "     <Geometry GeometryType=\"XY\">{geometry}</Geometry>");
+    for (attr, item) in attrs {
+        let _ = writeln!(x, "     <Attribute Name=\"{attr}\" AttributeType=\"Scalar\" Center=\"Node\">{item}</Attribute>");
+    }
+    let _ = writeln!(x, "    </Grid>");
 }
 
 /// The scar of every wearing surface of a wear run's result file at the first wear update at
