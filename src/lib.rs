@@ -1,13 +1,32 @@
 //! # mortex
 //!
-//! A 2D finite-element engine for contact mechanics and wear, built around the MorteX method
-//! (mortar coupling of real and embedded/virtual surfaces). This crate currently holds the FE
-//! core: meshes ([`mesh`]), elements and materials ([`fem`]), parallel assembly
-//! ([`assembly`]), faer-based solvers ([`solver`]), the static load-stepping analysis
-//! ([`analysis`]), case files ([`case`]) and HDF5/XDMF output ([`io`]).
+//! A 2D finite-element engine for contact mechanics and wear, built around the MorteX method:
+//! mortar coupling of real and embedded (virtual) surfaces that cut through their host mesh.
+//! One engine ties overlapping meshes, solves frictional contact (monolithic augmented
+//! Lagrangian Newton) and runs Archard-type wear, moving the worn virtual surface inside its
+//! host mesh without remeshing.
 //!
-//! Data flows one way: case -> [`model::Model`] -> [`analysis::StaticAnalysis`] ->
-//! [`state::SimState`] -> output. Physics modules never print or touch files.
+//! The rooms, from the bottom of the stack up (each uses only the rooms below it; the test
+//! `tests/layering.rs` checks it):
+//! * [`mesh`], [`solver`]: meshes (generators, Gmsh reader); faer sparse solvers, interface
+//!   operator, Newton parameters.
+//! * [`fem`]: reference and mapped elements, quadrature, materials, element kernels.
+//! * [`assembly`], [`surface`]: DOF map, sparsity pattern and parallel assembly; virtual
+//!   polylines embedded in their host mesh.
+//! * [`cut`]: cut cells and their quadrature (partial integration, moment fitting).
+//! * [`discretisation`], [`mortar`]: moving virtual surfaces on fixed points; multiplier
+//!   spaces and mortar integrals (tying and contact rows).
+//! * [`contact`]: contact law (normal and Coulomb), pairs, per-node contact field.
+//! * [`wear`]: wear laws, swept wear along the stroke, rate filter, cycle jump.
+//! * [`state`]: [`state::SimState`], the one mutable struct (what a checkpoint holds).
+//! * [`model`]: [`model::Model`], the immutable problem data, and its builder.
+//! * [`analysis`]: the load-stepping contact solve (Newton, interface condensation).
+//! * [`driver`]: runs a case: load steps, or the wear loop around the contact solve.
+//! * [`post`], [`io`], [`case`]: derived fields; HDF5/XDMF output, checkpoints, plots; case
+//!   files (TOML) into a validated model.
+//! * [`bench`]: benchmark scenes and timings (nothing in the library uses it).
+//!
+//! Physics modules never print or touch files; logging goes through `tracing`.
 
 pub mod analysis;
 pub mod assembly;

@@ -95,7 +95,7 @@ pub struct ContactNode {
 
 /// The multiplier nodes of contact pair `pair`, sorted by their x coordinate.
 pub fn contact_profile(model: &Model, state: &SimState, pair: usize) -> Vec<ContactNode> {
-    let mut v: Vec<ContactNode> = crate::contact::contact_field(&model.contact, state, pair)
+    let mut v: Vec<ContactNode> = crate::contact::contact_field(&model.contact, &state.contact_unknowns(), pair)
         .iter()
         .map(|n| ContactNode { x: n.reference, pressure: n.pressure, shear: n.shear, status: n.status.code() })
         .collect();

@@ -3,7 +3,9 @@
 //! `Model`. History advances only from converged steps: the analysis computes trial values in
 //! its own buffers and commits them here when a step converges.
 
+use crate::contact::ContactUnknowns;
 use crate::fem::material::{PlasticState, Stress4};
+use crate::wear::ControllerState;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimState {
@@ -72,29 +74,15 @@ pub struct WearState {
     pub controller: ControllerState,
 }
 
-/// The adaptive cycle-jump controller's memory: the last computed cycle's wear rates, the
-/// change from the cycle before, the jumps that separated them and the stiffness estimate.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct ControllerState {
-    pub last_rate: Vec<f64>,
-    pub last_change: Vec<f64>,
-    pub last_jump: u64,
-    pub jump_before: u64,
-    /// Estimated decay rate `a` per cycle of the rate deviation (Winkler: `kappa k dS`).
-    pub decay: f64,
-    /// Implicit jumps: the contact pressure per contact row the last jump predicted for the end
-    /// of its cycles (empty after an explicit jump); the next computed cycle checks it.
-    pub predicted: Vec<f64>,
-    /// Implicit jumps: the worn-area rate (per cycle) of each wearing surface the last jump
-    /// predicted for the end of its cycles (empty after an explicit jump).
-    pub predicted_area_rate: Vec<f64>,
-}
-
-impl ControllerState {
-    /// After a jump that predicted nothing (explicit, or a singular implicit system): the next
-    /// computed cycle has nothing to check.
-    pub fn forget_prediction(&mut self) {
-        self.predicted.clear();
-        self.predicted_area_rate.clear();
+impl SimState {
+    /// The contact unknowns of this state (what the per-node contact field reads).
+    pub fn contact_unknowns(&self) -> ContactUnknowns<'_> {
+        ContactUnknowns {
+            u: &self.u,
+            multipliers: &self.multipliers,
+            friction_status: &self.friction_status,
+            slip_increment: &self.slip_increment,
+            accumulated_slip: &self.accumulated_slip,
+        }
     }
 }

@@ -15,7 +15,6 @@
 use crate::fem::element::ReferenceElement;
 use crate::mesh::Mesh2;
 use crate::mortar::{weighted_gaps, ConstraintRow, ContactRow, MortarSide, MultiplierSpace, Multipliers, OtherSide};
-use crate::state::SimState;
 use crate::surface::Embedding;
 use nalgebra::{Point2, Vector2};
 
@@ -474,8 +473,20 @@ pub struct ContactNodeState {
     pub in_contact: bool,
 }
 
-/// The per-node contact field of pair `pair` in `state`, in multiplier order.
-pub fn contact_field(m: &ContactSet, state: &SimState, pair: usize) -> Vec<ContactNodeState> {
+/// The unknowns a contact field is read from (borrowed from the simulation state):
+/// displacements, multipliers in the model's order, and per friction row the Coulomb status
+/// (0 open, 1 stick, 2 slip), the weighted slip of the last increment and the accumulated slip.
+#[derive(Debug, Clone, Copy)]
+pub struct ContactUnknowns<'a> {
+    pub u: &'a [f64],
+    pub multipliers: &'a [f64],
+    pub friction_status: &'a [u8],
+    pub slip_increment: &'a [f64],
+    pub accumulated_slip: &'a [f64],
+}
+
+/// The per-node contact field of pair `pair`, in multiplier order.
+pub fn contact_field(m: &ContactSet, state: &ContactUnknowns<'_>, pair: usize) -> Vec<ContactNodeState> {
     let c = &m.pairs[pair];
     let (nt, nn) = (m.first_multiplier, m.rows.len());
     let nodes = c.multiplier_nodes();

@@ -542,7 +542,7 @@ impl ResultWriter {
         let full = report.step % self.fields_every == 0 || report.step >= self.last_step || wear_run_ends(model, state);
         let checkpoint = self.checkpoint_every > 0 && report.step % self.checkpoint_every == 0;
         let fields: Vec<Vec<crate::contact::ContactNodeState>> = (0..model.contact.pairs.len())
-            .map(|pair| crate::contact::contact_field(&model.contact, state, pair))
+            .map(|pair| crate::contact::contact_field(&model.contact, &state.contact_unknowns(), pair))
             .collect();
         let series = &mut self.series;
         let moving_bodies = &self.moving_bodies;

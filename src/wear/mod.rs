@@ -50,7 +50,6 @@ use crate::contact::{ContactSet, PairedSide};
 use crate::discretisation::FreeSurface;
 use crate::mesh::Mesh2;
 use crate::solver::dense::DenseLu;
-use crate::state::ControllerState;
 use nalgebra::{DMatrix, DVector, Point2, Vector2};
 
 /// Wear law of a surface.
@@ -808,6 +807,33 @@ pub fn prediction_cap(
         u64::MAX
     };
     Some((error, cap))
+}
+
+/// The adaptive cycle-jump controller's memory: the last computed cycle's wear rates, the
+/// change from the cycle before, the jumps that separated them and the stiffness estimate.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ControllerState {
+    pub last_rate: Vec<f64>,
+    pub last_change: Vec<f64>,
+    pub last_jump: u64,
+    pub jump_before: u64,
+    /// Estimated decay rate `a` per cycle of the rate deviation (Winkler: `kappa k dS`).
+    pub decay: f64,
+    /// Implicit jumps: the contact pressure per contact row the last jump predicted for the end
+    /// of its cycles (empty after an explicit jump); the next computed cycle checks it.
+    pub predicted: Vec<f64>,
+    /// Implicit jumps: the worn-area rate (per cycle) of each wearing surface the last jump
+    /// predicted for the end of its cycles (empty after an explicit jump).
+    pub predicted_area_rate: Vec<f64>,
+}
+
+impl ControllerState {
+    /// After a jump that predicted nothing (explicit, or a singular implicit system): the next
+    /// computed cycle has nothing to check.
+    pub fn forget_prediction(&mut self) {
+        self.predicted.clear();
+        self.predicted_area_rate.clear();
+    }
 }
 
 #[cfg(test)]
