@@ -46,7 +46,7 @@ fn cycle_pressures(increments: usize, virtual_flat: bool) -> Vec<Vec<f64>> {
     let mut state = StaticAnalysis::initial_state_of(&model);
     let mut out = vec![];
     run(&model, &mut state, RunOptions::default(), |_, st, m| {
-        let f = mortex::contact::contact_field(&m.contact, st, 0);
+        let f = mortex::contact::contact_field(&m.contact, &st.contact_unknowns(), 0);
         out.push(f.iter().map(|n| n.pressure).collect());
         Ok(())
     })

@@ -147,7 +147,7 @@ impl Winkler {
     /// engine sees a contact: rows = nodes (`G = diag(weight)`, `phi = weight`), weighted slip
     /// `weight * dS` per cycle (dS = 1, the coefficient is `k dS`), and the stiffness above.
     fn run(&self, policy: JumpPolicy, scheme: JumpScheme, cycles: u64, resolution: f64) -> (Vec<f64>, u64, f64) {
-        let mut c = mortex::state::ControllerState::default();
+        let mut c = mortex::wear::ControllerState::default();
         let mut w = vec![0.0; self.x.len()];
         let measure = self.weight.clone();
         let verts: Vec<Point2<f64>> = self.x.iter().map(|&x| Point2::new(x, 0.0)).collect();
@@ -577,7 +577,7 @@ fn worn_boundary_turned_virtual_matches_the_real_surface_before_wear() {
         let mut out = None;
         run(&model, &mut state, RunOptions::default(), |r, st, m| {
             if r.step == 1 {
-                let f = mortex::contact::contact_field(&m.contact, st, 0);
+                let f = mortex::contact::contact_field(&m.contact, &st.contact_unknowns(), 0);
                 let mut v: Vec<(f64, f64)> = f.iter().map(|n| (n.position.x, n.pressure)).collect();
                 v.sort_by(|p, q| p.0.total_cmp(&q.0));
                 out = Some(v);
