@@ -18,11 +18,109 @@ use crate::state::SimState;
 
 pub use crate::contact::FrictionStatus;
 use crate::contact::{
-    friction_couplings, gross_sliding, row_laws, slide_from_pairing, update_sets, zero_open_multipliers, RowLaw,
+    friction_couplings, gross_sliding, row_laws, slide_from_pairing, update_sets, zero_open_multipliers, ContactSet,
+    RowLaw,
 };
 
 mod condensed;
 pub use condensed::{GapSensitivity, SolverReuse};
+
+/// How one Newton solve of a load increment ended (the caller cuts back when not converged).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum StepOutcome {
+    /// Converged, the state committed.
+    Converged { iterations: usize, residual: f64 },
+    /// Diverged, ran out of iterations or lost the tangent; the state untouched.
+    NotConverged { iterations: usize, residual: f64 },
+}
+
+/// The contact sets of a Newton iteration (semi-smooth Newton on the Alart-Curnier conditions):
+/// normal row `k` is active when `lambda_k + eps_n g_k / int Phi_k <= 0`, each friction row has
+/// its Coulomb status; with the weighted gaps and slips they were decided from. Slip is the
+/// increment of the weighted tangential relative displacement since the last converged state
+/// (objective under cyclic loading).
+struct ContactSets {
+    active: Vec<bool>,
+    status: Vec<FrictionStatus>,
+    prev_active: Option<Vec<bool>>,
+    prev_status: Vec<FrictionStatus>,
+    gaps: Vec<f64>,
+    slip: Vec<f64>,
+}
+
+impl ContactSets {
+    fn new(normal_rows: usize, friction_rows: usize) -> Self {
+        ContactSets {
+            active: vec![false; normal_rows],
+            status: vec![FrictionStatus::Open; friction_rows],
+            prev_active: None,
+            prev_status: Vec::new(),
+            gaps: vec![0.0; normal_rows],
+            slip: vec![0.0; friction_rows],
+        }
+    }
+
+    /// Gaps and slips at `u` (slips from `u_start`), then the sets; whether they changed since
+    /// the previous iteration (the first iteration counts as a change when there is contact).
+    fn update(&mut self, c: &ContactSet, u: &[f64], u_start: &[f64], mu: &[f64], first: bool) -> bool {
+        for (k, gap) in self.gaps.iter_mut().enumerate() {
+            *gap = c.g0[k] + c.rows[k].iter().map(|&(d, v)| v * u[d]).sum::<f64>();
+        }
+        for (j, slip) in self.slip.iter_mut().enumerate() {
+            *slip = c.friction_rows[j].iter().map(|&(d, v)| v * (u[d] - u_start[d])).sum();
+        }
+        update_sets(c, mu, &self.gaps, &self.slip, first, &mut self.active, &mut self.status);
+        let changed = self.prev_active.as_ref().map(|pa| pa != &self.active).unwrap_or(!self.active.is_empty())
+            || self.prev_status != self.status;
+        self.prev_status.clone_from(&self.status);
+        self.prev_active = Some(self.active.clone());
+        changed
+    }
+
+    fn log(&self, step: usize, it: usize, changed: bool) {
+        if !self.active.is_empty() {
+            tracing::debug!(
+                step,
+                it,
+                active = self.active.iter().filter(|&&a| a).count(),
+                stick = self.status.iter().filter(|&&s| s == FrictionStatus::Stick).count(),
+                changed,
+                "contact active set"
+            );
+        }
+    }
+}
+
+/// Where a condensed step's interface iterations start: the displacements with the step's
+/// prescribed values, the weighted gaps (minus `g0`) and the slips there.
+struct InterfaceStart {
+    u_start: Vec<f64>,
+    w_start: Vec<f64>,
+    slip0: Vec<f64>,
+}
+
+/// The end of a condensed step's interface iterations: the multiplier and row-value changes of
+/// the live rows and the iterations they took, or the step's outcome when they failed.
+enum InterfaceSolve {
+    Solved { dlam: Vec<f64>, dw: Vec<f64>, iterations: usize },
+    Failed(StepOutcome),
+}
+
+/// The parts of a Newton residual: the relative residual the tolerance applies to, and the
+/// absolute force, gap and free-multiplier norms.
+struct ResidualNorms {
+    residual: f64,
+    forces: f64,
+    gaps: f64,
+    free_multipliers: f64,
+}
+
+impl ResidualNorms {
+    /// Exactly nothing left (a step that changes nothing converges at once).
+    fn all_zero(&self) -> bool {
+        self.forces == 0.0 && self.gaps == 0.0 && self.free_multipliers == 0.0
+    }
+}
 
 /// What one converged output step did.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -350,14 +448,14 @@ impl<'m> StaticAnalysis<'m> {
         while state.time < t_end || dt == 0.0 {
             let t_try = if state.time + dt >= t_end { t_end } else { state.time + dt };
             match self.newton(state, step, t_try)? {
-                Ok((its, res)) => {
+                StepOutcome::Converged { iterations: its, residual: res } => {
                     report.iterations += its;
                     report.residual = res;
                     if dt == 0.0 || t_try >= t_end {
                         break;
                     }
                 }
-                Err((its, res)) => {
+                StepOutcome::NotConverged { iterations: its, residual: res } => {
                     report.iterations += its;
                     report.cutbacks += 1;
                     if report.cutbacks > params.max_cutbacks {
@@ -386,16 +484,10 @@ impl<'m> StaticAnalysis<'m> {
         Ok(report)
     }
 
-    /// One Newton solve from the converged `state` to time `t`. On success commits and returns
-    /// `Ok((iterations, residual))`; on non-convergence leaves `state` untouched and returns
-    /// `Err((iterations, residual))` so the caller can cut back. Linear-solver failures are errors.
-    #[allow(clippy::type_complexity)]
-    fn newton(
-        &mut self,
-        state: &mut SimState,
-        step: usize,
-        t: f64,
-    ) -> Result<Result<(usize, f64), (usize, f64)>, AnalysisError> {
+    /// One Newton solve from the converged `state` to time `t`. Converged: commits `state`;
+    /// not converged: leaves it untouched so the caller can cut back. Linear-solver failures are
+    /// errors.
+    fn newton(&mut self, state: &mut SimState, step: usize, t: f64) -> Result<StepOutcome, AnalysisError> {
         if self.condensed.is_some() {
             return self.newton_condensed(state, step, t);
         }
@@ -409,21 +501,9 @@ impl<'m> StaticAnalysis<'m> {
         m.external_force(t, &mut f_ext);
         let linear = m.is_linear();
         let nf = m.dofs.num_free;
-        let nt = m.constraints.len();
-        let nc = m.contact.rows.len();
-        let nfr = m.contact.friction_rows.len();
-        let nm = nt + nc + nfr;
+        let nm = m.constraints.len() + m.contact.rows.len() + m.contact.friction_rows.len();
         let mut mu = state.multipliers.clone();
-        // Coulomb friction: slip is the increment of the weighted tangential relative
-        // displacement since the last converged state (objective under cyclic loading).
-        let mut status = vec![FrictionStatus::Open; nfr];
-        let mut prev_status: Vec<FrictionStatus> = Vec::new();
-        let mut slip = vec![0.0; nfr];
-        // Contact active set (semi-smooth Newton on the Alart-Curnier conditions, normal only):
-        // node k is active when lambda_hat = lambda_k + eps_n g_k / int Phi_k <= 0.
-        let mut active = vec![false; nc];
-        let mut prev_active: Option<Vec<bool>> = None;
-        let mut gaps = vec![0.0; nc];
+        let mut sets = ContactSets::new(m.contact.rows.len(), m.contact.friction_rows.len());
         let mut r = vec![0.0; nf + nm];
         let mut ct_mu = vec![0.0; m.dofs.num_dofs];
         let mut first_res = f64::NAN;
@@ -431,123 +511,24 @@ impl<'m> StaticAnalysis<'m> {
         let mut step_scale = 0.0f64;
         for it in 0..=p.max_iterations {
             let need_tangent = !linear || !self.factored;
-            for k in 0..nc {
-                gaps[k] = m.contact.g0[k] + m.contact.rows[k].iter().map(|&(d, c)| c * u[d]).sum::<f64>();
-            }
-            for j in 0..nfr {
-                slip[j] = m.contact.friction_rows[j].iter().map(|&(d, c)| c * (u[d] - state.u[d])).sum();
-            }
-            update_sets(&m.contact, &mu, &gaps, &slip, it == 0, &mut active, &mut status);
-            self.last_active = active.iter().filter(|&&a| a).count();
-            let set_changed = prev_active.as_ref().map(|pa| pa != &active).unwrap_or(nc > 0) || prev_status != status;
-            prev_status.clone_from(&status);
-            if nc > 0 {
-                tracing::debug!(
-                    step,
-                    it,
-                    active = active.iter().filter(|&&a| a).count(),
-                    stick = status.iter().filter(|&&s| s == FrictionStatus::Stick).count(),
-                    changed = set_changed,
-                    "contact active set"
-                );
-            }
-            prev_active = Some(active.clone());
+            // 1. Active set: gaps and slips at u, semi-smooth update of the contact sets.
+            let set_changed = sets.update(&m.contact, &u, &state.u, &mu, it == 0);
+            self.last_active = sets.active.iter().filter(|&&a| a).count();
+            sets.log(step, it, set_changed);
+            // 2. Bulk: internal force (and tangent) at u.
             self.assemble_trial(&u, &state.history, need_tangent);
-            // Constraint forces C^T mu and constraint residual -C u (with its scale |C| |u|).
-            ct_mu.iter_mut().for_each(|v| *v = 0.0);
-            let mut g_scale = 0.0;
-            for (k, row) in m.constraints.iter().enumerate() {
-                let (mut g, mut gs) = (0.0, 0.0);
-                for &(d, c) in row {
-                    ct_mu[d] += c * mu[k];
-                    g += c * u[d];
-                    gs += (c * u[d]).abs();
-                }
-                r[nf + k] = -self.alpha * g;
-                g_scale += gs * gs;
-            }
-            // Contact and friction rows, each by its law for the current sets (src/contact):
-            // constraint -> gap g_k = 0 (normal) or slip ds = 0 (stick); free -> lambda = 0;
-            // slip -> lambda_t - coef lambda_n = 0.
-            let laws = row_laws(&m.contact, &active, &status);
-            let mut slip_res = 0.0f64;
-            for i in nt..nm {
-                let row = if i < nt + nc { &m.contact.rows[i - nt] } else { &m.contact.friction_rows[i - nt - nc] };
-                for &(d, c) in row {
-                    ct_mu[d] += c * mu[i];
-                }
-                r[nf + i] = match laws[i] {
-                    RowLaw::Constraint => {
-                        let (value, offset) = if i < nt + nc {
-                            (gaps[i - nt], m.contact.g0[i - nt].abs())
-                        } else {
-                            (slip[i - nt - nc], 0.0)
-                        };
-                        let gs: f64 = offset + row.iter().map(|&(d, c)| (c * u[d]).abs()).sum::<f64>();
-                        g_scale += gs * gs;
-                        -self.alpha * value
-                    }
-                    RowLaw::Free => -mu[i] / self.alpha,
-                    RowLaw::Slip { normal, coef } => {
-                        let res = mu[i] - coef * mu[normal];
-                        slip_res = slip_res.max(res.abs());
-                        -res / self.alpha
-                    }
-                };
-            }
-            if need_tangent && nc > 0 {
-                let pat = &self.assembler.pattern;
-                for &(row, p1, p2, coef) in &pat.constraint_scatter {
-                    if row >= nt {
-                        self.values[p2] += coef;
-                        if laws[row] == RowLaw::Constraint {
-                            self.values[p1] += coef;
-                        }
-                    }
-                }
-                for (k, &pd) in pat.diag_scatter.iter().enumerate() {
-                    self.values[pd] = if laws[nt + k] == RowLaw::Constraint { 0.0 } else { 1.0 };
-                }
-                for (j, &pc) in pat.coupling_scatter.iter().enumerate() {
-                    self.values[pc] = match laws[nt + nc + j] {
-                        RowLaw::Slip { coef, .. } => -coef,
-                        _ => 0.0,
-                    };
-                }
+            // 3. Constraint rows by their laws, their forces C^T mu, and their tangent entries.
+            let laws = row_laws(&m.contact, &sets.active, &sets.status);
+            let (g_scale, slip_res) = self.constraint_residual(&u, &mu, &sets, &laws, &mut r[nf..], &mut ct_mu);
+            if need_tangent && !m.contact.rows.is_empty() {
+                self.scatter_contact_tangent(&laws);
             }
             for (i, &g) in m.dofs.free.iter().enumerate() {
                 r[i] = f_ext[g] - self.trial_f_int[g] - ct_mu[g];
             }
-            let f_ext_norm = norm(&f_ext);
-            // Force scale: never below what this step has seen (a contact that opens can leave a
-            // body unloaded, where the current forces are all round-off).
-            let scale = f_ext_norm.max(norm(&self.trial_f_int)).max(norm(&ct_mu)).max(step_scale);
-            step_scale = scale;
-            let rn = norm(&r[..nf]);
-            // Gap residuals (ties, active contact rows) against |C| |u|; inactive contact rows
-            // (lambda = 0) against the largest contact multiplier.
-            let gap_rows = (0..nt)
-                .chain((0..nc).filter(|&k| active[k]).map(|k| nt + k))
-                .chain((0..nfr).filter(|&j| status[j] == FrictionStatus::Stick).map(|j| nt + nc + j));
-            let gn = gap_rows.map(|k| r[nf + k] * r[nf + k]).sum::<f64>().sqrt() / self.alpha;
-            // Multiplier scale: the largest contact multiplier or the force scale spread over the
-            // paired contact length.
-            let contact_len: f64 = m.contact.phi.iter().sum();
-            let mu_ref = mu[nt..].iter().fold(0.0f64, |a, v| a.max(v.abs())).max(if contact_len > 0.0 {
-                scale / contact_len
-            } else {
-                0.0
-            });
-            let free_mu = (0..nc)
-                .filter(|&k| !active[k])
-                .map(|k| nt + k)
-                .chain((0..nfr).filter(|&j| status[j] == FrictionStatus::Open).map(|j| nt + nc + j))
-                .fold(slip_res, |a, i| a.max(mu[i].abs()));
-            let res_u = if scale > 0.0 { rn / scale } else { rn };
-            let res_g = if gn == 0.0 { 0.0 } else { gn / g_scale.sqrt().max(f64::MIN_POSITIVE) };
-            let res_mu = if free_mu == 0.0 { 0.0 } else { free_mu / mu_ref.max(f64::MIN_POSITIVE) };
-            res = res_u.max(res_g).max(res_mu);
-            tracing::trace!(res_u, res_g, res_mu, rn, scale, "residual parts");
+            // 4. Norms: forces, gaps, free multipliers, each against its own scale.
+            let norms = self.residual_norms(&r, &f_ext, &ct_mu, &mu, &sets, g_scale, slip_res, &mut step_scale);
+            res = norms.residual;
             if it == 0 {
                 first_res = res;
             }
@@ -556,17 +537,18 @@ impl<'m> StaticAnalysis<'m> {
             // under a prescribed stroke that is ordinary gross slip, not a missing equilibrium;
             // if the cut-backs run out so, it is reported as gross sliding).
             if !res.is_finite() || (it > 0 && res > p.divergence_factor * first_res.max(p.rtol)) {
-                self.last_gross_sliding = gross_sliding(&status);
-                return Ok(Err((it, res)));
+                self.last_gross_sliding = gross_sliding(&sets.status);
+                return Ok(StepOutcome::NotConverged { iterations: it, residual: res });
             }
-            if !set_changed && (res <= p.rtol || (rn == 0.0 && gn == 0.0 && free_mu == 0.0)) {
-                check_small_sliding(m, &u, &status, step, t)?;
-                self.commit(state, u, mu, t, &status, &slip);
-                return Ok(Ok((it, res)));
+            if !set_changed && (res <= p.rtol || norms.all_zero()) {
+                check_small_sliding(m, &u, &sets.status, step, t)?;
+                self.commit(state, u, mu, t, &sets.status, &sets.slip);
+                return Ok(StepOutcome::Converged { iterations: it, residual: res });
             }
             if it == p.max_iterations {
                 break;
             }
+            // 5. Solve for the Newton step and update u and the multipliers.
             if need_tangent {
                 match self.solver.factor(&self.values) {
                     Ok(()) => self.factored = true,
@@ -575,8 +557,8 @@ impl<'m> StaticAnalysis<'m> {
                     // never changes, so there the failure is final (insufficient supports).
                     Err(e) if !linear => {
                         tracing::warn!(step, t, it, error = %e, "tangent factorisation failed");
-                        self.last_gross_sliding = gross_sliding(&status);
-                        return Ok(Err((it, res)));
+                        self.last_gross_sliding = gross_sliding(&sets.status);
+                        return Ok(StepOutcome::NotConverged { iterations: it, residual: res });
                     }
                     Err(source) => return Err(NewtonError::Linear { step, iteration: it, source }.into()),
                 }
@@ -589,10 +571,142 @@ impl<'m> StaticAnalysis<'m> {
                 mu[k] += self.alpha * r[nf + k];
             }
             // The open-node equation lambda = 0 is linear: its Newton step is exact.
-            zero_open_multipliers(&m.contact, &mut mu, &active, &status);
+            zero_open_multipliers(&m.contact, &mut mu, &sets.active, &sets.status);
         }
-        self.last_gross_sliding = gross_sliding(&status);
-        Ok(Err((p.max_iterations, res)))
+        self.last_gross_sliding = gross_sliding(&sets.status);
+        Ok(StepOutcome::NotConverged { iterations: p.max_iterations, residual: res })
+    }
+
+    /// Residual of the constraint rows into `r` (one entry per multiplier: ties and active
+    /// contact rows `-alpha g`, stick rows `-alpha ds`, free rows `-lambda / alpha`, slip rows
+    /// `-(lambda_t - coef lambda_n) / alpha`, by the laws of `src/contact`), and the constraint
+    /// forces `C^T mu` into `ct_mu`. Returns the squared scale `sum (|C| |u|)^2` of the gap rows
+    /// and the largest slip-law residual.
+    fn constraint_residual(
+        &self,
+        u: &[f64],
+        mu: &[f64],
+        sets: &ContactSets,
+        laws: &[RowLaw],
+        r: &mut [f64],
+        ct_mu: &mut [f64],
+    ) -> (f64, f64) {
+        let m = self.model;
+        let (nt, nc) = (m.constraints.len(), m.contact.rows.len());
+        ct_mu.iter_mut().for_each(|v| *v = 0.0);
+        let mut g_scale = 0.0;
+        for (k, row) in m.constraints.iter().enumerate() {
+            let (mut g, mut gs) = (0.0, 0.0);
+            for &(d, c) in row {
+                ct_mu[d] += c * mu[k];
+                g += c * u[d];
+                gs += (c * u[d]).abs();
+            }
+            r[k] = -self.alpha * g;
+            g_scale += gs * gs;
+        }
+        let mut slip_res = 0.0f64;
+        for i in nt..r.len() {
+            let row = if i < nt + nc { &m.contact.rows[i - nt] } else { &m.contact.friction_rows[i - nt - nc] };
+            for &(d, c) in row {
+                ct_mu[d] += c * mu[i];
+            }
+            r[i] = match laws[i] {
+                RowLaw::Constraint => {
+                    let (value, offset) = if i < nt + nc {
+                        (sets.gaps[i - nt], m.contact.g0[i - nt].abs())
+                    } else {
+                        (sets.slip[i - nt - nc], 0.0)
+                    };
+                    let gs: f64 = offset + row.iter().map(|&(d, c)| (c * u[d]).abs()).sum::<f64>();
+                    g_scale += gs * gs;
+                    -self.alpha * value
+                }
+                RowLaw::Free => -mu[i] / self.alpha,
+                RowLaw::Slip { normal, coef } => {
+                    let res = mu[i] - coef * mu[normal];
+                    slip_res = slip_res.max(res.abs());
+                    -res / self.alpha
+                }
+            };
+        }
+        (g_scale, slip_res)
+    }
+
+    /// The contact rows' entries of the tangent for the current laws: `C` and `C^T` where a row
+    /// is a constraint, the identity where it is free, `-coef` coupling a slip row to its normal.
+    fn scatter_contact_tangent(&mut self, laws: &[RowLaw]) {
+        let m = self.model;
+        let (nt, nc) = (m.constraints.len(), m.contact.rows.len());
+        let pat = &self.assembler.pattern;
+        for &(row, p1, p2, coef) in &pat.constraint_scatter {
+            if row >= nt {
+                self.values[p2] += coef;
+                if laws[row] == RowLaw::Constraint {
+                    self.values[p1] += coef;
+                }
+            }
+        }
+        for (k, &pd) in pat.diag_scatter.iter().enumerate() {
+            self.values[pd] = if laws[nt + k] == RowLaw::Constraint { 0.0 } else { 1.0 };
+        }
+        for (j, &pc) in pat.coupling_scatter.iter().enumerate() {
+            self.values[pc] = match laws[nt + nc + j] {
+                RowLaw::Slip { coef, .. } => -coef,
+                _ => 0.0,
+            };
+        }
+    }
+
+    /// The Newton residual's parts, each against its own scale: forces against the largest of
+    /// the external, internal and constraint forces (never below what the step has seen,
+    /// `step_scale`); gap rows against `|C| |u|`; free multipliers and slip laws against the
+    /// largest contact multiplier.
+    #[allow(clippy::too_many_arguments)]
+    fn residual_norms(
+        &self,
+        r: &[f64],
+        f_ext: &[f64],
+        ct_mu: &[f64],
+        mu: &[f64],
+        sets: &ContactSets,
+        g_scale: f64,
+        slip_res: f64,
+        step_scale: &mut f64,
+    ) -> ResidualNorms {
+        let m = self.model;
+        let nf = m.dofs.num_free;
+        let (nt, nc, nfr) = (m.constraints.len(), m.contact.rows.len(), m.contact.friction_rows.len());
+        let f_ext_norm = norm(f_ext);
+        // Force scale: never below what this step has seen (a contact that opens can leave a
+        // body unloaded, where the current forces are all round-off).
+        let scale = f_ext_norm.max(norm(&self.trial_f_int)).max(norm(ct_mu)).max(*step_scale);
+        *step_scale = scale;
+        let rn = norm(&r[..nf]);
+        // Gap residuals (ties, active contact rows) against |C| |u|; inactive contact rows
+        // (lambda = 0) against the largest contact multiplier.
+        let gap_rows = (0..nt)
+            .chain((0..nc).filter(|&k| sets.active[k]).map(|k| nt + k))
+            .chain((0..nfr).filter(|&j| sets.status[j] == FrictionStatus::Stick).map(|j| nt + nc + j));
+        let gn = gap_rows.map(|k| r[nf + k] * r[nf + k]).sum::<f64>().sqrt() / self.alpha;
+        // Multiplier scale: the largest contact multiplier or the force scale spread over the
+        // paired contact length.
+        let contact_len: f64 = m.contact.phi.iter().sum();
+        let mu_ref = mu[nt..].iter().fold(0.0f64, |a, v| a.max(v.abs())).max(if contact_len > 0.0 {
+            scale / contact_len
+        } else {
+            0.0
+        });
+        let free_mu = (0..nc)
+            .filter(|&k| !sets.active[k])
+            .map(|k| nt + k)
+            .chain((0..nfr).filter(|&j| sets.status[j] == FrictionStatus::Open).map(|j| nt + nc + j))
+            .fold(slip_res, |a, i| a.max(mu[i].abs()));
+        let res_u = if scale > 0.0 { rn / scale } else { rn };
+        let res_g = if gn == 0.0 { 0.0 } else { gn / g_scale.sqrt().max(f64::MIN_POSITIVE) };
+        let res_mu = if free_mu == 0.0 { 0.0 } else { free_mu / mu_ref.max(f64::MIN_POSITIVE) };
+        tracing::trace!(res_u, res_g, res_mu, rn, scale, "residual parts");
+        ResidualNorms { residual: res_u.max(res_g).max(res_mu), forces: rn, gaps: gn, free_multipliers: free_mu }
     }
 
     /// Commits a converged trial state (history advances only here).
@@ -665,34 +779,32 @@ impl<'m> StaticAnalysis<'m> {
     /// One load step by interface condensation (see [`condensed`]): the active-set iterations
     /// run on the L live multipliers only; the bulk is touched by two solves with the constant
     /// factor of `K_rho` and two internal-force evaluations.
-    #[allow(clippy::type_complexity)]
-    fn newton_condensed(
-        &mut self,
-        state: &mut SimState,
-        step: usize,
-        t: f64,
-    ) -> Result<Result<(usize, f64), (usize, f64)>, AnalysisError> {
-        let Some(mut cd) = self.condensed.take() else { return Ok(Err((0, f64::INFINITY))) };
+    fn newton_condensed(&mut self, state: &mut SimState, step: usize, t: f64) -> Result<StepOutcome, AnalysisError> {
+        let Some(mut cd) = self.condensed.take() else {
+            return Ok(StepOutcome::NotConverged { iterations: 0, residual: f64::INFINITY });
+        };
         let result = self.condensed_step(&mut cd, state, step, t);
-        if matches!(result, Ok(Ok(_))) && state.interface_log.len() != cd.log.len() {
+        if matches!(result, Ok(StepOutcome::Converged { .. })) && state.interface_log.len() != cd.log.len() {
             state.interface_log.clone_from(&cd.log);
         }
         self.condensed = Some(cd);
         result
     }
 
-    #[allow(clippy::type_complexity)]
+    /// One load step by interface condensation: per refinement pass, the bulk predictor
+    /// `z = K_rho^{-1} r_u`, the active-set iterations on the interface, the recovery of `u`
+    /// and the multipliers (growing the interface set where a row outside it would
+    /// penetrate), and the equilibrium check of the recovered state.
     fn condensed_step(
         &mut self,
         cd: &mut condensed::Condensed,
         state: &mut SimState,
         step: usize,
         t: f64,
-    ) -> Result<Result<(usize, f64), (usize, f64)>, AnalysisError> {
+    ) -> Result<StepOutcome, AnalysisError> {
         let m = self.model;
         let p = m.newton;
-        let (nt, nc, nfr) = (m.constraints.len(), m.contact.rows.len(), m.contact.friction_rows.len());
-        let all: Vec<&Vec<(usize, f64)>> = m.multiplier_rows().collect();
+        let (nc, nfr) = (m.contact.rows.len(), m.contact.friction_rows.len());
         let mut u = state.u.clone();
         for (d, v) in m.prescribed_at(t) {
             u[d] = v;
@@ -720,91 +832,24 @@ impl<'m> StaticAnalysis<'m> {
                 .iter()
                 .map(|&g| if m.dofs.eq[g] == CONSTRAINED { 0.0 } else { f_ext[g] - self.trial_f_int[g] - ct[g] })
                 .collect();
-            let solve_err = |iteration: usize| move |source| NewtonError::Linear { step, iteration, source };
-            self.solver.solve(&mut z).map_err(solve_err(0))?;
-            let slip0: Vec<f64> = (0..nfr)
-                .map(|j| m.contact.friction_rows[j].iter().map(|&(d, c)| c * (u[d] - state.u[d])).sum())
-                .collect();
-            let u_start = u.clone();
-            let (mut active, mut status) = (vec![false; nc], vec![FrictionStatus::Open; nfr]);
-            let mut slip = vec![0.0; nfr];
-            // Weighted gaps minus g0 of every contact row at the start of the step.
-            let w_start: Vec<f64> = m.contact.rows.iter().map(|r| r.iter().map(|&(d, c)| c * u[d]).sum()).collect();
+            self.solver.solve(&mut z).map_err(|source| NewtonError::Linear { step, iteration: 0, source })?;
+            let start = InterfaceStart {
+                slip0: (0..nfr)
+                    .map(|j| m.contact.friction_rows[j].iter().map(|&(d, c)| c * (u[d] - state.u[d])).sum())
+                    .collect(),
+                // Weighted gaps minus g0 of every contact row at the start of the step.
+                w_start: m.contact.rows.iter().map(|r| r.iter().map(|&(d, c)| c * u[d]).sum()).collect(),
+                u_start: u.clone(),
+            };
+            let mut sets = ContactSets::new(nc, nfr);
             let mut mu = loop {
-                let nl = cd.live.len();
-                let cz: Vec<f64> = cd.rows_free.iter().map(|r| r.iter().map(|&(e, c)| c * z[e]).sum()).collect();
-                // Row values at u0: w0 = C u0; the law's targets per live row.
-                // (Grounding rows: 0, their law does not read it.)
-                let w0: Vec<f64> = cd
-                    .live
-                    .iter()
-                    .map(|&i| all.get(i).map_or(0.0, |r| r.iter().map(|&(d, c)| c * u_start[d]).sum()))
-                    .collect();
-                let mut dlam = vec![0.0; nl];
-                let mut dw = vec![0.0; nl];
-                let mut prev: Option<(Vec<bool>, Vec<FrictionStatus>)> = None;
-                let mut gaps = vec![0.0; nc];
-                let mut mult = lam0.clone();
-                for it in 0..=p.max_iterations {
-                    for k in 0..nc {
-                        gaps[k] = m.contact.g0[k] + cd.live_of[nt + k].map_or(w_start[k], |a| w0[a] + dw[a]);
+                let (dlam, dw) = match self.interface_iterations(cd, &z, &start, &lam0, &mut sets, step, t)? {
+                    InterfaceSolve::Solved { dlam, dw, iterations: its } => {
+                        iterations += its;
+                        (dlam, dw)
                     }
-                    for j in 0..nfr {
-                        slip[j] = slip0[j] + cd.live_of[nt + nc + j].map_or(0.0, |a| dw[a]);
-                    }
-                    for (a, i) in cd.model_rows() {
-                        mult[i] = lam0[i] + dlam[a];
-                    }
-                    update_sets(&m.contact, &mult, &gaps, &slip, it == 0, &mut active, &mut status);
-                    self.last_active = active.iter().filter(|&&a| a).count();
-                    // Rows outside the set stay open (checked after the solve).
-                    for k in (0..nc).filter(|&k| cd.live_of[nt + k].is_none()) {
-                        active[k] = false;
-                    }
-                    for j in (0..nfr).filter(|&j| cd.live_of[nt + nc + j].is_none()) {
-                        status[j] = FrictionStatus::Open;
-                    }
-                    if let Some((pa, ps)) = &prev {
-                        if pa == &active && ps == &status {
-                            break;
-                        }
-                    }
-                    if it == p.max_iterations {
-                        if let Some(slipping) = gross_sliding(&status) {
-                            return Err(AnalysisError::GrossSliding { step, time: t, slipping });
-                        }
-                        return Ok(Err((it, f64::INFINITY)));
-                    }
-                    prev = Some((active.clone(), status.clone()));
-                    iterations += 1;
-                    let row_law = row_laws(&m.contact, &active, &status);
-                    let laws = cd.laws(m, &row_law, &w0, &lam0, &slip0);
-                    let a_mat = cd.law_matrix(&laws);
-                    let rhs = cd.law_rhs(&laws, &cz);
-                    let Some(x) = DenseLu::new(a_mat).and_then(|lu| lu.solve(&rhs)) else {
-                        tracing::warn!(step, t, it, "condensed interface system is singular");
-                        if let Some(slipping) = gross_sliding(&status) {
-                            return Err(AnalysisError::GrossSliding { step, time: t, slipping });
-                        }
-                        return Ok(Err((it, f64::INFINITY)));
-                    };
-                    for (a, law) in laws.iter().enumerate() {
-                        match *law {
-                            condensed::Law::Gap(b) => {
-                                dw[a] = b;
-                                dlam[a] = x[a];
-                            }
-                            condensed::Law::Fixed(l) => {
-                                dw[a] = x[a];
-                                dlam[a] = l;
-                            }
-                            condensed::Law::Slip { normal, s, rest } => {
-                                dw[a] = x[a];
-                                dlam[a] = s * x[normal] + rest;
-                            }
-                        }
-                    }
-                }
+                    InterfaceSolve::Failed(outcome) => return Ok(outcome),
+                };
                 // du = z + K_rho^{-1} C^T (rho dw - dlambda).
                 let mut y = vec![0.0; cd.equations.num_free];
                 for (a, row) in cd.rows_free.iter().enumerate() {
@@ -813,8 +858,12 @@ impl<'m> StaticAnalysis<'m> {
                         y[e] += c * v;
                     }
                 }
-                self.solver.solve(&mut y).map_err(solve_err(iterations))?;
-                u.clone_from(&u_start);
+                self.solver.solve(&mut y).map_err(|source| NewtonError::Linear {
+                    step,
+                    iteration: iterations,
+                    source,
+                })?;
+                u.clone_from(&start.u_start);
                 for (i, &g) in cd.equations.free.iter().enumerate() {
                     if m.dofs.eq[g] != CONSTRAINED {
                         u[g] += z[i] + y[i];
@@ -824,27 +873,12 @@ impl<'m> StaticAnalysis<'m> {
                 for (a, i) in cd.model_rows() {
                     mu[i] += dlam[a];
                 }
-                // A row outside the set that would penetrate joins it (with its neighbours within
-                // the candidate margin), and the step's interface problem is solved again.
-                let gaps_u: Vec<f64> = (0..nc)
-                    .map(|k| m.contact.g0[k] + m.contact.rows[k].iter().map(|&(d, c)| c * u[d]).sum::<f64>())
-                    .collect();
-                let penetrates =
-                    (0..nc).any(|k| cd.live_of[nt + k].is_none() && m.contact.phi[k] > 0.0 && gaps_u[k] < 0.0);
-                if !penetrates {
+                if !self.grow_where_penetrating(cd, &u, step, t, iterations)? {
                     break mu;
                 }
-                let add: Vec<usize> = condensed::near_rows(m, &gaps_u, condensed::CANDIDATE_MARGIN, 0.0)
-                    .into_iter()
-                    .filter(|&k| cd.live_of[nt + k].is_none())
-                    .collect();
-                tracing::debug!(step, t, added = add.len(), "condensed set grows");
-                let batch = condensed::with_friction(m, &add);
-                cd.grow(m, &self.solver, &batch, 0.0).map_err(solve_err(iterations))?;
-                cd.log.push(batch);
             };
             // Exact zeros where the law says so (open nodes).
-            zero_open_multipliers(&m.contact, &mut mu, &active, &status);
+            zero_open_multipliers(&m.contact, &mut mu, &sets.active, &sets.status);
             // Check: the equilibrium residual of the recovered state.
             self.internal_force(&u, &history);
             constraint_forces(m, &mu, &mut ct);
@@ -853,21 +887,150 @@ impl<'m> StaticAnalysis<'m> {
             let res = if scale > 0.0 { norm(&r) / scale } else { norm(&r) };
             tracing::debug!(step, t, iterations, residual = res, "condensed step");
             if res.is_finite() && res <= p.rtol {
-                check_small_sliding(m, &u, &status, step, t)?;
-                self.commit(state, u, mu, t, &status, &slip);
-                self.last_sets = Some((active, status));
-                return Ok(Ok((iterations, res)));
+                check_small_sliding(m, &u, &sets.status, step, t)?;
+                self.commit(state, u, mu, t, &sets.status, &sets.slip);
+                self.last_sets = Some((sets.active, sets.status));
+                return Ok(StepOutcome::Converged { iterations, residual: res });
             }
-            if let Some(slipping) = gross_sliding(&status) {
+            if let Some(slipping) = gross_sliding(&sets.status) {
                 return Err(AnalysisError::GrossSliding { step, time: t, slipping });
             }
             if !res.is_finite() || pass + 1 == MAX_REFINEMENTS {
-                return Ok(Err((iterations, res)));
+                return Ok(StepOutcome::NotConverged { iterations, residual: res });
             }
             tracing::debug!(step, t, pass, residual = res, "condensed step: refining");
             lam0 = mu;
         }
-        Ok(Err((iterations, f64::INFINITY)))
+        Ok(StepOutcome::NotConverged { iterations, residual: f64::INFINITY })
+    }
+
+    /// The active-set iterations on the live interface rows for the bulk predictor `z`: each
+    /// iteration updates the sets from the current interface values, then solves the dense
+    /// interface system of their laws for the multiplier and row-value changes `dlam`, `dw`.
+    /// Stops when the sets repeat; fails (cut back, or gross sliding) when they never settle or
+    /// the interface system is singular.
+    #[allow(clippy::too_many_arguments)]
+    fn interface_iterations(
+        &mut self,
+        cd: &condensed::Condensed,
+        z: &[f64],
+        start: &InterfaceStart,
+        lam0: &[f64],
+        sets: &mut ContactSets,
+        step: usize,
+        t: f64,
+    ) -> Result<InterfaceSolve, AnalysisError> {
+        let m = self.model;
+        let p = m.newton;
+        let (nt, nc, nfr) = (m.constraints.len(), m.contact.rows.len(), m.contact.friction_rows.len());
+        let all: Vec<&Vec<(usize, f64)>> = m.multiplier_rows().collect();
+        let nl = cd.live.len();
+        let cz: Vec<f64> = cd.rows_free.iter().map(|r| r.iter().map(|&(e, c)| c * z[e]).sum()).collect();
+        // Row values at u0: w0 = C u0; the law's targets per live row.
+        // (Grounding rows: 0, their law does not read it.)
+        let w0: Vec<f64> = cd
+            .live
+            .iter()
+            .map(|&i| all.get(i).map_or(0.0, |r| r.iter().map(|&(d, c)| c * start.u_start[d]).sum()))
+            .collect();
+        let mut dlam = vec![0.0; nl];
+        let mut dw = vec![0.0; nl];
+        let mut prev: Option<(Vec<bool>, Vec<FrictionStatus>)> = None;
+        let mut mult = lam0.to_vec();
+        let mut iterations = 0;
+        let failed = |status: &[FrictionStatus], it: usize| match gross_sliding(status) {
+            Some(slipping) => Err(AnalysisError::GrossSliding { step, time: t, slipping }),
+            None => Ok(InterfaceSolve::Failed(StepOutcome::NotConverged { iterations: it, residual: f64::INFINITY })),
+        };
+        for it in 0..=p.max_iterations {
+            for k in 0..nc {
+                sets.gaps[k] = m.contact.g0[k] + cd.live_of[nt + k].map_or(start.w_start[k], |a| w0[a] + dw[a]);
+            }
+            for j in 0..nfr {
+                sets.slip[j] = start.slip0[j] + cd.live_of[nt + nc + j].map_or(0.0, |a| dw[a]);
+            }
+            for (a, i) in cd.model_rows() {
+                mult[i] = lam0[i] + dlam[a];
+            }
+            update_sets(&m.contact, &mult, &sets.gaps, &sets.slip, it == 0, &mut sets.active, &mut sets.status);
+            self.last_active = sets.active.iter().filter(|&&a| a).count();
+            // Rows outside the set stay open (checked after the solve).
+            for k in (0..nc).filter(|&k| cd.live_of[nt + k].is_none()) {
+                sets.active[k] = false;
+            }
+            for j in (0..nfr).filter(|&j| cd.live_of[nt + nc + j].is_none()) {
+                sets.status[j] = FrictionStatus::Open;
+            }
+            if let Some((pa, ps)) = &prev {
+                if pa == &sets.active && ps == &sets.status {
+                    break;
+                }
+            }
+            if it == p.max_iterations {
+                return failed(&sets.status, it);
+            }
+            prev = Some((sets.active.clone(), sets.status.clone()));
+            iterations += 1;
+            let row_law = row_laws(&m.contact, &sets.active, &sets.status);
+            let laws = cd.laws(m, &row_law, &w0, lam0, &start.slip0);
+            let a_mat = cd.law_matrix(&laws);
+            let rhs = cd.law_rhs(&laws, &cz);
+            let Some(x) = DenseLu::new(a_mat).and_then(|lu| lu.solve(&rhs)) else {
+                tracing::warn!(step, t, it, "condensed interface system is singular");
+                return failed(&sets.status, it);
+            };
+            for (a, law) in laws.iter().enumerate() {
+                match *law {
+                    condensed::Law::Gap(b) => {
+                        dw[a] = b;
+                        dlam[a] = x[a];
+                    }
+                    condensed::Law::Fixed(l) => {
+                        dw[a] = x[a];
+                        dlam[a] = l;
+                    }
+                    condensed::Law::Slip { normal, s, rest } => {
+                        dw[a] = x[a];
+                        dlam[a] = s * x[normal] + rest;
+                    }
+                }
+            }
+        }
+        Ok(InterfaceSolve::Solved { dlam, dw, iterations })
+    }
+
+    /// A row outside the interface set that would penetrate at `u` joins it (with its
+    /// neighbours within the candidate margin); returns whether the set grew (the step's
+    /// interface problem is then solved again).
+    fn grow_where_penetrating(
+        &self,
+        cd: &mut condensed::Condensed,
+        u: &[f64],
+        step: usize,
+        t: f64,
+        iterations: usize,
+    ) -> Result<bool, AnalysisError> {
+        let m = self.model;
+        let (nt, nc) = (m.constraints.len(), m.contact.rows.len());
+        let gaps_u: Vec<f64> =
+            (0..nc).map(|k| m.contact.g0[k] + m.contact.rows[k].iter().map(|&(d, c)| c * u[d]).sum::<f64>()).collect();
+        let penetrates = (0..nc).any(|k| cd.live_of[nt + k].is_none() && m.contact.phi[k] > 0.0 && gaps_u[k] < 0.0);
+        if !penetrates {
+            return Ok(false);
+        }
+        let add: Vec<usize> = condensed::near_rows(m, &gaps_u, condensed::CANDIDATE_MARGIN, 0.0)
+            .into_iter()
+            .filter(|&k| cd.live_of[nt + k].is_none())
+            .collect();
+        tracing::debug!(step, t, added = add.len(), "condensed set grows");
+        let batch = condensed::with_friction(m, &add);
+        cd.grow(m, &self.solver, &batch, 0.0).map_err(|source| NewtonError::Linear {
+            step,
+            iteration: iterations,
+            source,
+        })?;
+        cd.log.push(batch);
+        Ok(true)
     }
 
     /// Interface stiffness of the last converged step (see [`GapSensitivity`]); `None` without
