@@ -23,7 +23,8 @@ use crate::contact::{
 };
 
 mod condensed;
-pub use condensed::{GapSensitivity, SolverReuse};
+pub use crate::wear::GapSensitivity;
+pub use condensed::SolverReuse;
 
 /// How one Newton solve of a load increment ended (the caller cuts back when not converged).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -173,8 +174,8 @@ pub enum AnalysisError {
     OffCounterSurface { step: usize, time: f64, pair: String, percent: f64 },
     #[error("step {step} (time {time}): moving the virtual surfaces: {source}")]
     Surface { step: usize, time: f64, source: crate::model::ModelError },
-    #[error("cycle {cycle}: wear of '{surface}': {msg}")]
-    Wear { cycle: u64, surface: String, msg: String },
+    #[error(transparent)]
+    Wear(#[from] crate::wear::WearError),
 }
 
 pub struct StaticAnalysis<'m> {

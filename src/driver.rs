@@ -16,10 +16,10 @@
 //! and the state alone (surface positions from the time, pairings from `u`), so a resume from
 //! any checkpoint needs nothing else.
 
-use crate::analysis::{AnalysisError, GapSensitivity, StaticAnalysis, StepReport};
+use crate::analysis::{AnalysisError, StaticAnalysis, StepReport};
 use crate::model::Model;
 use crate::state::SimState;
-use crate::wear::{JumpPolicy, JumpScheme, RateFilter, WearLaw};
+use crate::wear::{accumulate_step_wear, apply_cycle_wear, JumpScheme};
 
 /// Options of a run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -158,7 +158,8 @@ where
     let clock = std::time::Instant::now;
     let Some(cycle) = model.cycle else {
         let surface = model.wear.surfaces[0].name.clone();
-        return Err(AnalysisError::Wear { cycle: 0, surface, msg: "wear needs a cyclic load ([steps] cycle)".into() });
+        let msg = "wear needs a cyclic load ([steps] cycle)".into();
+        return Err(crate::wear::WearError { cycle: 0, surface, msg }.into());
     };
     let ramp_steps = model.times.len() - cycle.count * cycle.increments;
     let mut current = model.clone();
@@ -184,10 +185,19 @@ where
         for k in state.step..ramp_steps {
             let u_prev = state.u.clone();
             let report = analysis.advance_to(state, k + 1, model.times[k])?;
-            accumulate_step_wear(&current, state, &u_prev, None);
+            let scene = current.wear_scene();
+            accumulate_step_wear(&scene, &mut state.wear, (&u_prev, &state.u), (None, &state.multipliers));
             if k + 1 == ramp_steps {
                 // The ramp's wear (sliding under the rising load) counts, applied once.
-                apply_wear(&current, state, cycle.count as u64, false, None)?;
+                apply_cycle_wear(
+                    &scene,
+                    &mut state.wear,
+                    &state.u,
+                    &state.multipliers,
+                    cycle.count as u64,
+                    false,
+                    None,
+                )?;
                 state.interface_log.clear();
             }
             observer(&report, state, &current).map_err(|msg| AnalysisError::Observer { step: k + 1, msg })?;
@@ -296,7 +306,8 @@ fn integrate_step_wear(
     let t1 = std::time::Instant::now();
     report.cycle = n as usize + 1;
     report.increment = i + 1;
-    accumulate_step_wear(m, state, start.0, Some(start.1));
+    let scene = m.wear_scene();
+    accumulate_step_wear(&scene, &mut state.wear, (start.0, &state.u), (Some(start.1), &state.multipliers));
     state.wear.increment = i + 1;
     if i + 1 == increments {
         let count = m.cycle.map_or(1, |c| c.count as u64);
@@ -304,7 +315,7 @@ fn integrate_step_wear(
             JumpScheme::Implicit => analysis.gap_sensitivity(),
             JumpScheme::Explicit => None,
         };
-        apply_wear(m, state, count, true, sensitivity.as_ref())?;
+        apply_cycle_wear(&scene, &mut state.wear, &state.u, &state.multipliers, count, true, sensitivity.as_ref())?;
         if let Some(c) = m.cycle {
             state.time = c.start + c.period * state.wear.cycle as f64;
         }
@@ -449,299 +460,4 @@ fn check_on_counter_surface(
 /// rest, as the ramp of a held stroke, keeps its pairing: no re-pairing needed).
 fn state_slid(m: &Model, state: &SimState, u_start: &[f64]) -> bool {
     m.contact.rows.iter().flatten().any(|&(d, _)| state.u[d] != u_start[d])
-}
-
-/// Adds the wear of the step that just converged (from `u_prev` to `state.u`; tractions from
-/// `lambda_prev` at its start, if given) to the cycle's volumes and work (see
-/// [`crate::wear::swept_step_wear`]).
-fn accumulate_step_wear(m: &Model, state: &mut SimState, u_prev: &[f64], lambda_prev: Option<&[f64]>) {
-    let hosts = m.hosts();
-    for (w, ws) in m.wear.surfaces.iter().enumerate() {
-        let sw = crate::wear::swept_step_wear(
-            &m.contact,
-            &hosts,
-            ws,
-            &m.surfaces[ws.surface],
-            &m.coords,
-            (u_prev, &state.u),
-            (lambda_prev, &state.multipliers),
-        );
-        let wear = &mut state.wear;
-        for (a, v) in wear.cycle_volume[w].iter_mut().zip(&sw.volume) {
-            *a += v;
-        }
-        for (a, v) in wear.cycle_row_work[w].iter_mut().zip(&sw.row_work) {
-            *a += v;
-        }
-        for (a, v) in wear.cycle_row_slip[w].iter_mut().zip(&sw.row_slip) {
-            *a += v;
-        }
-        wear.cycle_work[w] += sw.work;
-    }
-}
-
-/// Applies the current cycle's wear: the jump `dN` (the controller's, or 1 for the ramp when
-/// `jump` is false), depths, vertices, sums and counters. With the implicit scheme and the
-/// interface stiffness `sensitivity` of the cycle's last increment, the cycle's wear is taken
-/// at the end-of-jump pressure (see [`crate::wear::implicit_pressure_change`]).
-fn apply_wear(
-    m: &Model,
-    state: &mut SimState,
-    count: u64,
-    jump: bool,
-    sensitivity: Option<&GapSensitivity>,
-) -> Result<(), AnalysisError> {
-    let measures: Vec<Vec<f64>> =
-        m.wear.surfaces.iter().map(|ws| crate::wear::vertex_measure(&m.surfaces[ws.surface])).collect();
-    let per_measure = |vol: &[f64], mea: &[f64]| -> Vec<f64> {
-        vol.iter().zip(mea).map(|(v, a)| if *a > 0.0 { v / a } else { 0.0 }).collect()
-    };
-    let raw: Vec<Vec<f64>> = state.wear.cycle_volume.iter().zip(&measures).map(|(v, a)| per_measure(v, a)).collect();
-    let filters: Vec<RateFilter> = m
-        .wear
-        .surfaces
-        .iter()
-        .enumerate()
-        .map(|(k, ws)| {
-            let s = &m.surfaces[ws.surface];
-            RateFilter::new(&s.vertices, s.base.closed, &measures[k], &raw[k], m.wear.smoothing)
-        })
-        .collect();
-    let rates: Vec<Vec<f64>> = filters.iter().zip(&raw).map(|(f, r)| f.apply(r)).collect();
-    let sensitivity = sensitivity.filter(|s| jump && m.wear.scheme == JumpScheme::Implicit && !s.rows.is_empty());
-    let scheme = if sensitivity.is_some() { JumpScheme::Implicit } else { JumpScheme::Explicit };
-    let mut dn = if jump {
-        let resolution = m
-            .wear
-            .surfaces
-            .iter()
-            .zip(&rates)
-            .map(|(ws, r)| crate::wear::wearing_resolution(&m.surfaces[ws.surface].vertices, r))
-            .fold(f64::INFINITY, f64::min);
-        let flat: Vec<f64> = rates.iter().flatten().copied().collect();
-        let remaining = count.saturating_sub(state.wear.cycle);
-        crate::wear::next_jump(m.wear.jump, scheme, &mut state.wear.controller, &flat, resolution, remaining)
-    } else {
-        1
-    };
-    // Nothing wears if the whole run at the first cycle's rate stays below round-off of the
-    // surface's resolution (a zero stroke leaves slips of order 1e-17).
-    let rmax = rates.iter().flatten().fold(0.0_f64, |a, &b| a.max(b.abs()));
-    let h_min = m
-        .wear
-        .surfaces
-        .iter()
-        .map(|ws| {
-            crate::wear::wearing_resolution(
-                &m.surfaces[ws.surface].vertices,
-                &vec![1.0; m.surfaces[ws.surface].vertices.len()],
-            )
-        })
-        .fold(f64::INFINITY, f64::min);
-    if jump && state.wear.computed_cycles == 0 && rmax * count as f64 <= 1e-9 * h_min {
-        return Err(AnalysisError::Wear {
-            cycle: 1,
-            surface: m.wear.surfaces.iter().map(|s| s.name.as_str()).collect::<Vec<_>>().join(", "),
-            msg: format!(
-                "no wear in the first cycle: the wearing surfaces never slid under pressure at the {} increments \
-                 of the cycle (zero stroke, not in contact, or too few steps.increments to sample the stroke); \
-                 nothing would ever wear",
-                m.cycle.map_or(0, |c| c.increments)
-            ),
-        });
-    }
-    // The cycle's wear volumes and work as applied: the computed ones, or (implicit) those at
-    // the end-of-jump pressure.
-    let (volumes, works, rates) = match sensitivity {
-        Some(sens) => match implicit_correction(m, state, sens, &measures, &filters, &rates, &mut dn) {
-            Some((volumes, works)) => {
-                let rates: Vec<Vec<f64>> = filters
-                    .iter()
-                    .zip(&volumes)
-                    .zip(&measures)
-                    .map(|((f, v), a)| f.apply(&per_measure(v, a)))
-                    .collect();
-                // What the next computed cycle should find (checked by `prediction_cap`).
-                state.wear.controller.predicted_area_rate = volumes.iter().map(|v| v.iter().sum()).collect();
-                (volumes, works, rates)
-            }
-            None => {
-                tracing::warn!(cycle = state.wear.cycle, "implicit wear jump: singular system; one explicit cycle");
-                dn = 1;
-                state.wear.controller.last_jump = 1;
-                state.wear.controller.forget_prediction();
-                (state.wear.cycle_volume.clone(), state.wear.cycle_work.clone(), rates)
-            }
-        },
-        None => {
-            state.wear.controller.forget_prediction();
-            (state.wear.cycle_volume.clone(), state.wear.cycle_work.clone(), rates)
-        }
-    };
-    let w = &mut state.wear;
-    for (k, ws) in m.wear.surfaces.iter().enumerate() {
-        let inc = crate::wear::depth_increment(&rates[k], &measures[k], dn);
-        let verts: Vec<nalgebra::Point2<f64>> =
-            w.vertices[k].iter().map(|p| nalgebra::Point2::new(p[0], p[1])).collect();
-        let moved = crate::wear::worn_vertices(&verts, m.surfaces[ws.surface].base.closed, &inc);
-        for (d, (i, a)) in w.depth[k].iter_mut().zip(inc.iter().zip(&measures[k])) {
-            if *a > 0.0 {
-                *d += i;
-            }
-        }
-        let deepest = w.depth[k].iter().fold(0.0_f64, |a, &b| a.max(b));
-        if !deepest.is_finite() || deepest > ws.max_depth {
-            return Err(AnalysisError::Wear {
-                cycle: w.cycle + dn,
-                surface: ws.name.clone(),
-                msg: format!(
-                    "wear depth {deepest:.6e} passes max_depth = {} (the band of fixed points prepared for it): \
-                     raise [[wear]] max_depth",
-                    ws.max_depth
-                ),
-            });
-        }
-        w.vertices[k] = moved.iter().map(|p| [p.x, p.y]).collect();
-        w.worn_area[k] += dn as f64 * volumes[k].iter().sum::<f64>();
-        w.work[k] += dn as f64 * works[k];
-        w.cycle_volume[k].iter_mut().for_each(|v| *v = 0.0);
-        w.cycle_row_work[k].iter_mut().for_each(|v| *v = 0.0);
-        w.cycle_row_slip[k].iter_mut().for_each(|v| *v = 0.0);
-        w.cycle_work[k] = 0.0;
-    }
-    if jump {
-        w.cycle += dn;
-        w.computed_cycles += 1;
-        w.jump = dn;
-        w.increment = 0;
-    }
-    Ok(())
-}
-
-/// The implicit jump's cycle volumes and works per surface (the computed cycle's, each row's
-/// work moved by its change at the end-of-jump pressure, never below zero: the wear balance
-/// holds exactly), and the jump after the controller's pressure-change bound. `None` if the
-/// linearised system is singular.
-fn implicit_correction(
-    m: &Model,
-    state: &mut SimState,
-    sens: &GapSensitivity,
-    measures: &[Vec<f64>],
-    filters: &[RateFilter],
-    rates: &[Vec<f64>],
-    dn: &mut u64,
-) -> Option<(Vec<Vec<f64>>, Vec<f64>)> {
-    let hosts = m.hosts();
-    let nt = m.constraints.len();
-    let na = sens.rows.len();
-    let mut pos_of = vec![None; m.contact.rows.len()];
-    for (r, &k) in sens.rows.iter().enumerate() {
-        pos_of[k] = Some(r);
-    }
-    let w = &state.wear;
-    let mut couplings = Vec::with_capacity(m.wear.surfaces.len());
-    let mut surfaces = Vec::with_capacity(m.wear.surfaces.len());
-    for (b, ws) in m.wear.surfaces.iter().enumerate() {
-        let x = crate::wear::pairing_position(&m.contact, ws, &m.coords, &state.u, &state.u);
-        let coupling = crate::wear::wear_coupling(&m.contact, &hosts, ws, &m.surfaces[ws.surface], &x)?;
-        let c = &m.contact.pairs[ws.contact];
-        let nv = measures[b].len();
-        let mut g = nalgebra::DMatrix::zeros(na, nv);
-        let (mut phi, mut work_per_pressure) = (vec![0.0; na], vec![0.0; na]);
-        for &(i, l, v) in &coupling.entries {
-            if let Some(r) = pos_of[c.first_row + l] {
-                g[(r, i)] += v;
-            }
-        }
-        for l in 0..c.multipliers.num_nodes {
-            let k = c.first_row + l;
-            let Some(r) = pos_of[k] else { continue };
-            phi[r] = coupling.phi[l];
-            let per_pressure = match ws.law {
-                WearLaw::Archard => 1.0,
-                WearLaw::Energy => c.friction_row[l].map_or(0.0, |_| m.contact.mu[k]),
-            };
-            work_per_pressure[r] = if phi[r] > 0.0 { per_pressure * w.cycle_row_slip[b][l] } else { 0.0 };
-        }
-        surfaces.push(crate::wear::JumpSurface {
-            coupling: g,
-            phi,
-            measure: &measures[b],
-            coefficient: ws.coefficient,
-            work_per_pressure,
-            rate: &rates[b],
-            filter: &filters[b],
-        });
-        couplings.push(coupling);
-    }
-    let pressure: Vec<f64> = sens.rows.iter().map(|&k| -state.multipliers[nt + k]).collect();
-    let weights: Vec<f64> = sens.rows.iter().map(|&k| m.contact.phi[k]).collect();
-    let solve = |n: u64| crate::wear::implicit_pressure_change(&sens.dlambda_dgap, &surfaces, n);
-    let mut controller = state.wear.controller.clone();
-    // The last jump's prediction against this cycle: the pressure of every contact row, the
-    // worn-area rate of each surface.
-    let all_pressure: Vec<f64> = (0..m.contact.rows.len()).map(|k| (-state.multipliers[nt + k]).max(0.0)).collect();
-    if let JumpPolicy::Adaptive { prediction_tolerance, .. } = m.wear.jump {
-        use crate::wear::{prediction_cap, PRESSURE_PREDICTION_TOLERANCE};
-        let area_rate: Vec<f64> = state.wear.cycle_volume.iter().map(|v| v.iter().sum()).collect();
-        let (last, ones) = (controller.last_jump, vec![1.0; area_rate.len()]);
-        let pressure_check = prediction_cap(
-            &controller.predicted,
-            &all_pressure,
-            &m.contact.phi,
-            last,
-            PRESSURE_PREDICTION_TOLERANCE,
-            2,
-        );
-        let area_check =
-            prediction_cap(&controller.predicted_area_rate, &area_rate, &ones, last, prediction_tolerance, 1);
-        for (what, check) in [("pressure", pressure_check), ("area rate", area_check)] {
-            if let Some((error, cap)) = check {
-                tracing::debug!(
-                    cycle = state.wear.cycle,
-                    what,
-                    error,
-                    cap,
-                    proposed = *dn,
-                    "implicit jump: last prediction"
-                );
-                *dn = (*dn).min(cap);
-            }
-        }
-    }
-    let (n, dp) = crate::wear::bounded_implicit_jump(m.wear.jump, &mut controller, *dn, &pressure, &weights, &solve)?;
-    controller.predicted = all_pressure;
-    for (r, &k) in sens.rows.iter().enumerate() {
-        controller.predicted[k] += dp[r];
-    }
-    let w = &mut state.wear;
-    w.controller = controller;
-    tracing::debug!(
-        cycle = w.cycle,
-        proposed = *dn,
-        jump = n,
-        pressure_change = (dp.iter().zip(&weights).map(|(d, w)| w * d * d).sum::<f64>()
-            / pressure.iter().zip(&weights).map(|(p, w)| w * p * p).sum::<f64>())
-        .sqrt(),
-        rows = na,
-        "implicit wear jump"
-    );
-    *dn = n;
-    let mut volumes = Vec::with_capacity(surfaces.len());
-    let mut works = Vec::with_capacity(surfaces.len());
-    for (b, ws) in m.wear.surfaces.iter().enumerate() {
-        let c = &m.contact.pairs[ws.contact];
-        let mut dw = vec![0.0; c.multipliers.num_nodes];
-        for (l, d) in dw.iter_mut().enumerate() {
-            if let Some(r) = pos_of[c.first_row + l] {
-                // W_end = W + c dp >= 0.
-                *d = (surfaces[b].work_per_pressure[r] * dp[r]).max(-w.cycle_row_work[b][l]);
-            }
-        }
-        let nv = measures[b].len();
-        let extra = couplings[b].volumes(ws.coefficient, &dw, nv);
-        volumes.push(w.cycle_volume[b].iter().zip(&extra).map(|(a, e)| a + e).collect());
-        works.push(w.cycle_work[b] + dw.iter().sum::<f64>());
-    }
-    Some((volumes, works))
 }

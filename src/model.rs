@@ -1638,6 +1638,18 @@ impl Model {
     }
 
     /// Whether any surface of the model moves during the run.
+    /// What the wear update reads of this model's current discretisation.
+    pub fn wear_scene(&self) -> crate::wear::WearScene<'_> {
+        crate::wear::WearScene {
+            contact: &self.contact,
+            hosts: self.hosts(),
+            surfaces: &self.surfaces,
+            coords: &self.coords,
+            model: &self.wear,
+            increments: self.cycle.map_or(0, |c| c.increments),
+        }
+    }
+
     pub fn has_moving_surfaces(&self) -> bool {
         self.surfaces.iter().any(|s| s.motion.is_some())
     }

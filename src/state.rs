@@ -5,7 +5,7 @@
 
 use crate::contact::ContactUnknowns;
 use crate::fem::material::{PlasticState, Stress4};
-use crate::wear::ControllerState;
+pub use crate::wear::WearState;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimState {
@@ -39,39 +39,6 @@ pub struct SimState {
     pub interface_log: Vec<Vec<usize>>,
     /// Wear state (empty without wearing surfaces).
     pub wear: WearState,
-}
-
-/// Everything a wear run carries from cycle to cycle: where the worn surfaces are, how much
-/// each lost, the cycle counters and the cycle-jump controller's memory. Per wearing surface
-/// (in the model's wear order), per vertex of its polyline.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct WearState {
-    /// Cycles done, the jumped ones included (the cycle being computed is `cycle`).
-    pub cycle: u64,
-    /// Cycles actually computed.
-    pub computed_cycles: u64,
-    /// Increments of the current cycle that have converged.
-    pub increment: usize,
-    /// Jump `dN` the current cycle's wear is applied with.
-    pub jump: u64,
-    /// Current vertices (reference configuration of the host).
-    pub vertices: Vec<Vec<[f64; 2]>>,
-    /// Accumulated wear depth per vertex.
-    pub depth: Vec<Vec<f64>>,
-    /// Wear volume `k int N_i p |ds|` (per unit thickness) per vertex over the current cycle.
-    pub cycle_volume: Vec<Vec<f64>>,
-    /// `int p |ds|` (Archard) or `int |q ds|` (energy) of the current cycle, per surface.
-    pub cycle_work: Vec<f64>,
-    /// Per surface, per multiplier node of its contact pair: the wear work `W_j` and the
-    /// weighted slip `sum |ds_j|` of the current cycle (the implicit jump's linearisation).
-    pub cycle_row_work: Vec<Vec<f64>>,
-    pub cycle_row_slip: Vec<Vec<f64>>,
-    /// Worn area (`sum_i depth_i int N_i`) and the time integral of the wear work, per surface
-    /// (jumps included): `worn_area = k * work` is the wear balance.
-    pub worn_area: Vec<f64>,
-    pub work: Vec<f64>,
-    /// Jump controller memory (see `wear::next_jump`).
-    pub controller: ControllerState,
 }
 
 impl SimState {

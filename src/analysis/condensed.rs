@@ -24,6 +24,7 @@ use crate::assembly::{Assembler, AssemblyInput, AssemblyOutput, DofMap, Sparsity
 use crate::contact::{row_laws, FrictionStatus, RowLaw};
 use crate::fem::material::{PlasticState, Stress4};
 use crate::model::Model;
+use crate::wear::GapSensitivity;
 use crate::solver::dense::DenseLu;
 use crate::solver::linear::{LinearSolverError, LinearSolverKind, SparseSolver};
 use nalgebra::{DMatrix, DVector};
@@ -589,17 +590,6 @@ pub(super) enum Law {
     Gap(f64),
     Fixed(f64),
     Slip { normal: usize, s: f64, rest: f64 },
-}
-
-/// How the multipliers of the active normal rows answer a change of their weighted gaps with
-/// the loads and the contact/friction sets held: `dlambda_A = dlambda_dgap * dg_A`, the
-/// interface stiffness of the converged state (floating bodies held by their loads included:
-/// a uniform gap change of a force-loaded body leaves the total force unchanged).
-#[derive(Debug, Clone, PartialEq)]
-pub struct GapSensitivity {
-    /// Contact normal rows (model contact-row order) in contact.
-    pub rows: Vec<usize>,
-    pub dlambda_dgap: DMatrix<f64>,
 }
 
 impl Condensed {

@@ -46,6 +46,10 @@
 //! is `k P S` and this check is silent). Without condensation (elastic-plastic bodies) the
 //! explicit jump is used.
 
+mod cycle;
+
+pub use cycle::{accumulate_step_wear, apply_cycle_wear, GapSensitivity, WearError, WearScene, WearState};
+
 use crate::contact::{ContactSet, PairedSide};
 use crate::discretisation::FreeSurface;
 use crate::mesh::Mesh2;

@@ -1,0 +1,401 @@
+//! One wear cycle's bookkeeping, from the steps' swept wear to the moved surfaces:
+//!
+//! ```text
+//! each converged increment:  cycle volumes += k int N_i p |ds| (swept along the step)
+//! end of a computed cycle:   rates = filtered volumes / vertex measures
+//!                            dN = jump controller (explicit, or implicit: pressure at the
+//!                                 end of the jump from the interface stiffness)
+//!                            depth += dN rate; vertices move inward; worn area += dN volume
+//! ```
+//!
+//! Worn areas balance the wear work to round-off: the volumes applied are the ones integrated
+//! (the implicit jump moves each row's work by its pressure change, never below zero). The
+//! state lives in [`WearState`], which a checkpoint saves.
+
+use super::{
+    bounded_implicit_jump, depth_increment, implicit_pressure_change, next_jump, pairing_position, prediction_cap,
+    swept_step_wear, vertex_measure, wear_coupling, wearing_resolution, worn_vertices, ControllerState, JumpPolicy,
+    JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel, PRESSURE_PREDICTION_TOLERANCE,
+};
+use crate::contact::ContactSet;
+use crate::discretisation::FreeSurface;
+use crate::mesh::Mesh2;
+use nalgebra::{DMatrix, Point2};
+
+/// Everything a wear run carries from cycle to cycle: where the worn surfaces are, how much
+/// each lost, the cycle counters and the cycle-jump controller's memory. Per wearing surface
+/// (in the model's wear order), per vertex of its polyline.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct WearState {
+    /// Cycles done, the jumped ones included (the cycle being computed is `cycle`).
+    pub cycle: u64,
+    /// Cycles actually computed.
+    pub computed_cycles: u64,
+    /// Increments of the current cycle that have converged.
+    pub increment: usize,
+    /// Jump `dN` the current cycle's wear is applied with.
+    pub jump: u64,
+    /// Current vertices (reference configuration of the host).
+    pub vertices: Vec<Vec<[f64; 2]>>,
+    /// Accumulated wear depth per vertex.
+    pub depth: Vec<Vec<f64>>,
+    /// Wear volume `k int N_i p |ds|` (per unit thickness) per vertex over the current cycle.
+    pub cycle_volume: Vec<Vec<f64>>,
+    /// `int p |ds|` (Archard) or `int |q ds|` (energy) of the current cycle, per surface.
+    pub cycle_work: Vec<f64>,
+    /// Per surface, per multiplier node of its contact pair: the wear work `W_j` and the
+    /// weighted slip `sum |ds_j|` of the current cycle (the implicit jump's linearisation).
+    pub cycle_row_work: Vec<Vec<f64>>,
+    pub cycle_row_slip: Vec<Vec<f64>>,
+    /// Worn area (`sum_i depth_i int N_i`) and the time integral of the wear work, per surface
+    /// (jumps included): `worn_area = k * work` is the wear balance.
+    pub worn_area: Vec<f64>,
+    pub work: Vec<f64>,
+    /// Jump controller memory (see [`next_jump`]).
+    pub controller: ControllerState,
+}
+
+/// How the multipliers of the active normal rows answer a change of their weighted gaps with
+/// the loads and the contact/friction sets held: `dlambda_A = dlambda_dgap * dg_A`, the
+/// interface stiffness of the converged state (floating bodies held by their loads included:
+/// a uniform gap change of a force-loaded body leaves the total force unchanged).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GapSensitivity {
+    /// Contact normal rows (model contact-row order) in contact.
+    pub rows: Vec<usize>,
+    pub dlambda_dgap: DMatrix<f64>,
+}
+
+/// A wear update that cannot go on: the cycle, the surface and why.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("cycle {cycle}: wear of '{surface}': {msg}")]
+pub struct WearError {
+    pub cycle: u64,
+    pub surface: String,
+    pub msg: String,
+}
+
+/// What a wear update reads of the current discretisation: the contact set, the host meshes
+/// (with their node offsets), the free surfaces (the wearing ones among them), the point
+/// coordinates, the wear model and the increments per cycle.
+pub struct WearScene<'a> {
+    pub contact: &'a ContactSet,
+    pub hosts: Vec<(&'a Mesh2, usize)>,
+    pub surfaces: &'a [FreeSurface],
+    pub coords: &'a [Point2<f64>],
+    pub model: &'a WearModel,
+    pub increments: usize,
+}
+
+/// Adds the wear of the step that just converged (from `u_prev` to `u`; tractions from
+/// `lambda_prev` at its start, if given, and `multipliers` at its end) to the cycle's volumes
+/// and work (see [`swept_step_wear`]).
+pub fn accumulate_step_wear(
+    scene: &WearScene<'_>,
+    wear: &mut WearState,
+    (u_prev, u): (&[f64], &[f64]),
+    (lambda_prev, multipliers): (Option<&[f64]>, &[f64]),
+) {
+    for (w, ws) in scene.model.surfaces.iter().enumerate() {
+        let sw = swept_step_wear(
+            scene.contact,
+            &scene.hosts,
+            ws,
+            &scene.surfaces[ws.surface],
+            scene.coords,
+            (u_prev, u),
+            (lambda_prev, multipliers),
+        );
+        for (a, v) in wear.cycle_volume[w].iter_mut().zip(&sw.volume) {
+            *a += v;
+        }
+        for (a, v) in wear.cycle_row_work[w].iter_mut().zip(&sw.row_work) {
+            *a += v;
+        }
+        for (a, v) in wear.cycle_row_slip[w].iter_mut().zip(&sw.row_slip) {
+            *a += v;
+        }
+        wear.cycle_work[w] += sw.work;
+    }
+}
+
+/// Per wearing surface: the vertex measures, the rate filters and the filtered wear rates
+/// (volume per measure) of the current cycle.
+struct CycleRates {
+    measures: Vec<Vec<f64>>,
+    filters: Vec<RateFilter>,
+    rates: Vec<Vec<f64>>,
+}
+
+fn per_measure(volume: &[f64], measure: &[f64]) -> Vec<f64> {
+    volume.iter().zip(measure).map(|(v, a)| if *a > 0.0 { v / a } else { 0.0 }).collect()
+}
+
+impl CycleRates {
+    fn of(scene: &WearScene<'_>, wear: &WearState) -> Self {
+        let measures: Vec<Vec<f64>> =
+            scene.model.surfaces.iter().map(|ws| vertex_measure(&scene.surfaces[ws.surface])).collect();
+        let raw: Vec<Vec<f64>> = wear.cycle_volume.iter().zip(&measures).map(|(v, a)| per_measure(v, a)).collect();
+        let filters: Vec<RateFilter> = scene
+            .model
+            .surfaces
+            .iter()
+            .enumerate()
+            .map(|(k, ws)| {
+                let s = &scene.surfaces[ws.surface];
+                RateFilter::new(&s.vertices, s.base.closed, &measures[k], &raw[k], scene.model.smoothing)
+            })
+            .collect();
+        let rates: Vec<Vec<f64>> = filters.iter().zip(&raw).map(|(f, r)| f.apply(r)).collect();
+        CycleRates { measures, filters, rates }
+    }
+
+    /// The filtered rates of the cycle volumes `volumes`.
+    fn of_volumes(&self, volumes: &[Vec<f64>]) -> Vec<Vec<f64>> {
+        self.filters.iter().zip(volumes).zip(&self.measures).map(|((f, v), a)| f.apply(&per_measure(v, a))).collect()
+    }
+}
+
+/// Applies the current cycle's wear: the jump `dN` (the controller's, or 1 for the ramp when
+/// `jump` is false), depths, vertices, sums and counters; `count` the run's cycles, `u` and
+/// `multipliers` the state of the cycle's last increment. With the implicit scheme and the
+/// interface stiffness `sensitivity` of that increment, the cycle's wear is taken at the
+/// end-of-jump pressure (see [`implicit_pressure_change`]).
+#[allow(clippy::too_many_arguments)]
+pub fn apply_cycle_wear(
+    scene: &WearScene<'_>,
+    wear: &mut WearState,
+    u: &[f64],
+    multipliers: &[f64],
+    count: u64,
+    jump: bool,
+    sensitivity: Option<&GapSensitivity>,
+) -> Result<(), WearError> {
+    let cycle = CycleRates::of(scene, wear);
+    let sensitivity = sensitivity.filter(|s| jump && scene.model.scheme == JumpScheme::Implicit && !s.rows.is_empty());
+    let scheme = if sensitivity.is_some() { JumpScheme::Implicit } else { JumpScheme::Explicit };
+    let mut dn = if jump {
+        let resolution = scene
+            .model
+            .surfaces
+            .iter()
+            .zip(&cycle.rates)
+            .map(|(ws, r)| wearing_resolution(&scene.surfaces[ws.surface].vertices, r))
+            .fold(f64::INFINITY, f64::min);
+        let flat: Vec<f64> = cycle.rates.iter().flatten().copied().collect();
+        let remaining = count.saturating_sub(wear.cycle);
+        next_jump(scene.model.jump, scheme, &mut wear.controller, &flat, resolution, remaining)
+    } else {
+        1
+    };
+    if jump && wear.computed_cycles == 0 {
+        check_something_wears(scene, &cycle.rates, count)?;
+    }
+    // The cycle's wear volumes and work as applied: the computed ones, or (implicit) those at
+    // the end-of-jump pressure.
+    let (volumes, works, rates) = match sensitivity {
+        Some(sens) => match implicit_correction(scene, wear, u, multipliers, sens, &cycle, &mut dn) {
+            Some((volumes, works)) => {
+                let rates = cycle.of_volumes(&volumes);
+                // What the next computed cycle should find (checked by `prediction_cap`).
+                wear.controller.predicted_area_rate = volumes.iter().map(|v| v.iter().sum()).collect();
+                (volumes, works, rates)
+            }
+            None => {
+                tracing::warn!(cycle = wear.cycle, "implicit wear jump: singular system; one explicit cycle");
+                dn = 1;
+                wear.controller.last_jump = 1;
+                wear.controller.forget_prediction();
+                (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates)
+            }
+        },
+        None => {
+            wear.controller.forget_prediction();
+            (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates)
+        }
+    };
+    for (k, ws) in scene.model.surfaces.iter().enumerate() {
+        let measure = &cycle.measures[k];
+        let inc = depth_increment(&rates[k], measure, dn);
+        let verts: Vec<Point2<f64>> = wear.vertices[k].iter().map(|p| Point2::new(p[0], p[1])).collect();
+        let moved = worn_vertices(&verts, scene.surfaces[ws.surface].base.closed, &inc);
+        for (d, (i, a)) in wear.depth[k].iter_mut().zip(inc.iter().zip(measure)) {
+            if *a > 0.0 {
+                *d += i;
+            }
+        }
+        let deepest = wear.depth[k].iter().fold(0.0_f64, |a, &b| a.max(b));
+        if !deepest.is_finite() || deepest > ws.max_depth {
+            return Err(WearError {
+                cycle: wear.cycle + dn,
+                surface: ws.name.clone(),
+                msg: format!(
+                    "wear depth {deepest:.6e} passes max_depth = {} (the band of fixed points prepared for it): \
+                     raise [[wear]] max_depth",
+                    ws.max_depth
+                ),
+            });
+        }
+        wear.vertices[k] = moved.iter().map(|p| [p.x, p.y]).collect();
+        wear.worn_area[k] += dn as f64 * volumes[k].iter().sum::<f64>();
+        wear.work[k] += dn as f64 * works[k];
+        wear.cycle_volume[k].iter_mut().for_each(|v| *v = 0.0);
+        wear.cycle_row_work[k].iter_mut().for_each(|v| *v = 0.0);
+        wear.cycle_row_slip[k].iter_mut().for_each(|v| *v = 0.0);
+        wear.cycle_work[k] = 0.0;
+    }
+    if jump {
+        wear.cycle += dn;
+        wear.computed_cycles += 1;
+        wear.jump = dn;
+        wear.increment = 0;
+    }
+    Ok(())
+}
+
+/// Nothing wears if the whole run at the first cycle's rate stays below round-off of the
+/// surface's resolution (a zero stroke leaves slips of order 1e-17): an error, not a run that
+/// computes nothing.
+fn check_something_wears(scene: &WearScene<'_>, rates: &[Vec<f64>], count: u64) -> Result<(), WearError> {
+    let rmax = rates.iter().flatten().fold(0.0_f64, |a, &b| a.max(b.abs()));
+    let h_min = scene
+        .model
+        .surfaces
+        .iter()
+        .map(|ws| {
+            let vertices = &scene.surfaces[ws.surface].vertices;
+            wearing_resolution(vertices, &vec![1.0; vertices.len()])
+        })
+        .fold(f64::INFINITY, f64::min);
+    if rmax * count as f64 > 1e-9 * h_min {
+        return Ok(());
+    }
+    Err(WearError {
+        cycle: 1,
+        surface: scene.model.surfaces.iter().map(|s| s.name.as_str()).collect::<Vec<_>>().join(", "),
+        msg: format!(
+            "no wear in the first cycle: the wearing surfaces never slid under pressure at the {} increments \
+             of the cycle (zero stroke, not in contact, or too few steps.increments to sample the stroke); \
+             nothing would ever wear",
+            scene.increments
+        ),
+    })
+}
+
+/// The implicit jump's cycle volumes and works per surface (the computed cycle's, each row's
+/// work moved by its change at the end-of-jump pressure, never below zero: the wear balance
+/// holds exactly), and the jump after the controller's pressure-change bound. `None` if the
+/// linearised system is singular.
+fn implicit_correction(
+    scene: &WearScene<'_>,
+    wear: &mut WearState,
+    u: &[f64],
+    multipliers: &[f64],
+    sens: &GapSensitivity,
+    cycle: &CycleRates,
+    dn: &mut u64,
+) -> Option<(Vec<Vec<f64>>, Vec<f64>)> {
+    let nt = scene.contact.first_multiplier;
+    let na = sens.rows.len();
+    let mut pos_of = vec![None; scene.contact.rows.len()];
+    for (r, &k) in sens.rows.iter().enumerate() {
+        pos_of[k] = Some(r);
+    }
+    let (measures, filters, rates) = (&cycle.measures, &cycle.filters, &cycle.rates);
+    let mut couplings = Vec::with_capacity(scene.model.surfaces.len());
+    let mut surfaces = Vec::with_capacity(scene.model.surfaces.len());
+    for (b, ws) in scene.model.surfaces.iter().enumerate() {
+        let x = pairing_position(scene.contact, ws, scene.coords, u, u);
+        let coupling = wear_coupling(scene.contact, &scene.hosts, ws, &scene.surfaces[ws.surface], &x)?;
+        let c = &scene.contact.pairs[ws.contact];
+        let nv = measures[b].len();
+        let mut g = DMatrix::zeros(na, nv);
+        let (mut phi, mut work_per_pressure) = (vec![0.0; na], vec![0.0; na]);
+        for &(i, l, v) in &coupling.entries {
+            if let Some(r) = pos_of[c.first_row + l] {
+                g[(r, i)] += v;
+            }
+        }
+        for l in 0..c.multipliers.num_nodes {
+            let k = c.first_row + l;
+            let Some(r) = pos_of[k] else { continue };
+            phi[r] = coupling.phi[l];
+            let per_pressure = match ws.law {
+                WearLaw::Archard => 1.0,
+                WearLaw::Energy => c.friction_row[l].map_or(0.0, |_| scene.contact.mu[k]),
+            };
+            work_per_pressure[r] = if phi[r] > 0.0 { per_pressure * wear.cycle_row_slip[b][l] } else { 0.0 };
+        }
+        surfaces.push(JumpSurface {
+            coupling: g,
+            phi,
+            measure: &measures[b],
+            coefficient: ws.coefficient,
+            work_per_pressure,
+            rate: &rates[b],
+            filter: &filters[b],
+        });
+        couplings.push(coupling);
+    }
+    let pressure: Vec<f64> = sens.rows.iter().map(|&k| -multipliers[nt + k]).collect();
+    let weights: Vec<f64> = sens.rows.iter().map(|&k| scene.contact.phi[k]).collect();
+    let solve = |n: u64| implicit_pressure_change(&sens.dlambda_dgap, &surfaces, n);
+    let mut controller = wear.controller.clone();
+    // The last jump's prediction against this cycle: the pressure of every contact row, the
+    // worn-area rate of each surface.
+    let all_pressure: Vec<f64> = (0..scene.contact.rows.len()).map(|k| (-multipliers[nt + k]).max(0.0)).collect();
+    if let JumpPolicy::Adaptive { prediction_tolerance, .. } = scene.model.jump {
+        let area_rate: Vec<f64> = wear.cycle_volume.iter().map(|v| v.iter().sum()).collect();
+        let (last, ones) = (controller.last_jump, vec![1.0; area_rate.len()]);
+        let pressure_check = prediction_cap(
+            &controller.predicted,
+            &all_pressure,
+            &scene.contact.phi,
+            last,
+            PRESSURE_PREDICTION_TOLERANCE,
+            2,
+        );
+        let area_check =
+            prediction_cap(&controller.predicted_area_rate, &area_rate, &ones, last, prediction_tolerance, 1);
+        for (what, check) in [("pressure", pressure_check), ("area rate", area_check)] {
+            if let Some((error, cap)) = check {
+                tracing::debug!(cycle = wear.cycle, what, error, cap, proposed = *dn, "implicit jump: last prediction");
+                *dn = (*dn).min(cap);
+            }
+        }
+    }
+    let (n, dp) = bounded_implicit_jump(scene.model.jump, &mut controller, *dn, &pressure, &weights, &solve)?;
+    controller.predicted = all_pressure;
+    for (r, &k) in sens.rows.iter().enumerate() {
+        controller.predicted[k] += dp[r];
+    }
+    wear.controller = controller;
+    tracing::debug!(
+        cycle = wear.cycle,
+        proposed = *dn,
+        jump = n,
+        pressure_change = (dp.iter().zip(&weights).map(|(d, w)| w * d * d).sum::<f64>()
+            / pressure.iter().zip(&weights).map(|(p, w)| w * p * p).sum::<f64>())
+        .sqrt(),
+        rows = na,
+        "implicit wear jump"
+    );
+    *dn = n;
+    let mut volumes = Vec::with_capacity(surfaces.len());
+    let mut works = Vec::with_capacity(surfaces.len());
+    for (b, ws) in scene.model.surfaces.iter().enumerate() {
+        let c = &scene.contact.pairs[ws.contact];
+        let mut dw = vec![0.0; c.multipliers.num_nodes];
+        for (l, d) in dw.iter_mut().enumerate() {
+            if let Some(r) = pos_of[c.first_row + l] {
+                // W_end = W + c dp >= 0.
+                *d = (surfaces[b].work_per_pressure[r] * dp[r]).max(-wear.cycle_row_work[b][l]);
+            }
+        }
+        let nv = measures[b].len();
+        let extra = couplings[b].volumes(ws.coefficient, &dw, nv);
+        volumes.push(wear.cycle_volume[b].iter().zip(&extra).map(|(a, e)| a + e).collect());
+        works.push(wear.cycle_work[b] + dw.iter().sum::<f64>());
+    }
+    Some((volumes, works))
+}
