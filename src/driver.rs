@@ -133,159 +133,151 @@ where
 /// The wear loop (see [`crate::wear`]):
 ///
 /// ```text
-/// ramp steps (before the cycle window): as any run
+/// ramp steps (before the cycle window): as any run, their wear applied once at the end
 /// while cycles done < cycles:
-///     place the worn surfaces (re-cut on fixed points, re-pair)
 ///     for each increment of the cycle:
-///         solve the step; add its wear volumes and work on every wearing surface
+///         solve the step (finite sliding: in its own end configuration's pairing)
+///         add its wear, swept along the step, on every wearing surface
 ///     jump dN = controller(wear rates); depth += dN * rate; move vertices inward; cycles += dN
+///     place the worn surfaces (re-cut on fixed points, re-pair)
 /// ```
 ///
-/// Within a computed cycle the surfaces hold still, so an elastic scene keeps one condensed
-/// solver for the whole cycle (a resume mid-cycle replays its interface log). A jump moves the
-/// state to the end of the jumped cycle: the load history is periodic, the state is the one
-/// the computed cycle ended with.
+/// Within a computed cycle the surfaces hold still, so an elastic small-sliding scene keeps
+/// one condensed solver for the whole cycle (a resume mid-cycle replays its interface log). A
+/// jump moves the state to the end of the jumped cycle: the load history is periodic, the
+/// state is the one the computed cycle ended with.
 fn run_wear<F>(
     model: &Model,
     state: &mut SimState,
     options: RunOptions,
-    mut observer: F,
+    observer: F,
 ) -> Result<RunTimings, AnalysisError>
 where
     F: FnMut(&StepReport, &SimState, &Model) -> Result<(), String>,
 {
-    let mut timings = RunTimings::default();
-    let clock = std::time::Instant::now;
     let Some(cycle) = model.cycle else {
-        let surface = model.wear.surfaces[0].name.clone();
-        let msg = "wear needs a cyclic load ([steps] cycle)".into();
+        let (surface, msg) = (model.wear.surfaces[0].name.clone(), "wear needs a cyclic load ([steps] cycle)".into());
         return Err(crate::wear::WearError { cycle: 0, surface, msg }.into());
     };
+    let mut run = WearRun { current: model.clone(), reuse: None, options, timings: RunTimings::default(), observer };
+    run.place_surfaces(state)?;
     let ramp_steps = model.times.len() - cycle.count * cycle.increments;
-    let mut current = model.clone();
-    // The condensed solver's structure, handed from one surface position to the next.
-    let mut reuse = None;
-    // Surfaces where the state has them, re-cut and re-paired (small sliding: in the reference
-    // geometry, with the pairing reach extended by the wear depth allowed).
-    let place = |m: &mut Model, state: &SimState| {
-        m.place_worn_surfaces(&state.wear).map(|_| ()).map_err(|source| AnalysisError::Surface {
+    if state.step < ramp_steps {
+        run.ramp(state, ramp_steps, cycle.count as u64)?;
+        run.place_surfaces(state)?;
+    }
+    while state.wear.cycle < cycle.count as u64 {
+        run.compute_cycle(state, cycle)?;
+        run.place_surfaces(state)?;
+    }
+    Ok(run.timings)
+}
+
+/// A wear run in progress: the model of the current surface positions, the solver structure
+/// handed from one position to the next, where the time went, and the observer.
+struct WearRun<F> {
+    current: Model,
+    reuse: Option<crate::analysis::SolverReuse>,
+    options: RunOptions,
+    timings: RunTimings,
+    observer: F,
+}
+
+impl<F> WearRun<F>
+where
+    F: FnMut(&StepReport, &SimState, &Model) -> Result<(), String>,
+{
+    /// The worn surfaces where the state has them, re-cut and re-paired (small sliding: in the
+    /// reference geometry, with the pairing reach extended by the wear depth allowed).
+    fn place_surfaces(&mut self, state: &SimState) -> Result<(), AnalysisError> {
+        let t0 = std::time::Instant::now();
+        self.current.place_worn_surfaces(&state.wear).map_err(|source| AnalysisError::Surface {
             step: state.step,
             time: state.time,
             source,
-        })
-    };
-    let t0 = clock();
-    place(&mut current, state)?;
-    timings.wear += t0.elapsed().as_secs_f64();
-    if state.step < ramp_steps {
-        let mut analysis = StaticAnalysis::with_reuse(&current, reuse.take())?;
-        analysis.set_parallel(options.parallel);
+        })?;
+        self.timings.wear += t0.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    /// The steps before the cycle window, as any run; their wear (sliding under the rising
+    /// load) is applied once, at the ramp's end.
+    fn ramp(&mut self, state: &mut SimState, ramp_steps: usize, count: u64) -> Result<(), AnalysisError> {
+        let m = &self.current;
+        let mut analysis = StaticAnalysis::with_reuse(m, self.reuse.take())?;
+        analysis.set_parallel(self.options.parallel);
         analysis.resume(state)?;
-        timings.count_setup(&analysis);
+        self.timings.count_setup(&analysis);
         for k in state.step..ramp_steps {
             let u_prev = state.u.clone();
-            let report = analysis.advance_to(state, k + 1, model.times[k])?;
-            let scene = current.wear_scene();
+            let report = analysis.advance_to(state, k + 1, m.times[k])?;
+            let scene = m.wear_scene();
             accumulate_step_wear(&scene, &mut state.wear, (&u_prev, &state.u), (None, &state.multipliers));
             if k + 1 == ramp_steps {
-                // The ramp's wear (sliding under the rising load) counts, applied once.
-                apply_cycle_wear(
-                    &scene,
-                    &mut state.wear,
-                    &state.u,
-                    &state.multipliers,
-                    cycle.count as u64,
-                    false,
-                    None,
-                )?;
+                apply_cycle_wear(&scene, &mut state.wear, &state.u, &state.multipliers, count, false, None)?;
                 state.interface_log.clear();
             }
-            observer(&report, state, &current).map_err(|msg| AnalysisError::Observer { step: k + 1, msg })?;
+            (self.observer)(&report, state, m).map_err(|msg| AnalysisError::Observer { step: k + 1, msg })?;
         }
-        reuse = analysis.into_reuse();
-        let t0 = clock();
-        place(&mut current, state)?;
-        timings.wear += t0.elapsed().as_secs_f64();
+        self.reuse = analysis.into_reuse();
+        Ok(())
     }
-    while state.wear.cycle < cycle.count as u64 {
+
+    /// The remaining increments of the current computed cycle, each solved and its wear
+    /// integrated; the last one applies the cycle's wear with its jump.
+    fn compute_cycle(&mut self, state: &mut SimState, cycle: crate::model::Cycle) -> Result<(), AnalysisError> {
         let n = state.wear.cycle;
         let step_time = |i: usize| cycle.start + cycle.period * (n as f64 + (i + 1) as f64 / cycle.increments as f64);
+        let first = state.wear.increment;
+        let Self { current, reuse, options, timings, observer } = self;
         if current.has_finite_sliding() {
-            let first = state.wear.increment;
             for i in first..cycle.increments {
                 let step = state.step + 1;
                 // The surfaces moved before the cycle's first increment: its set-up refactors.
-                let same_bulk = i > first;
                 let mut solve_timings = RunTimings::default();
                 solve_paired_step(
-                    &current,
+                    current,
                     state,
-                    &mut reuse,
-                    same_bulk,
+                    reuse,
+                    i > first,
                     false,
                     step,
                     step_time(i),
-                    options,
+                    *options,
                     &mut solve_timings,
                     |m, analysis, state, report, start| {
-                        let report = integrate_step_wear(
-                            m,
-                            analysis,
-                            state,
-                            (&start.u, &start.multipliers),
-                            report,
-                            i,
-                            n,
-                            cycle.increments,
-                            &mut timings,
-                        )?;
+                        let start = (start.u.as_slice(), start.multipliers.as_slice());
+                        let report =
+                            integrate_step_wear(m, analysis, state, start, report, i, n, cycle.increments, timings)?;
                         observer(&report, state, m).map_err(|msg| AnalysisError::Observer { step: report.step, msg })
                     },
                 )?;
                 timings.add(&solve_timings);
             }
-        } else {
-            let t0 = clock();
-            let mut analysis = StaticAnalysis::with_reuse(&current, reuse.take())?;
-            analysis.set_parallel(options.parallel);
-            analysis.resume(state)?;
-            timings.setup += t0.elapsed().as_secs_f64();
-            timings.count_setup(&analysis);
-            for i in state.wear.increment..cycle.increments {
-                let report =
-                    wear_step(&current, &mut analysis, state, i, step_time(i), n, cycle.increments, &mut timings)?;
-                if i + 1 == cycle.increments {
-                    state.interface_log.clear();
-                }
-                observer(&report, state, &current).map_err(|msg| AnalysisError::Observer { step: report.step, msg })?;
-            }
-            reuse = analysis.into_reuse();
+            return Ok(());
         }
-        let t0 = clock();
-        place(&mut current, state)?;
-        timings.wear += t0.elapsed().as_secs_f64();
+        let t0 = std::time::Instant::now();
+        let mut analysis = StaticAnalysis::with_reuse(current, reuse.take())?;
+        analysis.set_parallel(options.parallel);
+        analysis.resume(state)?;
+        timings.setup += t0.elapsed().as_secs_f64();
+        timings.count_setup(&analysis);
+        for i in first..cycle.increments {
+            let (u_prev, lambda_prev) = (state.u.clone(), state.multipliers.clone());
+            let t1 = std::time::Instant::now();
+            let report = analysis.advance_to(state, state.step + 1, step_time(i))?;
+            timings.solve += t1.elapsed().as_secs_f64();
+            let start = (u_prev.as_slice(), lambda_prev.as_slice());
+            let report =
+                integrate_step_wear(current, &analysis, state, start, report, i, n, cycle.increments, timings)?;
+            if i + 1 == cycle.increments {
+                state.interface_log.clear();
+            }
+            observer(&report, state, current).map_err(|msg| AnalysisError::Observer { step: report.step, msg })?;
+        }
+        *reuse = analysis.into_reuse();
+        Ok(())
     }
-    Ok(timings)
-}
-
-#[allow(clippy::too_many_arguments)]
-/// Increment `i` of computed cycle `n` (0-based): solve, add the step's wear, and at the
-/// cycle's last increment apply the cycle's wear with its jump.
-fn wear_step(
-    m: &Model,
-    analysis: &mut StaticAnalysis,
-    state: &mut SimState,
-    i: usize,
-    t: f64,
-    n: u64,
-    increments: usize,
-    timings: &mut RunTimings,
-) -> Result<StepReport, AnalysisError> {
-    let (u_prev, lambda_prev) = (state.u.clone(), state.multipliers.clone());
-    let t0 = std::time::Instant::now();
-    let report = analysis.advance_to(state, state.step + 1, t)?;
-    timings.solve += t0.elapsed().as_secs_f64();
-    integrate_step_wear(m, analysis, state, (&u_prev, &lambda_prev), report, i, n, increments, timings)
 }
 
 #[allow(clippy::too_many_arguments)]
