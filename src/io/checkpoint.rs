@@ -47,34 +47,51 @@ pub enum CheckpointError {
 
 const HISTORY_COLS: usize = 9;
 
-/// Writes the checkpoint of `state` into the step group `g`.
+/// Writes the checkpoint of `state` into the step group `g`. The state is destructured field
+/// by field: a field added to [`SimState`] (or to the wear state and its controller) does not
+/// compile until the checkpoint writes it, and [`read`] builds the state by a full literal.
 pub(super) fn write(g: &hdf5::Group, state: &SimState) -> hdf5::Result<()> {
+    let SimState {
+        step,
+        time,
+        load_factor,
+        u,
+        history,
+        stress,
+        f_int,
+        multipliers,
+        friction_status,
+        slip_increment,
+        accumulated_slip,
+        dissipation,
+        interface_log,
+        wear,
+    } = state;
     let c = g.create_group("checkpoint")?;
-    super::write_attr(&c, "step", &(state.step as u64))?;
-    super::write_attr(&c, "time", &state.time)?;
-    super::write_attr(&c, "load_factor", &state.load_factor)?;
-    super::write_attr(&c, "dissipation", &state.dissipation)?;
+    super::write_attr(&c, "step", &(*step as u64))?;
+    super::write_attr(&c, "time", time)?;
+    super::write_attr(&c, "load_factor", load_factor)?;
+    super::write_attr(&c, "dissipation", dissipation)?;
     let vec1 = |name: &str, v: &[f64]| c.new_dataset_builder().with_data(&Array1::from(v.to_vec())).create(name);
-    vec1("u", &state.u)?;
-    vec1("f_int", &state.f_int)?;
-    vec1("multipliers", &state.multipliers)?;
-    vec1("slip_increment", &state.slip_increment)?;
-    vec1("accumulated_slip", &state.accumulated_slip)?;
-    c.new_dataset_builder().with_data(&Array1::from(state.friction_status.clone())).create("friction_status")?;
-    let h: Vec<f64> = state
-        .history
+    vec1("u", u)?;
+    vec1("f_int", f_int)?;
+    vec1("multipliers", multipliers)?;
+    vec1("slip_increment", slip_increment)?;
+    vec1("accumulated_slip", accumulated_slip)?;
+    c.new_dataset_builder().with_data(&Array1::from(friction_status.clone())).create("friction_status")?;
+    let h: Vec<f64> = history
         .iter()
         .flat_map(|p| p.eps_p.iter().chain(p.back.iter()).copied().chain(std::iter::once(p.alpha)))
         .collect();
-    c.new_dataset_builder().with_data(&super::array2(state.history.len(), HISTORY_COLS, h)).create("history")?;
-    let s: Vec<f64> = state.stress.iter().flat_map(|s| [s[0], s[1], s[2], s[3]]).collect();
-    c.new_dataset_builder().with_data(&super::array2(state.stress.len(), 4, s)).create("stress")?;
-    let rows: Vec<u64> = state.interface_log.iter().flatten().map(|&r| r as u64).collect();
-    let batches: Vec<u64> = state.interface_log.iter().map(|b| b.len() as u64).collect();
+    c.new_dataset_builder().with_data(&super::array2(history.len(), HISTORY_COLS, h)).create("history")?;
+    let s: Vec<f64> = stress.iter().flat_map(|s| [s[0], s[1], s[2], s[3]]).collect();
+    c.new_dataset_builder().with_data(&super::array2(stress.len(), 4, s)).create("stress")?;
+    let rows: Vec<u64> = interface_log.iter().flatten().map(|&r| r as u64).collect();
+    let batches: Vec<u64> = interface_log.iter().map(|b| b.len() as u64).collect();
     c.new_dataset_builder().with_data(&Array1::from(rows)).create("interface_rows")?;
     c.new_dataset_builder().with_data(&Array1::from(batches)).create("interface_batches")?;
-    if !state.wear.vertices.is_empty() {
-        write_wear(&c, &state.wear)?;
+    if !wear.vertices.is_empty() {
+        write_wear(&c, wear)?;
     }
     // Written last: a checkpoint without it was cut short (a killed run) and is not offered.
     super::write_attr(&c, "complete", &1u8)?;
@@ -87,36 +104,57 @@ pub(super) fn write(g: &hdf5::Group, state: &SimState) -> hdf5::Result<()> {
 /// `worn_area`, `work`, and the jump controller (`last_rate`, `last_change`, `predicted`, `predicted_area_rate`, attributes
 /// `last_jump`, `jump_before`, `decay`).
 fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> {
+    let crate::state::WearState {
+        cycle,
+        computed_cycles,
+        increment,
+        jump,
+        vertices,
+        depth,
+        cycle_volume,
+        cycle_work,
+        cycle_row_work,
+        cycle_row_slip,
+        worn_area,
+        work,
+        controller,
+    } = w;
+    let crate::wear::ControllerState {
+        last_rate,
+        last_change,
+        last_jump,
+        jump_before,
+        decay,
+        predicted,
+        predicted_area_rate,
+    } = controller;
     let g = c.create_group("wear")?;
-    for (name, v) in [
-        ("cycle", w.cycle),
-        ("computed_cycles", w.computed_cycles),
-        ("increment", w.increment as u64),
-        ("jump", w.jump),
-    ] {
+    for (name, v) in
+        [("cycle", *cycle), ("computed_cycles", *computed_cycles), ("increment", *increment as u64), ("jump", *jump)]
+    {
         super::write_attr(&g, name, &v)?;
     }
     let vec1 = |name: &str, v: &[f64]| g.new_dataset_builder().with_data(&Array1::from(v.to_vec())).create(name);
-    for (i, verts) in w.vertices.iter().enumerate() {
+    for (i, verts) in vertices.iter().enumerate() {
         let flat: Vec<f64> = verts.iter().flat_map(|p| [p[0], p[1]]).collect();
         g.new_dataset_builder()
             .with_data(&super::array2(verts.len(), 2, flat))
             .create(format!("vertices_{i}").as_str())?;
-        vec1(&format!("depth_{i}"), &w.depth[i])?;
-        vec1(&format!("cycle_volume_{i}"), &w.cycle_volume[i])?;
-        vec1(&format!("cycle_row_work_{i}"), &w.cycle_row_work[i])?;
-        vec1(&format!("cycle_row_slip_{i}"), &w.cycle_row_slip[i])?;
+        vec1(&format!("depth_{i}"), &depth[i])?;
+        vec1(&format!("cycle_volume_{i}"), &cycle_volume[i])?;
+        vec1(&format!("cycle_row_work_{i}"), &cycle_row_work[i])?;
+        vec1(&format!("cycle_row_slip_{i}"), &cycle_row_slip[i])?;
     }
-    vec1("cycle_work", &w.cycle_work)?;
-    vec1("worn_area", &w.worn_area)?;
-    vec1("work", &w.work)?;
-    vec1("last_rate", &w.controller.last_rate)?;
-    vec1("last_change", &w.controller.last_change)?;
-    vec1("predicted", &w.controller.predicted)?;
-    vec1("predicted_area_rate", &w.controller.predicted_area_rate)?;
-    super::write_attr(&g, "last_jump", &w.controller.last_jump)?;
-    super::write_attr(&g, "jump_before", &w.controller.jump_before)?;
-    super::write_attr(&g, "decay", &w.controller.decay)?;
+    vec1("cycle_work", cycle_work)?;
+    vec1("worn_area", worn_area)?;
+    vec1("work", work)?;
+    vec1("last_rate", last_rate)?;
+    vec1("last_change", last_change)?;
+    vec1("predicted", predicted)?;
+    vec1("predicted_area_rate", predicted_area_rate)?;
+    super::write_attr(&g, "last_jump", last_jump)?;
+    super::write_attr(&g, "jump_before", jump_before)?;
+    super::write_attr(&g, "decay", decay)?;
     Ok(())
 }
 
@@ -128,27 +166,24 @@ fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, 
     let vec_f64 =
         |name: &str| g.dataset(name).and_then(|d| d.read_raw::<f64>()).map_err(|e| format!("wear dataset {name}: {e}"));
     let fresh = model.initial_wear_state();
-    let mut w = crate::state::WearState {
-        cycle: attr_u64("cycle")?,
-        computed_cycles: attr_u64("computed_cycles")?,
-        increment: attr_u64("increment")? as usize,
-        jump: attr_u64("jump")?,
-        ..Default::default()
-    };
+    let n = fresh.vertices.len();
+    let (mut vertices, mut depth, mut cycle_volume) =
+        (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
+    let (mut cycle_row_work, mut cycle_row_slip) = (Vec::with_capacity(n), Vec::with_capacity(n));
     for (i, expected) in fresh.vertices.iter().enumerate() {
         let flat = vec_f64(&format!("vertices_{i}"))?;
-        let depth = vec_f64(&format!("depth_{i}"))?;
+        let d = vec_f64(&format!("depth_{i}"))?;
         let vol = vec_f64(&format!("cycle_volume_{i}"))?;
-        if flat.len() != 2 * expected.len() || depth.len() != expected.len() || vol.len() != expected.len() {
+        if flat.len() != 2 * expected.len() || d.len() != expected.len() || vol.len() != expected.len() {
             return Err(format!(
                 "wear surface {i} has {} vertices in the checkpoint, the model {}",
                 flat.len() / 2,
                 expected.len()
             ));
         }
-        w.vertices.push(flat.chunks_exact(2).map(|p| [p[0], p[1]]).collect());
-        w.depth.push(depth);
-        w.cycle_volume.push(vol);
+        vertices.push(flat.chunks_exact(2).map(|p| [p[0], p[1]]).collect());
+        depth.push(d);
+        cycle_volume.push(vol);
         let row_work = vec_f64(&format!("cycle_row_work_{i}"))?;
         let row_slip = vec_f64(&format!("cycle_row_slip_{i}"))?;
         if row_work.len() != fresh.cycle_row_work[i].len() || row_slip.len() != row_work.len() {
@@ -158,37 +193,56 @@ fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, 
                 fresh.cycle_row_work[i].len()
             ));
         }
-        w.cycle_row_work.push(row_work);
-        w.cycle_row_slip.push(row_slip);
+        cycle_row_work.push(row_work);
+        cycle_row_slip.push(row_slip);
     }
-    w.cycle_work = vec_f64("cycle_work")?;
-    w.worn_area = vec_f64("worn_area")?;
-    w.work = vec_f64("work")?;
-    let n = fresh.vertices.len();
-    if w.cycle_work.len() != n || w.worn_area.len() != n || w.work.len() != n {
+    let (cycle_work, worn_area, work) = (vec_f64("cycle_work")?, vec_f64("worn_area")?, vec_f64("work")?);
+    if cycle_work.len() != n || worn_area.len() != n || work.len() != n {
         return Err(format!("the checkpoint has wear sums for another number of surfaces than the model's {n}"));
     }
-    w.controller.last_rate = vec_f64("last_rate")?;
-    w.controller.last_change = vec_f64("last_change")?;
-    w.controller.predicted = vec_f64("predicted")?;
-    if !w.controller.predicted.is_empty() && w.controller.predicted.len() != model.contact.rows.len() {
+    let predicted = vec_f64("predicted")?;
+    if !predicted.is_empty() && predicted.len() != model.contact.rows.len() {
         return Err(format!(
             "wear dataset predicted has {} contact rows, the model {}",
-            w.controller.predicted.len(),
+            predicted.len(),
             model.contact.rows.len()
         ));
     }
-    w.controller.predicted_area_rate = vec_f64("predicted_area_rate")?;
-    if !w.controller.predicted_area_rate.is_empty() && w.controller.predicted_area_rate.len() != n {
+    let predicted_area_rate = vec_f64("predicted_area_rate")?;
+    if !predicted_area_rate.is_empty() && predicted_area_rate.len() != n {
         return Err(format!(
             "wear dataset predicted_area_rate has {} values, the model {n} wearing surfaces",
-            w.controller.predicted_area_rate.len()
+            predicted_area_rate.len()
         ));
     }
-    w.controller.last_jump = attr_u64("last_jump")?;
-    w.controller.jump_before = attr_u64("jump_before")?;
-    w.controller.decay =
-        g.attr("decay").and_then(|a| a.read_scalar::<f64>()).map_err(|e| format!("wear attribute decay: {e}"))?;
+    let controller = crate::wear::ControllerState {
+        last_rate: vec_f64("last_rate")?,
+        last_change: vec_f64("last_change")?,
+        last_jump: attr_u64("last_jump")?,
+        jump_before: attr_u64("jump_before")?,
+        decay: g
+            .attr("decay")
+            .and_then(|a| a.read_scalar::<f64>())
+            .map_err(|e| format!("wear attribute decay: {e}"))?,
+        predicted,
+        predicted_area_rate,
+    };
+    // A full literal: a new wear-state field does not compile until it is read here.
+    let w = crate::state::WearState {
+        cycle: attr_u64("cycle")?,
+        computed_cycles: attr_u64("computed_cycles")?,
+        increment: attr_u64("increment")? as usize,
+        jump: attr_u64("jump")?,
+        vertices,
+        depth,
+        cycle_volume,
+        cycle_work,
+        cycle_row_work,
+        cycle_row_slip,
+        worn_area,
+        work,
+        controller,
+    };
     let finite = w
         .vertices
         .iter()
@@ -211,10 +265,8 @@ pub fn side_path(partial: &Path) -> PathBuf {
 /// Where the checkpoints of `path` can be read: `path` itself, or, if it cannot be read (a run
 /// killed while HDF5 updated its metadata), the side copy of its latest checkpoint.
 fn readable_source(path: &Path) -> Result<(PathBuf, Vec<usize>), CheckpointError> {
-    let stopped_early = || CheckpointError::StoppedBeforeCheckpoint {
-        path: path.display().to_string(),
-        reached: steps_reached(path),
-    };
+    let stopped_early =
+        || CheckpointError::StoppedBeforeCheckpoint { path: path.display().to_string(), reached: steps_reached(path) };
     match steps_in(path) {
         Ok(steps) if steps.is_empty() && is_partial(path) => Err(stopped_early()),
         Ok(steps) => Ok((path.to_path_buf(), steps)),
