@@ -263,7 +263,10 @@ fn check(path: PathBuf) -> Result<(), String> {
         mortex::fem::material::PlaneHypothesis::PlaneStrain => "plane strain",
         mortex::fem::material::PlaneHypothesis::PlaneStress => "plane stress",
     };
-    println!("  hypothesis: {hypothesis}; units: {}", if c.units == case::Units::Metre { "m, N, Pa" } else { "mm, N, MPa" });
+    println!(
+        "  hypothesis: {hypothesis}; units: {}",
+        if c.units == case::Units::Metre { "m, N, Pa" } else { "mm, N, MPa" }
+    );
     for (i, mat) in m.materials.iter().enumerate() {
         println!("  material '{}': {}", m.material_names[i], describe_material(mat, c.units));
     }
@@ -367,29 +370,7 @@ fn run(
 ) -> Result<(), String> {
     let c = case::load(&path).map_err(|e| e.to_string())?;
     let model = &c.model;
-    let (mut state, out) = match &restart {
-        None => (mortex::analysis::StaticAnalysis::initial_state_of(model), output.unwrap_or_else(|| c.output.clone())),
-        Some(file) => {
-            let cp = mortex::io::checkpoint::read(file, from_step, model).map_err(|e| e.to_string())?;
-            let out = output.unwrap_or_else(|| {
-                let name = file.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
-                let stem = name.trim_end_matches(".partial").trim_end_matches(".h5");
-                file.with_file_name(format!("{stem}_from{}.h5", cp.step))
-            });
-            let same = |a: &std::path::Path, b: &std::path::Path| {
-                a == b || matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y)
-            };
-            let partial_of_out = PathBuf::from(format!("{}.partial", out.display()));
-            if same(&out, file) || same(&partial_of_out, file) {
-                return Err(format!(
-                    "--restart {}: the continuation would overwrite the file it resumes from; choose another --output",
-                    file.display()
-                ));
-            }
-            tracing::info!(file = %file.display(), step = cp.step, time = cp.time, "resuming from checkpoint");
-            (cp, out)
-        }
-    };
+    let (mut state, out) = starting_state(&c, output, restart.as_deref(), from_step)?;
     let units = c.units;
     let wear_cycles = match (model.wear.is_empty(), model.cycle) {
         (false, Some(cy)) => Some(cy.count as u64),
@@ -409,19 +390,7 @@ fn run(
         writer.set_restart_origin(file, state.step).map_err(|e| e.to_string())?;
     }
     let first_step = state.step;
-    // Wear runs count cycles (jumps included), other runs output steps.
-    let bar = match (quiet, wear_cycles) {
-        (true, _) => ProgressBar::hidden(),
-        (false, Some(n)) => ProgressBar::new(n),
-        (false, None) => ProgressBar::new(model.times.len() as u64),
-    };
-    bar.set_position(if wear_cycles.is_some() { state.wear.cycle } else { first_step as u64 });
-    let template = if wear_cycles.is_some() {
-        "{spinner} [{elapsed_precise}] {bar:40} cycle {pos}/{len} (eta {eta}) {msg}"
-    } else {
-        "{spinner} [{elapsed_precise}] {bar:40} step {pos}/{len} {msg}"
-    };
-    bar.set_style(ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_bar()));
+    let bar = progress_bar(quiet, wear_cycles, model, &state);
     let started = std::time::Instant::now();
     let mut total_its = 0;
     let res = {
@@ -465,20 +434,7 @@ fn run(
     match res {
         Ok(()) => {
             if wear_cycles.is_some() {
-                let w = &state.wear;
-                let scars: Vec<String> = model
-                    .wear
-                    .surfaces
-                    .iter()
-                    .zip(&w.depth)
-                    .zip(&w.worn_area)
-                    .map(|((s, d), area)| {
-                        let deepest = d.iter().fold(0.0_f64, |a, &b| a.max(b));
-                        let unit = if units == case::Units::Metre { "m²" } else { "mm²" };
-                        format!("{}: max depth {}, worn area {area:.4e} {unit}", s.name, units.length(deepest))
-                    })
-                    .collect();
-                println!("{}: {} cycles ({} computed); {}", c.name, w.cycle, w.computed_cycles, scars.join("; "));
+                println!("{}: {}", c.name, scar_summary(model, &state, units));
             }
             println!(
                 "{}: {} steps, {} Newton iterations, {:.2} s -> {} (+ {})",
@@ -493,6 +449,81 @@ fn run(
         }
         Err(e) => Err(format!("{e} (converged steps up to {} kept in {})", state.step, file.display())),
     }
+}
+
+/// The state a run starts from and its output file: the initial state, or a checkpoint of
+/// `restart` (whose continuation never overwrites the file it resumes from).
+fn starting_state(
+    c: &case::Case,
+    output: Option<PathBuf>,
+    restart: Option<&std::path::Path>,
+    from_step: Option<usize>,
+) -> Result<(mortex::state::SimState, PathBuf), String> {
+    let Some(file) = restart else {
+        return Ok((
+            mortex::analysis::StaticAnalysis::initial_state_of(&c.model),
+            output.unwrap_or_else(|| c.output.clone()),
+        ));
+    };
+    let cp = mortex::io::checkpoint::read(file, from_step, &c.model).map_err(|e| e.to_string())?;
+    let out = output.unwrap_or_else(|| {
+        let name = file.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+        let stem = name.trim_end_matches(".partial").trim_end_matches(".h5");
+        file.with_file_name(format!("{stem}_from{}.h5", cp.step))
+    });
+    let same = |a: &std::path::Path, b: &std::path::Path| {
+        a == b || matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y)
+    };
+    let partial_of_out = PathBuf::from(format!("{}.partial", out.display()));
+    if same(&out, file) || same(&partial_of_out, file) {
+        return Err(format!(
+            "--restart {}: the continuation would overwrite the file it resumes from; choose another --output",
+            file.display()
+        ));
+    }
+    tracing::info!(file = %file.display(), step = cp.step, time = cp.time, "resuming from checkpoint");
+    Ok((cp, out))
+}
+
+/// The run's progress bar: wear runs count cycles (jumps included), other runs output steps.
+fn progress_bar(
+    quiet: bool,
+    wear_cycles: Option<u64>,
+    model: &mortex::model::Model,
+    state: &mortex::state::SimState,
+) -> ProgressBar {
+    let bar = match (quiet, wear_cycles) {
+        (true, _) => ProgressBar::hidden(),
+        (false, Some(n)) => ProgressBar::new(n),
+        (false, None) => ProgressBar::new(model.times.len() as u64),
+    };
+    bar.set_position(if wear_cycles.is_some() { state.wear.cycle } else { state.step as u64 });
+    let template = if wear_cycles.is_some() {
+        "{spinner} [{elapsed_precise}] {bar:40} cycle {pos}/{len} (eta {eta}) {msg}"
+    } else {
+        "{spinner} [{elapsed_precise}] {bar:40} step {pos}/{len} {msg}"
+    };
+    bar.set_style(ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_bar()));
+    bar
+}
+
+/// The scars at the end of a wear run: cycles, and per wearing surface its deepest point and
+/// worn area, in the case's units.
+fn scar_summary(model: &mortex::model::Model, state: &mortex::state::SimState, units: case::Units) -> String {
+    let w = &state.wear;
+    let area_unit = if units == case::Units::Metre { "m²" } else { "mm²" };
+    let scars: Vec<String> = model
+        .wear
+        .surfaces
+        .iter()
+        .zip(&w.depth)
+        .zip(&w.worn_area)
+        .map(|((s, d), area)| {
+            let deepest = d.iter().fold(0.0_f64, |a, &b| a.max(b));
+            format!("{}: max depth {}, worn area {area:.4e} {area_unit}", s.name, units.length(deepest))
+        })
+        .collect();
+    format!("{} cycles ({} computed); {}", w.cycle, w.computed_cycles, scars.join("; "))
 }
 
 fn plot(
