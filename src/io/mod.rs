@@ -203,6 +203,42 @@ fn tensor6(s: &[f64; 4]) -> [f64; 6] {
     [s[0], s[3], 0.0, s[1], 0.0, s[2]]
 }
 
+/// The contact pairs' multiplier nodes (with their polyline segments, friction coefficient and
+/// sliding model) and the ties' multiplier nodes and normals under `/mesh`.
+fn write_contact_and_tie_meshes(mesh: &hdf5::Group, model: &Model) -> hdf5::Result<()> {
+    if !model.contact.pairs.is_empty() {
+        let cg = mesh.create_group("contacts")?;
+        for c in &model.contact.pairs {
+            let m = &c.multipliers;
+            let xy: Vec<f64> = m.points.iter().flat_map(|p| [p.x, p.y]).collect();
+            let pg = cg.create_group(&c.name)?;
+            pg.new_dataset_builder().with_data(&array2(m.num_nodes, 2, xy)).create("points")?;
+            // Multiplier nodes run along the mortar side: consecutive nodes make the
+            // contact surface's polyline in ParaView.
+            pg.new_dataset_builder().with_data(&segments(m.num_nodes, false)).create("segments")?;
+            write_attr(&pg, "mu", &c.mu)?;
+            let sliding = match c.sliding {
+                crate::contact::Sliding::Small => "small",
+                crate::contact::Sliding::Finite => "finite",
+            };
+            write_str_attr(&pg, "sliding", sliding)?;
+        }
+    }
+    if !model.ties.is_empty() {
+        let tg = mesh.create_group("ties")?;
+        for t in &model.ties {
+            let g = tg.create_group(&t.name)?;
+            let m = &t.multipliers;
+            let xy: Vec<f64> = m.points.iter().flat_map(|p| [p.x, p.y]).collect();
+            g.new_dataset_builder().with_data(&array2(m.num_nodes, 2, xy)).create("points")?;
+            let nrm: Vec<f64> = m.normals.iter().flat_map(|p| [p.x, p.y]).collect();
+            g.new_dataset_builder().with_data(&array2(m.num_nodes, 2, nrm)).create("normals")?;
+            write_str_attr(&g, "multipliers", &format!("{:?}", t.space))?;
+        }
+    }
+    Ok(())
+}
+
 /// Whether `state` is the last step of a wear run: its last cycle's wear has been applied (the
 /// step count of a run with cycle jumps is not known in advance).
 fn wear_run_ends(model: &Model, state: &SimState) -> bool {
@@ -442,65 +478,8 @@ impl ResultWriter {
             write_str_attr(&file, "hypothesis", &format!("{:?}", model.hypothesis))?;
             write_attr(&file, "completed", &0u8)?;
             let mesh = file.create_group("mesh")?;
-            for b in &model.bodies {
-                let g = mesh.create_group(&b.name)?;
-                let n = b.mesh.num_nodes();
-                let xy: Vec<f64> = b.mesh.nodes.iter().flat_map(|p| [p.x, p.y]).collect();
-                g.new_dataset_builder().with_data(&array2(n, 2, xy)).create("nodes")?;
-                let mut cells = Vec::with_capacity(4 * b.mesh.num_cells());
-                let mut topo: Vec<i64> = Vec::new();
-                for c in &b.mesh.cells {
-                    let ns = c.nodes();
-                    for k in 0..4 {
-                        cells.push(ns.get(k).map(|&v| v as i64).unwrap_or(-1));
-                    }
-                    topo.push(if ns.len() == 3 { 4 } else { 5 });
-                    topo.extend(ns.iter().map(|&v| v as i64));
-                }
-                let cells =
-                    Array2::from_shape_vec((b.mesh.num_cells(), 4), cells).unwrap_or_else(|_| Array2::zeros((0, 4)));
-                g.new_dataset_builder().with_data(&cells).create("cells")?;
-                g.new_dataset_builder().with_data(&Array1::from(topo.clone())).create("topology")?;
-                w.body_meta.push((b.name.clone(), n, b.mesh.num_cells(), topo.len()));
-                let bi = model.bodies.iter().position(|x| x.name == b.name).unwrap_or(0);
-                if let Some(cut) = &model.cuts[bi] {
-                    put(&g, "material_fraction", &Array1::from(cut.cell_fraction.clone()))?;
-                    w.cut_bodies.push(b.name.clone());
-                    if model.bands[bi].is_some() {
-                        w.moving_bodies.push(b.name.clone());
-                    }
-                }
-            }
-            if !model.contact.pairs.is_empty() {
-                let cg = mesh.create_group("contacts")?;
-                for c in &model.contact.pairs {
-                    let m = &c.multipliers;
-                    let xy: Vec<f64> = m.points.iter().flat_map(|p| [p.x, p.y]).collect();
-                    let pg = cg.create_group(&c.name)?;
-                    pg.new_dataset_builder().with_data(&array2(m.num_nodes, 2, xy)).create("points")?;
-                    // Multiplier nodes run along the mortar side: consecutive nodes make the
-                    // contact surface's polyline in ParaView.
-                    pg.new_dataset_builder().with_data(&segments(m.num_nodes, false)).create("segments")?;
-                    write_attr(&pg, "mu", &c.mu)?;
-                    let sliding = match c.sliding {
-                        crate::contact::Sliding::Small => "small",
-                        crate::contact::Sliding::Finite => "finite",
-                    };
-                    write_str_attr(&pg, "sliding", sliding)?;
-                }
-            }
-            if !model.ties.is_empty() {
-                let tg = mesh.create_group("ties")?;
-                for t in &model.ties {
-                    let g = tg.create_group(&t.name)?;
-                    let m = &t.multipliers;
-                    let xy: Vec<f64> = m.points.iter().flat_map(|p| [p.x, p.y]).collect();
-                    g.new_dataset_builder().with_data(&array2(m.num_nodes, 2, xy)).create("points")?;
-                    let nrm: Vec<f64> = m.normals.iter().flat_map(|p| [p.x, p.y]).collect();
-                    g.new_dataset_builder().with_data(&array2(m.num_nodes, 2, nrm)).create("normals")?;
-                    write_str_attr(&g, "multipliers", &format!("{:?}", t.space))?;
-                }
-            }
+            w.write_bodies(&mesh, model)?;
+            write_contact_and_tie_meshes(&mesh, model)?;
             let pts = model.point_coords();
             let xy: Vec<f64> = pts.iter().flat_map(|p| [p.x, p.y]).collect();
             put(&mesh, "points", &array2(pts.len(), 2, xy))?;
@@ -511,6 +490,41 @@ impl ResultWriter {
         w.series = Series::create(&file, model).map_err(h5err(&partial_path, "creating the series"))?;
         w.file = Some(file);
         Ok(w)
+    }
+
+    /// Per body under `/mesh`: nodes, cells, XDMF topology and the material fraction of cut
+    /// hosts; remembers what the XDMF needs of each.
+    fn write_bodies(&mut self, mesh: &hdf5::Group, model: &Model) -> hdf5::Result<()> {
+        for b in &model.bodies {
+            let g = mesh.create_group(&b.name)?;
+            let n = b.mesh.num_nodes();
+            let xy: Vec<f64> = b.mesh.nodes.iter().flat_map(|p| [p.x, p.y]).collect();
+            g.new_dataset_builder().with_data(&array2(n, 2, xy)).create("nodes")?;
+            let mut cells = Vec::with_capacity(4 * b.mesh.num_cells());
+            let mut topo: Vec<i64> = Vec::new();
+            for c in &b.mesh.cells {
+                let ns = c.nodes();
+                for k in 0..4 {
+                    cells.push(ns.get(k).map(|&v| v as i64).unwrap_or(-1));
+                }
+                topo.push(if ns.len() == 3 { 4 } else { 5 });
+                topo.extend(ns.iter().map(|&v| v as i64));
+            }
+            let cells =
+                Array2::from_shape_vec((b.mesh.num_cells(), 4), cells).unwrap_or_else(|_| Array2::zeros((0, 4)));
+            g.new_dataset_builder().with_data(&cells).create("cells")?;
+            g.new_dataset_builder().with_data(&Array1::from(topo.clone())).create("topology")?;
+            self.body_meta.push((b.name.clone(), n, b.mesh.num_cells(), topo.len()));
+            let bi = model.bodies.iter().position(|x| x.name == b.name).unwrap_or(0);
+            if let Some(cut) = &model.cuts[bi] {
+                put(&g, "material_fraction", &Array1::from(cut.cell_fraction.clone()))?;
+                self.cut_bodies.push(b.name.clone());
+                if model.bands[bi].is_some() {
+                    self.moving_bodies.push(b.name.clone());
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Writes a checkpoint (see [`checkpoint`]) every `every` output steps (0: never; default 1).
@@ -816,18 +830,41 @@ impl ResultWriter {
                 let series = format!("/series/contacts/{name}");
                 let mut attrs = vec![("pressure", "Float", 8)];
                 if *friction {
-                    attrs.extend([("shear", "Float", 8), ("slip", "Float", 8), ("accumulated_slip", "Float", 8), ("status", "UChar", 1)]);
+                    attrs.extend([
+                        ("shear", "Float", 8),
+                        ("slip", "Float", 8),
+                        ("accumulated_slip", "Float", 8),
+                        ("status", "UChar", 1),
+                    ]);
                 }
-                let attrs: Vec<(&str, String)> =
-                    attrs.into_iter().map(|(a, ty, prec)| (a, slab(&h5, &format!("{series}/{a}"), k, rows, &[*l], ty, prec))).collect();
+                let attrs: Vec<(&str, String)> = attrs
+                    .into_iter()
+                    .map(|(a, ty, prec)| (a, slab(&h5, &format!("{series}/{a}"), k, rows, &[*l], ty, prec)))
+                    .collect();
                 let geometry = slab(&h5, &format!("{series}/position"), k, rows, &[*l, 2], "Float", 8);
-                polyline_grid(&mut x, &h5, name, &format!("/mesh/contacts/{name}/segments"), l.saturating_sub(1), &geometry, &attrs);
+                polyline_grid(
+                    &mut x,
+                    &h5,
+                    name,
+                    &format!("/mesh/contacts/{name}/segments"),
+                    l.saturating_sub(1),
+                    &geometry,
+                    &attrs,
+                );
             }
             if let (Some(w), Some(r)) = (wear, wear_row) {
                 for (name, v, segments) in &w.meta {
                     let geometry = slab(&h5, &format!("/wear/{name}/vertices"), r, w.rows, &[*v, 2], "Float", 8);
                     let depth = slab(&h5, &format!("/wear/{name}/depth"), r, w.rows, &[*v], "Float", 8);
-                    polyline_grid(&mut x, &h5, name, &format!("/wear/{name}/segments"), *segments, &geometry, &[("depth", depth)]);
+                    polyline_grid(
+                        &mut x,
+                        &h5,
+                        name,
+                        &format!("/wear/{name}/segments"),
+                        *segments,
+                        &geometry,
+                        &[("depth", depth)],
+                    );
                 }
             }
             let _ = writeln!(x, "   </Grid>");
@@ -849,7 +886,11 @@ impl ResultWriter {
                 "     <Topology TopologyType=\"Mixed\" NumberOfElements=\"{nc}\">{}</Topology>",
                 item(format!("{tl}"), "Int", format!("/mesh/{name}/topology"))
             );
-            let _ = writeln!(x, "     <Geometry GeometryType=\"XY\">{}</Geometry>", item(format!("{n} 2"), "Float", format!("/mesh/{name}/nodes")));
+            let _ = writeln!(
+                x,
+                "     <Geometry GeometryType=\"XY\">{}</Geometry>",
+                item(format!("{n} 2"), "Float", format!("/mesh/{name}/nodes"))
+            );
             for (attr, data, kind, comps, centre, count) in [
                 ("displacement", "displacement", "Vector", 3, "Node", n),
                 ("stress", "stress_tensor", "Tensor6", 6, "Node", n),
@@ -899,7 +940,15 @@ fn slab(h5: &str, path: &str, row: usize, rows: usize, rest: &[usize], ty: &str,
 
 /// A polyline grid: segments from `segments_path`, geometry and node attributes given as data
 /// items.
-fn polyline_grid(x: &mut String, h5: &str, name: &str, segments_path: &str, segments: usize, geometry: &str, attrs: &[(&str, String)]) {
+fn polyline_grid(
+    x: &mut String,
+    h5: &str,
+    name: &str,
+    segments_path: &str,
+    segments: usize,
+    geometry: &str,
+    attrs: &[(&str, String)],
+) {
     let _ = writeln!(x, "    <Grid Name=\"{name}\" GridType=\"Uniform\">");
     let _ = writeln!(
         x,
@@ -907,7 +956,8 @@ fn polyline_grid(x: &mut String, h5: &str, name: &str, segments_path: &str, segm
     );
     let _ = writeln!(x, "     <Geometry GeometryType=\"XY\">{geometry}</Geometry>");
     for (attr, item) in attrs {
-        let _ = writeln!(x, "     <Attribute Name=\"{attr}\" AttributeType=\"Scalar\" Center=\"Node\">{item}</Attribute>");
+        let _ =
+            writeln!(x, "     <Attribute Name=\"{attr}\" AttributeType=\"Scalar\" Center=\"Node\">{item}</Attribute>");
     }
     let _ = writeln!(x, "    </Grid>");
 }
