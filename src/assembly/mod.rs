@@ -116,97 +116,15 @@ impl SparsityPattern {
         fixed_rows: usize,
         couplings: &[(usize, usize)],
     ) -> Self {
-        let mut coupled_rows: Vec<Vec<usize>> = vec![Vec::new(); constraints.len()];
-        for &(r, c) in couplings {
-            assert!(r >= fixed_rows && c >= fixed_rows && r < constraints.len() && c < constraints.len());
-            coupled_rows[c].push(r);
-        }
-        let mut adj: Vec<Vec<usize>> = vec![Vec::new(); num_nodes];
-        for (e, nodes) in elements.nodes.iter().enumerate() {
-            let nn = elements.kind[e].num_nodes();
-            for &a in &nodes[..nn] {
-                adj[a].extend_from_slice(&nodes[..nn]);
-            }
-        }
-        adj.par_iter_mut().for_each(|v| {
-            v.sort_unstable();
-            v.dedup();
-        });
         let nf = dofs.num_free;
         let n = nf + constraints.len();
-        // Constraint rows touching each free equation.
-        let mut eq_rows: Vec<Vec<usize>> = vec![Vec::new(); nf];
-        for (r, row) in constraints.iter().enumerate() {
-            for &(d, _) in row {
-                let e = dofs.eq[d];
-                if e != CONSTRAINED && eq_rows[e].last() != Some(&(nf + r)) {
-                    eq_rows[e].push(nf + r);
-                }
-            }
-        }
-        // Penalty couplings beyond the element adjacency, per free column.
-        let mut extra_rows: Vec<Vec<usize>> = vec![Vec::new(); nf];
-        for &(i, j, _) in penalty {
-            let (ri, cj) = (dofs.eq[i], dofs.eq[j]);
-            if ri != CONSTRAINED && cj != CONSTRAINED {
-                extra_rows[cj].push(ri);
-            }
-        }
-        let mut col_ptr = Vec::with_capacity(n + 1);
-        col_ptr.push(0usize);
-        let mut row_idx = Vec::new();
-        for (e, &g) in dofs.free.iter().enumerate() {
-            let node = g / 2;
-            let start = row_idx.len();
-            for &m in &adj[node] {
-                for d in [2 * m, 2 * m + 1] {
-                    let r = dofs.eq[d];
-                    if r != CONSTRAINED {
-                        row_idx.push(r);
-                    }
-                }
-            }
-            if !extra_rows[e].is_empty() {
-                row_idx.extend_from_slice(&extra_rows[e]);
-                row_idx[start..].sort_unstable();
-                let mut col: Vec<usize> = row_idx.split_off(start);
-                col.dedup();
-                row_idx.extend_from_slice(&col);
-            }
-            let mut cr = eq_rows[e].clone();
-            cr.sort_unstable();
-            cr.dedup();
-            row_idx.extend_from_slice(&cr);
-            col_ptr.push(row_idx.len());
-        }
-        for (r, row) in constraints.iter().enumerate() {
-            let mut rows: Vec<usize> = row.iter().map(|&(d, _)| dofs.eq[d]).filter(|&e| e != CONSTRAINED).collect();
-            if r >= fixed_rows {
-                rows.push(nf + r);
-            }
-            rows.extend(coupled_rows[r].iter().map(|&q| nf + q));
-            rows.sort_unstable();
-            rows.dedup();
-            row_idx.extend_from_slice(&rows);
-            col_ptr.push(row_idx.len());
-        }
-        let mut diag_scatter = Vec::new();
-        for r in fixed_rows..constraints.len() {
-            let c = nf + r;
-            if let Ok(p) = row_idx[col_ptr[c]..col_ptr[c + 1]].binary_search(&c) {
-                diag_scatter.push(col_ptr[c] + p);
-            }
-        }
-        let coupling_scatter = couplings
-            .iter()
-            .map(|&(r, c)| {
-                let col = nf + c;
-                // Always found: the entry was inserted above.
-                row_idx[col_ptr[col]..col_ptr[col + 1]]
-                    .binary_search(&(nf + r))
-                    .map_or(usize::MAX, |p| col_ptr[col] + p)
-            })
-            .collect();
+        let (col_ptr, row_idx) = columns(num_nodes, elements, dofs, constraints, penalty, fixed_rows, couplings);
+        let entry = |row: usize, col: usize| {
+            row_idx[col_ptr[col]..col_ptr[col + 1]].binary_search(&row).ok().map(|p| col_ptr[col] + p)
+        };
+        let diag_scatter = (fixed_rows..constraints.len()).filter_map(|r| entry(nf + r, nf + r)).collect();
+        // Always found: the coupling entries were inserted by `columns`.
+        let coupling_scatter = couplings.iter().map(|&(r, c)| entry(nf + r, nf + c).unwrap_or(usize::MAX)).collect();
         // Where each constraint coefficient goes: (row r, column e) and (row e, column r).
         let mut constraint_scatter = Vec::new();
         for (r, row) in constraints.iter().enumerate() {
@@ -216,43 +134,20 @@ impl SparsityPattern {
                 if e == CONSTRAINED {
                     continue;
                 }
-                let col_e = &row_idx[col_ptr[e]..col_ptr[e + 1]];
-                let col_r = &row_idx[col_ptr[cr]..col_ptr[cr + 1]];
-                if let (Ok(p1), Ok(p2)) = (col_e.binary_search(&cr), col_r.binary_search(&e)) {
-                    constraint_scatter.push((r, col_ptr[e] + p1, col_ptr[cr] + p2, coef));
+                if let (Some(p1), Some(p2)) = (entry(cr, e), entry(e, cr)) {
+                    constraint_scatter.push((r, p1, p2, coef));
                 }
             }
         }
-        let mut scatter = vec![CONSTRAINED; 64 * elements.len()];
-        scatter.par_chunks_mut(64).enumerate().for_each(|(e, sc)| {
-            let nn = elements.kind[e].num_nodes();
-            let nodes = &elements.nodes[e];
-            for j in 0..2 * nn {
-                let cj = dofs.eq[2 * nodes[j / 2] + j % 2];
-                if cj == CONSTRAINED {
-                    continue;
-                }
-                let col = &row_idx[col_ptr[cj]..col_ptr[cj + 1]];
-                for i in 0..2 * nn {
-                    let ri = dofs.eq[2 * nodes[i / 2] + i % 2];
-                    if ri == CONSTRAINED {
-                        continue;
-                    }
-                    // Rows of a column are sorted: binary search.
-                    if let Ok(p) = col.binary_search(&ri) {
-                        sc[i * 8 + j] = col_ptr[cj] + p;
-                    }
-                }
-            }
-        });
+        let scatter = element_scatter(elements, dofs, &col_ptr, &row_idx);
         let mut penalty_scatter = Vec::new();
         for &(i, j, v) in penalty {
             let (ri, cj) = (dofs.eq[i], dofs.eq[j]);
             if ri == CONSTRAINED || cj == CONSTRAINED {
                 continue;
             }
-            if let Ok(p) = row_idx[col_ptr[cj]..col_ptr[cj + 1]].binary_search(&ri) {
-                penalty_scatter.push((col_ptr[cj] + p, v));
+            if let Some(p) = entry(ri, cj) {
+                penalty_scatter.push((p, v));
             }
         }
         let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
@@ -512,4 +407,122 @@ impl Assembler {
             }
         }
     }
+}
+
+/// Node adjacency through the elements, then the compressed columns of the saddle-point
+/// matrix: per free equation the free DOFs of its node's neighbours, the penalty couplings and
+/// the constraint rows touching it; per constraint row its free DOFs, its own diagonal (rows
+/// from `fixed_rows` on) and its coupled rows.
+fn columns(
+    num_nodes: usize,
+    elements: &ElementTable,
+    dofs: &DofMap,
+    constraints: &[Vec<(usize, f64)>],
+    penalty: &[(usize, usize, f64)],
+    fixed_rows: usize,
+    couplings: &[(usize, usize)],
+) -> (Vec<usize>, Vec<usize>) {
+    let mut coupled_rows: Vec<Vec<usize>> = vec![Vec::new(); constraints.len()];
+    for &(r, c) in couplings {
+        assert!(r >= fixed_rows && c >= fixed_rows && r < constraints.len() && c < constraints.len());
+        coupled_rows[c].push(r);
+    }
+    let mut adj: Vec<Vec<usize>> = vec![Vec::new(); num_nodes];
+    for (e, nodes) in elements.nodes.iter().enumerate() {
+        let nn = elements.kind[e].num_nodes();
+        for &a in &nodes[..nn] {
+            adj[a].extend_from_slice(&nodes[..nn]);
+        }
+    }
+    adj.par_iter_mut().for_each(|v| {
+        v.sort_unstable();
+        v.dedup();
+    });
+    let nf = dofs.num_free;
+    let n = nf + constraints.len();
+    // Constraint rows touching each free equation.
+    let mut eq_rows: Vec<Vec<usize>> = vec![Vec::new(); nf];
+    for (r, row) in constraints.iter().enumerate() {
+        for &(d, _) in row {
+            let e = dofs.eq[d];
+            if e != CONSTRAINED && eq_rows[e].last() != Some(&(nf + r)) {
+                eq_rows[e].push(nf + r);
+            }
+        }
+    }
+    // Penalty couplings beyond the element adjacency, per free column.
+    let mut extra_rows: Vec<Vec<usize>> = vec![Vec::new(); nf];
+    for &(i, j, _) in penalty {
+        let (ri, cj) = (dofs.eq[i], dofs.eq[j]);
+        if ri != CONSTRAINED && cj != CONSTRAINED {
+            extra_rows[cj].push(ri);
+        }
+    }
+    let mut col_ptr = Vec::with_capacity(n + 1);
+    col_ptr.push(0usize);
+    let mut row_idx = Vec::new();
+    for (e, &g) in dofs.free.iter().enumerate() {
+        let node = g / 2;
+        let start = row_idx.len();
+        for &m in &adj[node] {
+            for d in [2 * m, 2 * m + 1] {
+                let r = dofs.eq[d];
+                if r != CONSTRAINED {
+                    row_idx.push(r);
+                }
+            }
+        }
+        if !extra_rows[e].is_empty() {
+            row_idx.extend_from_slice(&extra_rows[e]);
+            row_idx[start..].sort_unstable();
+            let mut col: Vec<usize> = row_idx.split_off(start);
+            col.dedup();
+            row_idx.extend_from_slice(&col);
+        }
+        let mut cr = eq_rows[e].clone();
+        cr.sort_unstable();
+        cr.dedup();
+        row_idx.extend_from_slice(&cr);
+        col_ptr.push(row_idx.len());
+    }
+    for (r, row) in constraints.iter().enumerate() {
+        let mut rows: Vec<usize> = row.iter().map(|&(d, _)| dofs.eq[d]).filter(|&e| e != CONSTRAINED).collect();
+        if r >= fixed_rows {
+            rows.push(nf + r);
+        }
+        rows.extend(coupled_rows[r].iter().map(|&q| nf + q));
+        rows.sort_unstable();
+        rows.dedup();
+        row_idx.extend_from_slice(&rows);
+        col_ptr.push(row_idx.len());
+    }
+    (col_ptr, row_idx)
+}
+
+/// Per element, where each of its (up to 8 x 8) stiffness entries goes in the matrix values
+/// (`CONSTRAINED`: nowhere).
+fn element_scatter(elements: &ElementTable, dofs: &DofMap, col_ptr: &[usize], row_idx: &[usize]) -> Vec<usize> {
+    let mut scatter = vec![CONSTRAINED; 64 * elements.len()];
+    scatter.par_chunks_mut(64).enumerate().for_each(|(e, sc)| {
+        let nn = elements.kind[e].num_nodes();
+        let nodes = &elements.nodes[e];
+        for j in 0..2 * nn {
+            let cj = dofs.eq[2 * nodes[j / 2] + j % 2];
+            if cj == CONSTRAINED {
+                continue;
+            }
+            let col = &row_idx[col_ptr[cj]..col_ptr[cj + 1]];
+            for i in 0..2 * nn {
+                let ri = dofs.eq[2 * nodes[i / 2] + i % 2];
+                if ri == CONSTRAINED {
+                    continue;
+                }
+                // Rows of a column are sorted: binary search.
+                if let Ok(p) = col.binary_search(&ri) {
+                    sc[i * 8 + j] = col_ptr[cj] + p;
+                }
+            }
+        }
+    });
+    scatter
 }
