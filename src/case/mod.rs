@@ -528,8 +528,6 @@ pub fn load(path: &Path) -> Result<Case, CaseError> {
     parse(&text, &p, &base, &name)
 }
 
-/// Parses and validates case text; `path` names the file in errors, relative mesh files are
-/// resolved against `base`.
 /// The pairing of a contact whose case does not choose one: finite sliding when the pair wears
 /// and its prescribed stroke (peak to peak) is more than half its surfaces' smallest element
 /// `h`: the scar is then swept by the stroke, which the reference pairing of small sliding
@@ -595,6 +593,8 @@ fn prescribed_stroke(raw: &CaseFile, bodies: &[&String]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// Parses and validates case text; `path` names the file in errors, relative mesh files are
+/// resolved against `base`.
 pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, CaseError> {
     let mut raw: CaseFile =
         toml::from_str(text).map_err(|e| CaseError::Toml { path: path.to_string(), message: e.to_string() })?;
@@ -602,10 +602,68 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
     let hyp = raw.problem.hypothesis;
     let mut b = ModelBuilder::new(hyp);
 
-    // Materials.
+    let (mat_names, mat_models) = add_materials(&cx, hyp, &raw.materials, &mut b)?;
+    let body_names = add_bodies(&cx, hyp, &raw.bodies, &mat_names, &mat_models, base, &mut b)?;
+    let curves = add_curves(&cx, &raw.curves, &mut b)?;
+    add_rigid_sets(&cx, &raw.rigid, &body_names, &mut b)?;
+    add_bcs(&cx, &raw.bcs, &body_names, &curves, &mut b)?;
+    add_loads(&cx, &raw.loads, &body_names, &curves, &mut b)?;
+    b.use_curve(0);
+    let curves_end = b.curves_end_time();
+    add_ties(&cx, &raw.ties, &body_names, &mut b)?;
+
+    // The smallest element of each contact's real surfaces (before worn boundaries become cuts).
+    let contact_spacing: Vec<f64> = raw.contacts.iter().map(|c| real_surface_spacing(&b, c)).collect();
+    let wear_cuts = worn_boundaries_to_cuts(&cx, &raw.wear, &mut raw.contacts, &body_names, &mut b)?;
+    add_free_cuts(&cx, &raw.cuts, &body_names, &curves, &mut b)?;
+    add_contacts(&cx, &raw, &body_names, &contact_spacing, &wear_cuts, &mut b)?;
+    add_wear(&cx, &raw.wear, &raw.cuts, &wear_cuts, &mut b)?;
+    if let Some(j) = &raw.cycle_jump {
+        add_cycle_jump(&cx, j, &raw.wear, &mut b)?;
+    }
+    if !raw.wear.is_empty() && raw.steps.cycle.is_none() {
+        return Err(cx.err("wear", "wear runs are cyclic: give steps.cycle = [start, end] and steps.cycles = N"));
+    }
+
+    if let Some(g) = raw.solver.ghost_penalty {
+        if !(g.is_finite() && g >= 0.0) {
+            return Err(cx.err("solver.ghost_penalty", format!("must be finite and >= 0, got {g}")));
+        }
+        b.set_ghost_penalty(g);
+    }
+
+    let (load_path, times) = steps(&cx, &raw, curves_end, &mut b)?;
+    let np = newton_params(&cx, &raw.solver)?;
+    let model = b
+        .build(load_path, times, np, raw.solver.linear)
+        .map_err(|e| model_err(&cx, build_error_key(&raw, &wear_cuts, &e), e))?;
+    let output = raw.output.file.clone().unwrap_or_else(|| PathBuf::from("results").join(format!("{name}.h5")));
+    Ok(Case {
+        name: name.to_string(),
+        units: raw.problem.units,
+        source: PathBuf::from(path),
+        model,
+        output,
+        serial: raw.solver.serial,
+        checkpoint_every: raw.output.checkpoint_every.unwrap_or(1),
+        fields_every: match raw.output.fields_every {
+            None => 1,
+            Some(0) => return Err(cx.err("output.fields_every", "must be at least 1")),
+            Some(k) => k,
+        },
+    })
+}
+
+/// `[[materials]]`: adds each material's law; returns their names and models, in order.
+fn add_materials<'a>(
+    cx: &Ctx,
+    hyp: PlaneHypothesis,
+    materials: &'a [MaterialSpec],
+    b: &mut ModelBuilder,
+) -> Result<(Vec<&'a str>, Vec<MaterialModel>), CaseError> {
     let mut mat_names: Vec<&str> = vec![];
     let mut mat_models = vec![];
-    for (i, m) in raw.materials.iter().enumerate() {
+    for (i, m) in materials.iter().enumerate() {
         let k = |f: &str| format!("materials[{i}].{f}");
         if mat_names.contains(&m.name.as_str()) {
             return Err(cx.err(k("name"), format!("duplicate material name '{}'", m.name)));
@@ -658,13 +716,24 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         mat_models.push(m.model);
         b.add_material(&m.name, mat);
     }
+    Ok((mat_names, mat_models))
+}
 
-    // Bodies.
-    if raw.bodies.is_empty() {
+/// `[[bodies]]`: adds each body's mesh, material, thickness and formulation; returns their names.
+fn add_bodies<'a>(
+    cx: &Ctx,
+    hyp: PlaneHypothesis,
+    bodies: &'a [BodySpec],
+    mat_names: &[&str],
+    mat_models: &[MaterialModel],
+    base: &Path,
+    b: &mut ModelBuilder,
+) -> Result<Vec<&'a str>, CaseError> {
+    if bodies.is_empty() {
         return Err(cx.err("bodies", "the case defines no body"));
     }
     let mut body_names: Vec<&str> = vec![];
-    for (i, bs) in raw.bodies.iter().enumerate() {
+    for (i, bs) in bodies.iter().enumerate() {
         let k = |f: &str| format!("bodies[{i}].{f}");
         if body_names.contains(&bs.name.as_str()) {
             return Err(cx.err(k("name"), format!("duplicate body name '{}'", bs.name)));
@@ -697,19 +766,16 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         let mesh = build_mesh(&bs.mesh, base).map_err(|msg| cx.err(k("mesh"), msg))?;
         b.add_body(&bs.name, mesh, mi, formulation, thickness);
     }
+    Ok(body_names)
+}
 
-    // Load curves (id 0 is steps.path).
-    let mut curve_names: Vec<String> = Vec::new();
-    for (i, c) in raw.curves.iter().enumerate() {
-        if curve_names.contains(&c.name) || c.name == "path" {
-            return Err(cx.err(format!("curves[{i}].name"), format!("curve name '{}' is used twice", c.name)));
-        }
-        let pts: Vec<(f64, f64)> = c.path.iter().map(|p| (p[0], p[1])).collect();
-        let path = LoadPath::new(pts).map_err(|e| model_err(&cx, format!("curves[{i}].path"), e))?;
-        b.add_curve(path);
-        curve_names.push(c.name.clone());
-    }
-    let curve_id = |name: &Option<String>, key: String| -> Result<usize, CaseError> {
+/// The names of the `[[curves]]`, in order: curve `i` has id `i + 1` (id 0 is `steps.path`).
+struct CurveNames(Vec<String>);
+
+impl CurveNames {
+    /// The id of the curve `name` (0, `steps.path`, if none is named); `key` names it in errors.
+    fn id(&self, cx: &Ctx, name: &Option<String>, key: String) -> Result<usize, CaseError> {
+        let curve_names = &self.0;
         match name {
             None => Ok(0),
             Some(n) => curve_names
@@ -718,19 +784,45 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                 .map(|i| i + 1)
                 .ok_or_else(|| cx.err(key, format!("no curve named '{n}' (defined: {})", curve_names.join(", ")))),
         }
-    };
+    }
+}
 
-    // Rigid sets.
-    for (i, r) in raw.rigid.iter().enumerate() {
+/// `[[curves]]`: adds the named load curves (ids 1, 2, ...; id 0 is `steps.path`).
+fn add_curves(cx: &Ctx, curves: &[CurveSpec], b: &mut ModelBuilder) -> Result<CurveNames, CaseError> {
+    let mut curve_names: Vec<String> = Vec::new();
+    for (i, c) in curves.iter().enumerate() {
+        if curve_names.contains(&c.name) || c.name == "path" {
+            return Err(cx.err(format!("curves[{i}].name"), format!("curve name '{}' is used twice", c.name)));
+        }
+        let pts: Vec<(f64, f64)> = c.path.iter().map(|p| (p[0], p[1])).collect();
+        let path = LoadPath::new(pts).map_err(|e| model_err(cx, format!("curves[{i}].path"), e))?;
+        b.add_curve(path);
+        curve_names.push(c.name.clone());
+    }
+    Ok(CurveNames(curve_names))
+}
+
+/// `[[rigid]]`: makes each set of nodes move as one translation.
+fn add_rigid_sets(cx: &Ctx, rigid: &[RigidSpec], body_names: &[&str], b: &mut ModelBuilder) -> Result<(), CaseError> {
+    for (i, r) in rigid.iter().enumerate() {
         let k = |f: &str| format!("rigid[{i}].{f}");
         let bi = b.body_index(&r.body).map_err(|_| {
             cx.err(k("body"), format!("no body named '{}' (defined: {})", r.body, body_names.join(", ")))
         })?;
-        b.rigid_set(bi, &r.set).map_err(|e| model_err(&cx, k("set"), e))?;
+        b.rigid_set(bi, &r.set).map_err(|e| model_err(cx, k("set"), e))?;
     }
+    Ok(())
+}
 
-    // Boundary conditions.
-    for (i, bc) in raw.bcs.iter().enumerate() {
+/// `[[bcs]]`: prescribes displacements on sets, each following its load curve.
+fn add_bcs(
+    cx: &Ctx,
+    bcs: &[BcSpec],
+    body_names: &[&str],
+    curves: &CurveNames,
+    b: &mut ModelBuilder,
+) -> Result<(), CaseError> {
+    for (i, bc) in bcs.iter().enumerate() {
         let k = |f: &str| format!("bcs[{i}].{f}");
         let bi = b.body_index(&bc.body).map_err(|_| {
             cx.err(k("body"), format!("no body named '{}' (defined: {})", bc.body, body_names.join(", ")))
@@ -738,17 +830,26 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         if bc.ux.is_none() && bc.uy.is_none() {
             return Err(cx.err(format!("bcs[{i}]"), "give ux, uy or both"));
         }
-        b.use_curve(curve_id(&bc.curve, k("curve"))?);
+        b.use_curve(curves.id(cx, &bc.curve, k("curve"))?);
         for (comp, v, f) in [(0, bc.ux, "ux"), (1, bc.uy, "uy")] {
             if let Some(v) = v {
                 let v = cx.finite(&k(f), v)?;
-                b.fix(bi, &bc.set, comp, v).map_err(|e| model_err(&cx, k("set"), e))?;
+                b.fix(bi, &bc.set, comp, v).map_err(|e| model_err(cx, k("set"), e))?;
             }
         }
     }
+    Ok(())
+}
 
-    // Loads.
-    for (i, l) in raw.loads.iter().enumerate() {
+/// `[[loads]]`: adds pressures, tractions and forces on sets, each following its load curve.
+fn add_loads(
+    cx: &Ctx,
+    loads: &[LoadSpec],
+    body_names: &[&str],
+    curves: &CurveNames,
+    b: &mut ModelBuilder,
+) -> Result<(), CaseError> {
+    for (i, l) in loads.iter().enumerate() {
         let k = |f: &str| format!("loads[{i}].{f}");
         let bi = b.body_index(&l.body).map_err(|_| {
             cx.err(k("body"), format!("no body named '{}' (defined: {})", l.body, body_names.join(", ")))
@@ -760,29 +861,29 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         if given != 1 {
             return Err(cx.err(format!("loads[{i}]"), "give exactly one of pressure, traction, force, total_force"));
         }
-        b.use_curve(curve_id(&l.curve, k("curve"))?);
+        b.use_curve(curves.id(cx, &l.curve, k("curve"))?);
         if let Some(p) = l.pressure {
-            b.pressure(bi, &l.set, cx.finite(&k("pressure"), p)?).map_err(|e| model_err(&cx, k("set"), e))?;
+            b.pressure(bi, &l.set, cx.finite(&k("pressure"), p)?).map_err(|e| model_err(cx, k("set"), e))?;
         }
         if let Some(t) = l.traction {
             let t = Vector2::new(cx.finite(&k("traction"), t[0])?, cx.finite(&k("traction"), t[1])?);
-            b.traction(bi, &l.set, t).map_err(|e| model_err(&cx, k("set"), e))?;
+            b.traction(bi, &l.set, t).map_err(|e| model_err(cx, k("set"), e))?;
         }
         if let Some(f) = l.force {
             let f = Vector2::new(cx.finite(&k("force"), f[0])?, cx.finite(&k("force"), f[1])?);
-            b.point_load(bi, &l.set, f).map_err(|e| model_err(&cx, k("set"), e))?;
+            b.point_load(bi, &l.set, f).map_err(|e| model_err(cx, k("set"), e))?;
         }
         if let Some(f) = l.total_force {
             let f = Vector2::new(cx.finite(&k("total_force"), f[0])?, cx.finite(&k("total_force"), f[1])?);
-            b.total_load(bi, &l.set, f).map_err(|e| model_err(&cx, k("set"), e))?;
+            b.total_load(bi, &l.set, f).map_err(|e| model_err(cx, k("set"), e))?;
         }
     }
+    Ok(())
+}
 
-    b.use_curve(0);
-    let curves_end = b.curves_end_time();
-
-    // Ties (mortar coupling of overlapping meshes).
-    for (i, t) in raw.ties.iter().enumerate() {
+/// `[[ties]]`: mortar coupling of overlapping meshes (embedded) or of coinciding surfaces.
+fn add_ties(cx: &Ctx, ties: &[TieSpec], body_names: &[&str], b: &mut ModelBuilder) -> Result<(), CaseError> {
+    for (i, t) in ties.iter().enumerate() {
         let k = |f: &str| format!("ties[{i}].{f}");
         let body = |name: &str, key: &str| {
             b.body_index(name)
@@ -795,17 +896,22 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
             None => b.add_tie(&name, host, patch, &t.boundary, t.multipliers),
             Some(hs) => b.add_surface_tie(&name, patch, &t.boundary, host, hs, t.multipliers),
         }
-        .map_err(|e| model_err(&cx, k("boundary"), e))?;
+        .map_err(|e| model_err(cx, k("boundary"), e))?;
     }
+    Ok(())
+}
 
-    // The smallest element of each contact's real surfaces (before worn boundaries become cuts).
-    let contact_spacing: Vec<f64> = raw.contacts.iter().map(|c| real_surface_spacing(&b, c)).collect();
-
-    // Worn real boundaries become cuts that coincide with them; contacts on those boundaries
-    // use the cuts.
-    let mut wear_cuts: Vec<String> = Vec::with_capacity(raw.wear.len());
-    let mut contacts = std::mem::take(&mut raw.contacts);
-    for (i, w) in raw.wear.iter().enumerate() {
+/// `[[wear]]` on real boundaries: each becomes a cut coinciding with it, and contacts on that
+/// boundary use the cut; returns the cut of every wear entry, in order.
+fn worn_boundaries_to_cuts(
+    cx: &Ctx,
+    wear: &[WearSpec],
+    contacts: &mut [ContactSpec],
+    body_names: &[&str],
+    b: &mut ModelBuilder,
+) -> Result<Vec<String>, CaseError> {
+    let mut wear_cuts: Vec<String> = Vec::with_capacity(wear.len());
+    for (i, w) in wear.iter().enumerate() {
         let k = |f: &str| format!("wear[{i}].{f}");
         match (&w.cut, &w.body, &w.surface) {
             (Some(cut), None, None) => wear_cuts.push(cut.clone()),
@@ -814,7 +920,7 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                     cx.err(k("body"), format!("no body named '{body_name}' (defined: {})", body_names.join(", ")))
                 })?;
                 let name = format!("{body_name}.{}", sets.join("+"));
-                b.add_boundary_cut(&name, bi, sets).map_err(|e| model_err(&cx, k("surface"), e))?;
+                b.add_boundary_cut(&name, bi, sets).map_err(|e| model_err(cx, k("surface"), e))?;
                 for c in contacts.iter_mut() {
                     if c.mortar == *body_name && c.mortar_cut.is_none() && c.mortar_surface == *sets {
                         c.mortar_surface.clear();
@@ -830,10 +936,18 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
             _ => return Err(cx.err(format!("wear[{i}]"), "give either cut, or body and surface")),
         }
     }
-    raw.contacts = contacts;
+    Ok(wear_cuts)
+}
 
-    // Free cuts (virtual surfaces without a partner).
-    for (i, c) in raw.cuts.iter().enumerate() {
+/// `[[cuts]]`: free virtual surfaces (without a partner), fixed or moving along a load curve.
+fn add_free_cuts(
+    cx: &Ctx,
+    cuts: &[CutSpec],
+    body_names: &[&str],
+    curves: &CurveNames,
+    b: &mut ModelBuilder,
+) -> Result<(), CaseError> {
+    for (i, c) in cuts.iter().enumerate() {
         let k = |f: &str| format!("cuts[{i}].{f}");
         let bi = b.body_index(&c.body).map_err(|_| {
             cx.err(k("body"), format!("no body named '{}' (defined: {})", c.body, body_names.join(", ")))
@@ -843,9 +957,9 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
             pts.push(Point2::new(cx.finite(&k("points"), p[0])?, cx.finite(&k("points"), p[1])?));
         }
         let name = c.name.clone().unwrap_or_else(|| format!("cut{i}"));
-        b.add_cut(&name, bi, pts, c.closed, c.keep == KeepSide::Left).map_err(|e| model_err(&cx, k("points"), e))?;
+        b.add_cut(&name, bi, pts, c.closed, c.keep == KeepSide::Left).map_err(|e| model_err(cx, k("points"), e))?;
         if let Some(m) = &c.motion {
-            let curve = curve_id(&m.curve, k("motion.curve"))?;
+            let curve = curves.id(cx, &m.curve, k("motion.curve"))?;
             let motion = match (m.translation, m.offset) {
                 (Some(d), None) => crate::discretisation::SurfaceMotion::Translation {
                     direction: Vector2::new(
@@ -864,10 +978,21 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                 }
                 _ => return Err(cx.err(k("motion"), "give exactly one of translation, offset")),
             };
-            b.set_cut_motion(&name, motion).map_err(|e| model_err(&cx, k("motion"), e))?;
+            b.set_cut_motion(&name, motion).map_err(|e| model_err(cx, k("motion"), e))?;
         }
     }
+    Ok(())
+}
 
+/// `[[contacts]]` (after worn boundaries became cuts): mortar contact pairs on edge sets or cuts.
+fn add_contacts(
+    cx: &Ctx,
+    raw: &CaseFile,
+    body_names: &[&str],
+    contact_spacing: &[f64],
+    wear_cuts: &[String],
+    b: &mut ModelBuilder,
+) -> Result<(), CaseError> {
     for (i, c) in raw.contacts.iter().enumerate() {
         let k = |f: &str| format!("contacts[{i}].{f}");
         let body = |name: &str, key: &str| {
@@ -877,9 +1002,9 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         let mortar = body(&c.mortar, "mortar")?;
         let other_body = body(&c.other, "other")?;
         let other = match (&c.other_surface, &c.other_cut) {
-            (Some(sets), None) => ContactOther::Edges(
-                b.global_edges(other_body, sets).map_err(|e| model_err(&cx, k("other_surface"), e))?,
-            ),
+            (Some(sets), None) => {
+                ContactOther::Edges(b.global_edges(other_body, sets).map_err(|e| model_err(cx, k("other_surface"), e))?)
+            }
             (None, Some(cut)) => {
                 if !wear_cuts.contains(cut)
                     && !raw.cuts.iter().enumerate().any(|(j, cs)| {
@@ -898,7 +1023,7 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                 cx.err(k("friction"), format!("the friction coefficient must be finite and >= 0, got {}", c.friction))
             );
         }
-        let sliding = c.sliding.unwrap_or_else(|| scene_sliding(&raw, c, contact_spacing[i], &wear_cuts));
+        let sliding = c.sliding.unwrap_or_else(|| scene_sliding(raw, c, contact_spacing[i], wear_cuts));
         let params = crate::model::ContactParams {
             friction: c.friction,
             multipliers: c.multipliers.unwrap_or(DEFAULT_CONTACT_MULTIPLIERS),
@@ -923,14 +1048,24 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                 ModelError::Contact { key, .. } => k(key),
                 _ => k("mortar_surface"),
             };
-            model_err(&cx, key, e)
+            model_err(cx, key, e)
         })?;
     }
+    Ok(())
+}
 
-    for (i, (w, cut)) in raw.wear.iter().zip(&wear_cuts).enumerate() {
+/// `[[wear]]`: the wear law, coefficient and depth of each worn surface (`wear_cuts`, in order).
+fn add_wear(
+    cx: &Ctx,
+    wear: &[WearSpec],
+    cuts: &[CutSpec],
+    wear_cuts: &[String],
+    b: &mut ModelBuilder,
+) -> Result<(), CaseError> {
+    for (i, (w, cut)) in wear.iter().zip(wear_cuts).enumerate() {
         let k = |f: &str| format!("wear[{i}].{f}");
         let declared =
-            raw.cuts.iter().enumerate().any(|(j, c)| c.name.clone().unwrap_or_else(|| format!("cut{j}")) == *cut);
+            cuts.iter().enumerate().any(|(j, c)| c.name.clone().unwrap_or_else(|| format!("cut{j}")) == *cut);
         if w.cut.is_some() && !declared {
             return Err(cx.err(k("cut"), format!("no cut named '{cut}'")));
         }
@@ -941,78 +1076,93 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                 ModelError::Wear { key, .. } if *key != "cut" => k(key),
                 _ => k(surface_key),
             };
-            model_err(&cx, key, e)
+            model_err(cx, key, e)
         })?;
     }
-    if let Some(j) = &raw.cycle_jump {
-        let adaptive_keys = j.depth_fraction.is_some()
-            || j.max_jump.is_some()
-            || j.pressure_change.is_some()
-            || j.prediction_tolerance.is_some();
-        let policy = match (j.fixed, adaptive_keys) {
-            (Some(0), _) => return Err(cx.err("cycle_jump.fixed", "must be at least 1")),
-            (Some(n), false) => crate::wear::JumpPolicy::Fixed(n),
-            (Some(_), true) => {
+    Ok(())
+}
+
+/// `[cycle_jump]`: the jump policy, scheme and wear-rate smoothing of a wear run.
+fn add_cycle_jump(cx: &Ctx, j: &CycleJumpSpec, wear: &[WearSpec], b: &mut ModelBuilder) -> Result<(), CaseError> {
+    let policy = jump_policy(cx, j)?;
+    if wear.is_empty() {
+        return Err(cx.err("cycle_jump", "there is no [[wear]] surface to jump cycles for"));
+    }
+    b.set_wear_jump(policy);
+    if let Some(scheme) = j.scheme {
+        b.set_wear_scheme(scheme);
+    }
+    if let Some(sm) = j.smoothing {
+        if !(sm.is_finite() && sm >= 0.0) {
+            return Err(cx.err("cycle_jump.smoothing", format!("must be finite and >= 0, got {sm}")));
+        }
+        b.set_wear_smoothing(sm);
+    }
+    Ok(())
+}
+
+/// The jump policy of `[cycle_jump]`: fixed, or adaptive with its (defaulted) limits.
+fn jump_policy(cx: &Ctx, j: &CycleJumpSpec) -> Result<crate::wear::JumpPolicy, CaseError> {
+    let adaptive_keys = j.depth_fraction.is_some()
+        || j.max_jump.is_some()
+        || j.pressure_change.is_some()
+        || j.prediction_tolerance.is_some();
+    let policy = match (j.fixed, adaptive_keys) {
+        (Some(0), _) => return Err(cx.err("cycle_jump.fixed", "must be at least 1")),
+        (Some(n), false) => crate::wear::JumpPolicy::Fixed(n),
+        (Some(_), true) => {
+            return Err(cx.err(
+                "cycle_jump",
+                "fixed cannot be combined with depth_fraction, max_jump, pressure_change or prediction_tolerance",
+            ))
+        }
+        (None, _) => {
+            let (f, m, pc) = (j.depth_fraction, j.max_jump, j.pressure_change);
+            let depth_fraction = f.unwrap_or(0.1);
+            if !(depth_fraction.is_finite() && depth_fraction > 0.0 && depth_fraction <= 1.0) {
+                return Err(cx.err("cycle_jump.depth_fraction", format!("must be in (0, 1], got {depth_fraction}")));
+            }
+            let max_jump = m.unwrap_or(1_000_000);
+            if max_jump == 0 {
+                return Err(cx.err("cycle_jump.max_jump", "must be at least 1"));
+            }
+            let pressure_change = pc.unwrap_or(crate::wear::DEFAULT_PRESSURE_CHANGE);
+            if !(pressure_change.is_finite() && pressure_change > 0.0) {
+                return Err(
+                    cx.err("cycle_jump.pressure_change", format!("must be finite and > 0, got {pressure_change}"))
+                );
+            }
+            let prediction_tolerance = j.prediction_tolerance.unwrap_or(crate::wear::DEFAULT_PREDICTION_TOLERANCE);
+            if !(prediction_tolerance.is_finite() && prediction_tolerance > 0.0) {
                 return Err(cx.err(
-                    "cycle_jump",
-                    "fixed cannot be combined with depth_fraction, max_jump, pressure_change or prediction_tolerance",
-                ))
+                    "cycle_jump.prediction_tolerance",
+                    format!("must be finite and > 0, got {prediction_tolerance}"),
+                ));
             }
-            (None, _) => {
-                let (f, m, pc) = (j.depth_fraction, j.max_jump, j.pressure_change);
-                let depth_fraction = f.unwrap_or(0.1);
-                if !(depth_fraction.is_finite() && depth_fraction > 0.0 && depth_fraction <= 1.0) {
-                    return Err(cx.err("cycle_jump.depth_fraction", format!("must be in (0, 1], got {depth_fraction}")));
-                }
-                let max_jump = m.unwrap_or(1_000_000);
-                if max_jump == 0 {
-                    return Err(cx.err("cycle_jump.max_jump", "must be at least 1"));
-                }
-                let pressure_change = pc.unwrap_or(crate::wear::DEFAULT_PRESSURE_CHANGE);
-                if !(pressure_change.is_finite() && pressure_change > 0.0) {
-                    return Err(
-                        cx.err("cycle_jump.pressure_change", format!("must be finite and > 0, got {pressure_change}"))
-                    );
-                }
-                let prediction_tolerance = j.prediction_tolerance.unwrap_or(crate::wear::DEFAULT_PREDICTION_TOLERANCE);
-                if !(prediction_tolerance.is_finite() && prediction_tolerance > 0.0) {
-                    return Err(cx.err(
-                        "cycle_jump.prediction_tolerance",
-                        format!("must be finite and > 0, got {prediction_tolerance}"),
-                    ));
-                }
-                crate::wear::JumpPolicy::Adaptive { depth_fraction, max_jump, pressure_change, prediction_tolerance }
-            }
-        };
-        if raw.wear.is_empty() {
-            return Err(cx.err("cycle_jump", "there is no [[wear]] surface to jump cycles for"));
+            crate::wear::JumpPolicy::Adaptive { depth_fraction, max_jump, pressure_change, prediction_tolerance }
         }
-        b.set_wear_jump(policy);
-        if let Some(scheme) = j.scheme {
-            b.set_wear_scheme(scheme);
-        }
-        if let Some(sm) = j.smoothing {
-            if !(sm.is_finite() && sm >= 0.0) {
-                return Err(cx.err("cycle_jump.smoothing", format!("must be finite and >= 0, got {sm}")));
-            }
-            b.set_wear_smoothing(sm);
-        }
-    }
-    if !raw.wear.is_empty() && raw.steps.cycle.is_none() {
-        return Err(cx.err("wear", "wear runs are cyclic: give steps.cycle = [start, end] and steps.cycles = N"));
-    }
+    };
+    Ok(policy)
+}
 
-    if let Some(g) = raw.solver.ghost_penalty {
-        if !(g.is_finite() && g >= 0.0) {
-            return Err(cx.err("solver.ghost_penalty", format!("must be finite and >= 0, got {g}")));
-        }
-        b.set_ghost_penalty(g);
-    }
-
-    // Steps.
+/// `[steps]`: the load path, cycle and output times (the history ends with the path or a later curve).
+fn steps(cx: &Ctx, raw: &CaseFile, curves_end: f64, b: &mut ModelBuilder) -> Result<(LoadPath, Vec<f64>), CaseError> {
     let path_pts: Vec<(f64, f64)> = raw.steps.path.iter().map(|p| (p[0], p[1])).collect();
-    let load_path = LoadPath::new(path_pts).map_err(|e| model_err(&cx, "steps.path".into(), e))?;
+    let load_path = LoadPath::new(path_pts).map_err(|e| model_err(cx, "steps.path".into(), e))?;
     let (t0, t1) = (load_path.points[0].0, load_path.end_time().max(curves_end));
+    let cyclic = cycle(cx, raw, &load_path, (t0, t1), b)?;
+    let times = output_times(cx, &raw.steps, cyclic, (t0, t1), b)?;
+    Ok((load_path, times))
+}
+
+/// `steps.cycle` and `steps.cycles`: the repeated window of the history `[t0, t1]`, if any.
+fn cycle(
+    cx: &Ctx,
+    raw: &CaseFile,
+    load_path: &LoadPath,
+    (t0, t1): (f64, f64),
+    b: &ModelBuilder,
+) -> Result<Option<crate::model::Cycle>, CaseError> {
     let cyclic = match (raw.steps.cycle, raw.steps.cycles) {
         (None, None) => None,
         (Some(w), Some(n)) => {
@@ -1050,7 +1200,7 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
                 ));
             }
             // Every history must close over the window, or the cycles would jump.
-            let mut histories: Vec<(&str, &LoadPath)> = vec![("steps.path", &load_path)];
+            let mut histories: Vec<(&str, &LoadPath)> = vec![("steps.path", load_path)];
             for (c, cs) in b.curves().iter().zip(&raw.curves) {
                 histories.push((cs.name.as_str(), c));
             }
@@ -1070,7 +1220,18 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
         }
         _ => return Err(cx.err("steps.cycle", "give both steps.cycle = [start, end] and steps.cycles = N")),
     };
-    let times = match (&raw.steps.times, cyclic) {
+    Ok(cyclic)
+}
+
+/// The output times: per cycle (setting the model's cycle), `steps.times`, or equal increments.
+fn output_times(
+    cx: &Ctx,
+    steps: &StepsSpec,
+    cyclic: Option<crate::model::Cycle>,
+    (t0, t1): (f64, f64),
+    b: &mut ModelBuilder,
+) -> Result<Vec<f64>, CaseError> {
+    let times = match (&steps.times, cyclic) {
         (_, Some(cy)) => {
             b.set_cycle(cy);
             cy.times(t0)
@@ -1085,7 +1246,7 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
             ts.clone()
         }
         (None, None) => {
-            let n = raw.steps.increments;
+            let n = steps.increments;
             if n == 0 {
                 return Err(cx.err("steps.increments", "must be at least 1"));
             }
@@ -1095,63 +1256,55 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
             (1..=n).map(|i| t0 + (t1 - t0) * i as f64 / n as f64).collect()
         }
     };
-    let np = raw.solver.newton;
+    Ok(times)
+}
+
+/// `[solver.newton]`: the Newton parameters, checked.
+fn newton_params(cx: &Ctx, solver: &SolverSpec) -> Result<NewtonParams, CaseError> {
+    let np = solver.newton;
     if !(np.rtol > 0.0 && np.rtol < 1.0) {
         return Err(cx.err("solver.newton.rtol", format!("must be in (0, 1), got {}", np.rtol)));
     }
     if np.max_iterations == 0 {
         return Err(cx.err("solver.newton.max_iterations", "must be at least 1"));
     }
-    let model = b.build(load_path, times, np, raw.solver.linear).map_err(|e| {
-        let key = match &e {
-            ModelError::Tie { tie, .. } => raw
-                .ties
-                .iter()
-                .enumerate()
-                .find(|(i, t)| t.name.clone().unwrap_or_else(|| format!("tie{i}")) == *tie)
-                .map(|(i, _)| format!("ties[{i}]"))
-                .or_else(|| {
-                    raw.cuts
-                        .iter()
-                        .enumerate()
-                        .find(|(i, c)| c.name.clone().unwrap_or_else(|| format!("cut{i}")) == *tie)
-                        .map(|(i, _)| format!("cuts[{i}]"))
-                })
-                .unwrap_or_else(|| "ties".into()),
-            ModelError::Contact { contact, key, .. } => raw
-                .contacts
-                .iter()
-                .enumerate()
-                .find(|(i, c)| c.name.clone().unwrap_or_else(|| format!("contact{i}")) == *contact)
-                .map(|(i, _)| format!("contacts[{i}].{key}"))
-                .unwrap_or_else(|| "contacts".into()),
-            ModelError::Wear { surface, key, .. } => wear_cuts
-                .iter()
-                .position(|w| w == surface)
-                .map(|i| match (*key, raw.wear[i].cut.is_some()) {
-                    ("cut", false) => format!("wear[{i}].surface"),
-                    _ => format!("wear[{i}].{key}"),
-                })
-                .unwrap_or_else(|| "wear".into()),
-            _ => "bcs".into(),
-        };
-        model_err(&cx, key, e)
-    })?;
-    let output = raw.output.file.clone().unwrap_or_else(|| PathBuf::from("results").join(format!("{name}.h5")));
-    Ok(Case {
-        name: name.to_string(),
-        units: raw.problem.units,
-        source: PathBuf::from(path),
-        model,
-        output,
-        serial: raw.solver.serial,
-        checkpoint_every: raw.output.checkpoint_every.unwrap_or(1),
-        fields_every: match raw.output.fields_every {
-            None => 1,
-            Some(0) => return Err(cx.err("output.fields_every", "must be at least 1")),
-            Some(k) => k,
-        },
-    })
+    Ok(np)
+}
+
+/// The case key of an error of [`ModelBuilder::build`]: the tie, cut, contact or wear it names.
+fn build_error_key(raw: &CaseFile, wear_cuts: &[String], e: &ModelError) -> String {
+    match e {
+        ModelError::Tie { tie, .. } => raw
+            .ties
+            .iter()
+            .enumerate()
+            .find(|(i, t)| t.name.clone().unwrap_or_else(|| format!("tie{i}")) == *tie)
+            .map(|(i, _)| format!("ties[{i}]"))
+            .or_else(|| {
+                raw.cuts
+                    .iter()
+                    .enumerate()
+                    .find(|(i, c)| c.name.clone().unwrap_or_else(|| format!("cut{i}")) == *tie)
+                    .map(|(i, _)| format!("cuts[{i}]"))
+            })
+            .unwrap_or_else(|| "ties".into()),
+        ModelError::Contact { contact, key, .. } => raw
+            .contacts
+            .iter()
+            .enumerate()
+            .find(|(i, c)| c.name.clone().unwrap_or_else(|| format!("contact{i}")) == *contact)
+            .map(|(i, _)| format!("contacts[{i}].{key}"))
+            .unwrap_or_else(|| "contacts".into()),
+        ModelError::Wear { surface, key, .. } => wear_cuts
+            .iter()
+            .position(|w| w == surface)
+            .map(|i| match (*key, raw.wear[i].cut.is_some()) {
+                ("cut", false) => format!("wear[{i}].surface"),
+                _ => format!("wear[{i}].{key}"),
+            })
+            .unwrap_or_else(|| "wear".into()),
+        _ => "bcs".into(),
+    }
 }
 
 fn model_err(cx: &Ctx, key: String, e: ModelError) -> CaseError {
