@@ -91,139 +91,15 @@ pub fn parse_msh(text: &str, path: &str) -> Result<Mesh2, GmshError> {
         let head = tk.next_line()?;
         match head {
             "$MeshFormat" => {
-                let l = tk.next_line()?;
-                let f: Vec<&str> = l.split_whitespace().collect();
-                if f.len() < 3 || f[0] != "4.1" || f[1] != "0" {
-                    return Err(GmshError::Version { path: path.into(), version: l.to_string() });
-                }
+                read_mesh_format(&mut tk)?;
                 saw_format = true;
-                expect_end(&mut tk, "$EndMeshFormat")?;
             }
-            "$PhysicalNames" => {
-                let n = tk.nums::<usize>(1)?[0];
-                for _ in 0..n {
-                    let l = tk.next_line()?;
-                    let mut it = l.splitn(3, char::is_whitespace);
-                    let dim = it.next().and_then(|s| s.parse::<usize>().ok());
-                    let tag = it.next().and_then(|s| s.parse::<i64>().ok());
-                    let name = it.next().map(|s| s.trim().trim_matches('"').to_string());
-                    match (dim, tag, name) {
-                        (Some(d), Some(t), Some(nm)) => {
-                            phys_names.insert((d, t), nm);
-                        }
-                        _ => return Err(tk.err(format!("bad physical name line '{l}'"))),
-                    }
-                }
-                expect_end(&mut tk, "$EndPhysicalNames")?;
-            }
-            "$Entities" => {
-                let c = tk.nums::<usize>(4)?;
-                for (dim, &count) in c.iter().take(4).enumerate() {
-                    for _ in 0..count {
-                        let v = tk.nums::<f64>(1)?;
-                        // point: tag x y z nphys phys...; others: tag 6 bbox nphys phys... nbound ...
-                        let k = if dim == 0 { 4 } else { 7 };
-                        if v.len() <= k {
-                            return Err(tk.err("truncated entity line"));
-                        }
-                        let np = v[k] as usize;
-                        if v.len() < k + 1 + np {
-                            return Err(tk.err("truncated entity physical tags"));
-                        }
-                        let phys: Vec<i64> = v[k + 1..k + 1 + np].iter().map(|&x| x as i64).collect();
-                        entity_phys.insert((dim, v[0] as i64), phys);
-                    }
-                }
-                expect_end(&mut tk, "$EndEntities")?;
-            }
-            "$Nodes" => {
-                let h = tk.nums::<usize>(4)?;
-                let (blocks, total) = (h[0], h[1]);
-                mesh.nodes.reserve(total);
-                for _ in 0..blocks {
-                    let b = tk.nums::<i64>(4)?;
-                    let (parametric, n) = (b[2], b[3] as usize);
-                    if parametric != 0 {
-                        return Err(tk.err("parametric node coordinates are not supported"));
-                    }
-                    let mut tags = Vec::with_capacity(n);
-                    for _ in 0..n {
-                        tags.push(tk.nums::<usize>(1)?[0]);
-                    }
-                    for &t in &tags {
-                        let x = tk.nums::<f64>(3)?;
-                        node_index.insert(t, mesh.nodes.len());
-                        mesh.nodes.push(Point2::new(x[0], x[1]));
-                    }
-                }
-                expect_end(&mut tk, "$EndNodes")?;
-            }
+            "$PhysicalNames" => read_physical_names(&mut tk, &mut phys_names)?,
+            "$Entities" => read_entities(&mut tk, &mut entity_phys)?,
+            "$Nodes" => read_nodes(&mut tk, &mut node_index, &mut mesh)?,
             "$Elements" => {
                 saw_elements = true;
-                let h = tk.nums::<usize>(4)?;
-                let blocks = h[0];
-                let mut cell_sets: BTreeMap<String, Vec<usize>> = BTreeMap::new();
-                for _ in 0..blocks {
-                    let b = tk.nums::<i64>(4)?;
-                    let (dim, ent, etype, n) = (b[0] as usize, b[1], b[2] as usize, b[3] as usize);
-                    let nn = match etype {
-                        15 => 1,
-                        1 => 2,
-                        2 => 3,
-                        3 => 4,
-                        _ => {
-                            let first = tk.nums::<usize>(1)?[0];
-                            return Err(GmshError::UnsupportedElement {
-                                path: path.into(),
-                                element: first,
-                                gmsh_type: etype,
-                                name: gmsh_type_name(etype),
-                            });
-                        }
-                    };
-                    let names: Vec<String> = entity_phys
-                        .get(&(dim, ent))
-                        .map(|ps| {
-                            ps.iter()
-                                .map(|p| phys_names.get(&(dim, *p)).cloned().unwrap_or_else(|| p.to_string()))
-                                .collect()
-                        })
-                        .unwrap_or_default();
-                    let first_cell = mesh.cells.len();
-                    for _ in 0..n {
-                        let v = tk.nums::<usize>(1 + nn)?;
-                        let mut idx = [0usize; 4];
-                        for k in 0..nn {
-                            idx[k] = *node_index.get(&v[1 + k]).ok_or(GmshError::UnknownNode {
-                                path: path.into(),
-                                element: v[0],
-                                node: v[1 + k],
-                            })?;
-                        }
-                        match etype {
-                            15 => {
-                                for nm in &names {
-                                    mesh.node_sets.entry(nm.clone()).or_default().push(idx[0]);
-                                }
-                            }
-                            1 => {
-                                for nm in &names {
-                                    mesh.edge_sets.entry(nm.clone()).or_default().push([idx[0], idx[1]]);
-                                }
-                            }
-                            2 => mesh.cells.push(Cell::tri3(idx[0], idx[1], idx[2])),
-                            _ => mesh.cells.push(Cell::quad4(idx[0], idx[1], idx[2], idx[3])),
-                        }
-                    }
-                    if dim == 2 {
-                        reorient_if_clockwise(&mut mesh, first_cell);
-                        for nm in &names {
-                            cell_sets.entry(nm.clone()).or_default().extend(first_cell..mesh.cells.len());
-                        }
-                    }
-                }
-                mesh.cell_sets = cell_sets;
-                expect_end(&mut tk, "$EndElements")?;
+                read_elements(&mut tk, &phys_names, &entity_phys, &node_index, &mut mesh)?;
             }
             other if other.starts_with('$') => {
                 // Skip an unknown section ($NodeData, $Periodic, ...).
@@ -246,6 +122,152 @@ pub fn parse_msh(text: &str, path: &str) -> Result<Mesh2, GmshError> {
     mesh.orient_edge_sets().map_err(|e| GmshError::Mesh { path: path.into(), source: e })?;
     mesh.validate().map_err(|e| GmshError::Mesh { path: path.into(), source: e })?;
     Ok(mesh)
+}
+
+/// `$MeshFormat`: checks the version is 4.1 ASCII.
+fn read_mesh_format(tk: &mut Tokens) -> Result<(), GmshError> {
+    let l = tk.next_line()?;
+    let f: Vec<&str> = l.split_whitespace().collect();
+    if f.len() < 3 || f[0] != "4.1" || f[1] != "0" {
+        return Err(GmshError::Version { path: tk.path.into(), version: l.to_string() });
+    }
+    expect_end(tk, "$EndMeshFormat")
+}
+
+/// `$PhysicalNames`: adds each physical group's name, by (dimension, tag).
+fn read_physical_names(tk: &mut Tokens, phys_names: &mut HashMap<(usize, i64), String>) -> Result<(), GmshError> {
+    let n = tk.nums::<usize>(1)?[0];
+    for _ in 0..n {
+        let l = tk.next_line()?;
+        let mut it = l.splitn(3, char::is_whitespace);
+        let dim = it.next().and_then(|s| s.parse::<usize>().ok());
+        let tag = it.next().and_then(|s| s.parse::<i64>().ok());
+        let name = it.next().map(|s| s.trim().trim_matches('"').to_string());
+        match (dim, tag, name) {
+            (Some(d), Some(t), Some(nm)) => {
+                phys_names.insert((d, t), nm);
+            }
+            _ => return Err(tk.err(format!("bad physical name line '{l}'"))),
+        }
+    }
+    expect_end(tk, "$EndPhysicalNames")
+}
+
+/// `$Entities`: adds each entity's physical tags, by (dimension, entity tag).
+fn read_entities(tk: &mut Tokens, entity_phys: &mut HashMap<(usize, i64), Vec<i64>>) -> Result<(), GmshError> {
+    let c = tk.nums::<usize>(4)?;
+    for (dim, &count) in c.iter().take(4).enumerate() {
+        for _ in 0..count {
+            let v = tk.nums::<f64>(1)?;
+            // point: tag x y z nphys phys...; others: tag 6 bbox nphys phys... nbound ...
+            let k = if dim == 0 { 4 } else { 7 };
+            if v.len() <= k {
+                return Err(tk.err("truncated entity line"));
+            }
+            let np = v[k] as usize;
+            if v.len() < k + 1 + np {
+                return Err(tk.err("truncated entity physical tags"));
+            }
+            let phys: Vec<i64> = v[k + 1..k + 1 + np].iter().map(|&x| x as i64).collect();
+            entity_phys.insert((dim, v[0] as i64), phys);
+        }
+    }
+    expect_end(tk, "$EndEntities")
+}
+
+/// `$Nodes`: appends the nodes to `mesh`, recording each tag's node index.
+fn read_nodes(tk: &mut Tokens, node_index: &mut HashMap<usize, usize>, mesh: &mut Mesh2) -> Result<(), GmshError> {
+    let h = tk.nums::<usize>(4)?;
+    let (blocks, total) = (h[0], h[1]);
+    mesh.nodes.reserve(total);
+    for _ in 0..blocks {
+        let b = tk.nums::<i64>(4)?;
+        let (parametric, n) = (b[2], b[3] as usize);
+        if parametric != 0 {
+            return Err(tk.err("parametric node coordinates are not supported"));
+        }
+        let mut tags = Vec::with_capacity(n);
+        for _ in 0..n {
+            tags.push(tk.nums::<usize>(1)?[0]);
+        }
+        for &t in &tags {
+            let x = tk.nums::<f64>(3)?;
+            node_index.insert(t, mesh.nodes.len());
+            mesh.nodes.push(Point2::new(x[0], x[1]));
+        }
+    }
+    expect_end(tk, "$EndNodes")
+}
+
+/// `$Elements`: adds the cells, and the node, edge and cell sets of their physical groups.
+fn read_elements(
+    tk: &mut Tokens,
+    phys_names: &HashMap<(usize, i64), String>,
+    entity_phys: &HashMap<(usize, i64), Vec<i64>>,
+    node_index: &HashMap<usize, usize>,
+    mesh: &mut Mesh2,
+) -> Result<(), GmshError> {
+    let path = tk.path;
+    let h = tk.nums::<usize>(4)?;
+    let blocks = h[0];
+    let mut cell_sets: BTreeMap<String, Vec<usize>> = BTreeMap::new();
+    for _ in 0..blocks {
+        let b = tk.nums::<i64>(4)?;
+        let (dim, ent, etype, n) = (b[0] as usize, b[1], b[2] as usize, b[3] as usize);
+        let nn = match etype {
+            15 => 1,
+            1 => 2,
+            2 => 3,
+            3 => 4,
+            _ => {
+                let first = tk.nums::<usize>(1)?[0];
+                return Err(GmshError::UnsupportedElement {
+                    path: path.into(),
+                    element: first,
+                    gmsh_type: etype,
+                    name: gmsh_type_name(etype),
+                });
+            }
+        };
+        let names: Vec<String> = entity_phys
+            .get(&(dim, ent))
+            .map(|ps| ps.iter().map(|p| phys_names.get(&(dim, *p)).cloned().unwrap_or_else(|| p.to_string())).collect())
+            .unwrap_or_default();
+        let first_cell = mesh.cells.len();
+        for _ in 0..n {
+            let v = tk.nums::<usize>(1 + nn)?;
+            let mut idx = [0usize; 4];
+            for k in 0..nn {
+                idx[k] = *node_index.get(&v[1 + k]).ok_or(GmshError::UnknownNode {
+                    path: path.into(),
+                    element: v[0],
+                    node: v[1 + k],
+                })?;
+            }
+            match etype {
+                15 => {
+                    for nm in &names {
+                        mesh.node_sets.entry(nm.clone()).or_default().push(idx[0]);
+                    }
+                }
+                1 => {
+                    for nm in &names {
+                        mesh.edge_sets.entry(nm.clone()).or_default().push([idx[0], idx[1]]);
+                    }
+                }
+                2 => mesh.cells.push(Cell::tri3(idx[0], idx[1], idx[2])),
+                _ => mesh.cells.push(Cell::quad4(idx[0], idx[1], idx[2], idx[3])),
+            }
+        }
+        if dim == 2 {
+            reorient_if_clockwise(mesh, first_cell);
+            for nm in &names {
+                cell_sets.entry(nm.clone()).or_default().extend(first_cell..mesh.cells.len());
+            }
+        }
+    }
+    mesh.cell_sets = cell_sets;
+    expect_end(tk, "$EndElements")
 }
 
 fn expect_end(tk: &mut Tokens, end: &str) -> Result<(), GmshError> {
