@@ -24,9 +24,9 @@ use crate::assembly::{Assembler, AssemblyInput, AssemblyOutput, DofMap, Sparsity
 use crate::contact::{row_laws, FrictionStatus, RowLaw};
 use crate::fem::material::{PlasticState, Stress4};
 use crate::model::Model;
-use crate::wear::GapSensitivity;
 use crate::solver::dense::DenseLu;
 use crate::solver::linear::{LinearSolverError, LinearSolverKind, SparseSolver};
+use crate::wear::GapSensitivity;
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
@@ -407,22 +407,8 @@ pub(super) fn setup(
         .map(|k| g0[k] / m.contact.phi[k])
         .fold(f64::INFINITY, f64::min);
     let e_max = m.materials.iter().map(|mat| mat.elastic().young).fold(0.0, f64::max);
-    // Ties: rho |C|^2 about a tenth of the bulk stiffness E keeps K_rho well conditioned.
-    let n_coef = all[..nt].iter().map(|r| r.len()).sum::<usize>().max(1);
-    let mean_coef = all[..nt].iter().flat_map(|r| r.iter()).map(|(_, c)| c.abs()).sum::<f64>() / n_coef as f64;
-    let rho_tie = if mean_coef > 0.0 { 0.1 * e_max / (mean_coef * mean_coef) } else { 0.0 };
-    // Grounding springs of stiffness E (per unit thickness): the rigid-mode compliance they
-    // add, 1/E, stays of the order of the contact's own, so `I - rho D` keeps its digits.
     let grounds = ground_rows(m);
-    let rho_ground = e_max;
-    let mut regularisation: Vec<(usize, usize, f64)> = Vec::new();
-    for (row, rho) in all[..nt].iter().map(|r| (*r, rho_tie)).chain(grounds.iter().map(|r| (r, rho_ground))) {
-        for &(d1, c1) in row {
-            for &(d2, c2) in row {
-                regularisation.push((d1, d2, rho * c1 * c2));
-            }
-        }
-    }
+    let (regularisation, rho_tie, rho_ground) = regularisation(&all[..nt], &grounds, e_max);
     let mut pairs = m.ghost_reach();
     pairs.extend(regularisation.iter().map(|&(i, j, _)| (i, j)));
     pairs.sort_unstable();
@@ -432,41 +418,9 @@ pub(super) fn setup(
     let mut penalty = m.penalty.clone();
     penalty.extend_from_slice(&regularisation);
     let t0 = std::time::Instant::now();
-    let build = |pairs: &[(usize, usize)]| {
-        let structure: Vec<(usize, usize, f64)> = pairs.iter().map(|&(i, j)| (i, j, 0.0)).collect();
-        SparsityPattern::with_constraints(m.num_nodes(), &m.elements, &equations, &[], &structure, 0, &[])
-    };
-    let mut reused = false;
-    let (mut kept_values, mut kept_compliance) = (None, None);
-    let (mut assembler, mut solver) = match reuse {
-        Some(r) if r.key == key => {
-            reused = true;
-            if r.same_bulk {
-                kept_values = Some(r.values);
-                kept_compliance = r.compliance;
-            }
-            (r.assembler, r.solver)
-        }
-        _ => {
-            let pattern = build(&key.pairs);
-            let solver = SparseSolver::new(&pattern.symbolic, LinearSolverKind::Cholesky)?;
-            (Assembler::new(pattern, &m.elements), solver)
-        }
-    };
-    if !assembler.pattern.set_penalty(&equations, &penalty) {
-        // A ghost entry outside the structural couplings (a band body without its reach):
-        // the pattern of this model's own entries, built afresh.
-        tracing::debug!("penalty entries outside the structural pattern: pattern rebuilt");
-        let mut own: Vec<(usize, usize)> = key.pairs.clone();
-        own.extend(penalty.iter().map(|&(i, j, _)| (i, j)));
-        own.sort_unstable();
-        own.dedup();
-        let mut pattern = build(&own);
-        pattern.set_penalty(&equations, &penalty);
-        solver = SparseSolver::new(&pattern.symbolic, LinearSolverKind::Cholesky)?;
-        assembler = Assembler::new(pattern, &m.elements);
-        reused = false;
-    }
+    let (assembler, solver, kept, reused) = bulk_structure(m, reuse, &key, &equations, &penalty)?;
+    let (mut assembler, mut solver) = (assembler, solver);
+    let (kept_values, mut kept_compliance) = kept.map_or((None, None), |(v, c)| (Some(v), c));
     let ts = t0.elapsed().as_secs_f64();
     let (values, t1, t2) = match kept_values {
         Some(values) if values.len() == assembler.pattern.nnz() => (values, ts, ts),
@@ -527,6 +481,81 @@ pub(super) fn setup(
         "interface condensation: K_rho factored, Delassus operator formed"
     );
     Ok((assembler, solver, values, cd, key, reused))
+}
+
+/// The pattern, assembler and symbolic factorisation of `K_rho`: those handed in `reuse` when
+/// the structure key matches (with the numeric values and surface compliance when the bulk is
+/// the same), otherwise built afresh; rebuilt when a penalty entry falls outside the
+/// structural couplings. Returns them with the kept values and compliance, and whether the
+/// structure was reused.
+#[allow(clippy::type_complexity)]
+fn bulk_structure(
+    m: &Model,
+    reuse: Option<SolverReuse>,
+    key: &ReuseKey,
+    equations: &DofMap,
+    penalty: &[(usize, usize, f64)],
+) -> Result<(Assembler, SparseSolver, Option<(Vec<f64>, Option<Compliance>)>, bool), LinearSolverError> {
+    let build = |pairs: &[(usize, usize)]| {
+        let structure: Vec<(usize, usize, f64)> = pairs.iter().map(|&(i, j)| (i, j, 0.0)).collect();
+        SparsityPattern::with_constraints(m.num_nodes(), &m.elements, equations, &[], &structure, 0, &[])
+    };
+    let mut reused = false;
+    let mut kept = None;
+    let (mut assembler, mut solver) = match reuse {
+        Some(r) if r.key == *key => {
+            reused = true;
+            if r.same_bulk {
+                kept = Some((r.values, r.compliance));
+            }
+            (r.assembler, r.solver)
+        }
+        _ => {
+            let pattern = build(&key.pairs);
+            let solver = SparseSolver::new(&pattern.symbolic, LinearSolverKind::Cholesky)?;
+            (Assembler::new(pattern, &m.elements), solver)
+        }
+    };
+    if !assembler.pattern.set_penalty(equations, penalty) {
+        // A ghost entry outside the structural couplings (a band body without its reach):
+        // the pattern of this model's own entries, built afresh.
+        tracing::debug!("penalty entries outside the structural pattern: pattern rebuilt");
+        let mut own: Vec<(usize, usize)> = key.pairs.clone();
+        own.extend(penalty.iter().map(|&(i, j, _)| (i, j)));
+        own.sort_unstable();
+        own.dedup();
+        let mut pattern = build(&own);
+        pattern.set_penalty(equations, penalty);
+        solver = SparseSolver::new(&pattern.symbolic, LinearSolverKind::Cholesky)?;
+        assembler = Assembler::new(pattern, &m.elements);
+        reused = false;
+    }
+    Ok((assembler, solver, kept, reused))
+}
+
+/// The regularisation of `K_rho`: `rho C_r^T C_r` of every tie row (`rho |C|^2` about a tenth
+/// of the bulk stiffness E keeps `K_rho` well conditioned) and grounding row (springs of
+/// stiffness E per unit thickness: the rigid-mode compliance they add, 1/E, stays of the order
+/// of the contact's own, so `I - rho D` keeps its digits). Returns the entries, `rho_tie` and
+/// `rho_ground`.
+fn regularisation(
+    ties: &[&Vec<(usize, f64)>],
+    grounds: &[Vec<(usize, f64)>],
+    e_max: f64,
+) -> (Vec<(usize, usize, f64)>, f64, f64) {
+    let n_coef = ties.iter().map(|r| r.len()).sum::<usize>().max(1);
+    let mean_coef = ties.iter().flat_map(|r| r.iter()).map(|(_, c)| c.abs()).sum::<f64>() / n_coef as f64;
+    let rho_tie = if mean_coef > 0.0 { 0.1 * e_max / (mean_coef * mean_coef) } else { 0.0 };
+    let rho_ground = e_max;
+    let mut entries: Vec<(usize, usize, f64)> = Vec::new();
+    for (row, rho) in ties.iter().map(|r| (*r, rho_tie)).chain(grounds.iter().map(|r| (r, rho_ground))) {
+        for &(d1, c1) in row {
+            for &(d2, c2) in row {
+                entries.push((d1, d2, rho * c1 * c2));
+            }
+        }
+    }
+    (entries, rho_tie, rho_ground)
 }
 
 /// Assembles `K_rho` (the bulk stiffness, its ghost penalty and regularisation, switched-off
