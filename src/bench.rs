@@ -239,7 +239,7 @@ pub fn hertz_model_materials(
     let gx = generate::plateau_graded(n_core, 2.0 * CORE / 40.0, 20);
     let gy = generate::end_plateau(n_depth, CORE / (20.0 + top), 20);
     let mesh_err =
-        |e: crate::mesh::MeshError| crate::model::ModelError::Tie { tie: "hertz mesh".into(), msg: e.to_string() };
+        |e: crate::mesh::MeshError| crate::model::ModelError::Mesh { body: "hertz".into(), msg: e.to_string() };
     let block = generate::rectangle_from_divisions(-20.0, -20.0, 40.0, 20.0 + top, &gx, &gy, CellKind::Quad4)
         .map_err(mesh_err)?;
     let n_cyl = |core: f64| ((core / h_core * cylinder_refinement).round() as usize).max(1);
@@ -338,7 +338,10 @@ pub fn fretting_blocks_model(steps: usize) -> Result<Model, crate::model::ModelE
     let hyp = PlaneHypothesis::PlaneStrain;
     let mut b = ModelBuilder::new(hyp);
     let mi = b.add_material("steel", Material::Elastic(Elastic { young: 210_000.0, poisson: 0.3, hypothesis: hyp }));
-    let mesh_err = |e: crate::mesh::MeshError| crate::model::ModelError::Tie { tie: "mesh".into(), msg: e.to_string() };
+    let mesh_err = |e: crate::mesh::MeshError| crate::model::ModelError::Mesh {
+        body: "fretting blocks".into(),
+        msg: e.to_string(),
+    };
     let lower = generate::rectangle(0.0, 0.0, 4.0, 3.0, 100, 75, 1.0, 1.0, CellKind::Quad4).map_err(mesh_err)?;
     let upper = generate::rectangle(0.0, 3.0, 4.0, 1.0, 70, 25, 1.0, 1.0, CellKind::Quad4).map_err(mesh_err)?;
     let lo = b.add_body("lower", lower, mi, Formulation::Standard, 1.0);

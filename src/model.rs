@@ -23,7 +23,7 @@ use crate::mortar::{
 };
 use crate::solver::linear::LinearSolverKind;
 use crate::solver::newton::NewtonParams;
-use crate::surface::{cell_polygon, cell_size, embed, BoxIndex, Embedding, VirtualSurface};
+use crate::surface::{cell_polygon, cell_size, embed, BoxIndex, Embedding, SurfaceError, VirtualSurface};
 use nalgebra::{Point2, Vector2};
 
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -38,12 +38,29 @@ pub enum ModelError {
     LoadPath(String),
     #[error("the model has no free degree of freedom")]
     NoFreeDofs,
+    /// A body's mesh could not be built or checked.
+    #[error("mesh of body '{body}': {msg}")]
+    Mesh { body: String, msg: String },
+    /// A tie's definition, its embedding in the host or its snapping onto the host grid.
     #[error("interface '{tie}': {msg}")]
     Tie { tie: String, msg: String },
-    /// A contact pair's definition; `key` names the case key (`friction`, `mortar_surface`,
-    /// `other_cut`).
+    /// A free cut's definition (its polyline, or the real boundary it replaces) or its
+    /// embedding in its host.
+    #[error("cut '{cut}': {msg}")]
+    Cut { cut: String, msg: String },
+    /// A moving surface: its motion, the band of cells it may visit, or a move during the run
+    /// (wearing surfaces move too).
+    #[error("moving surface '{surface}': {msg}")]
+    MovingSurface { surface: String, msg: String },
+    /// Cutting a body with the surfaces embedded in it failed; `surface` is the one running
+    /// through the failing cell, when known.
+    #[error("cutting body '{body}'{}: {msg}", .surface.as_ref().map_or(String::new(), |s| format!(" along '{s}'")))]
+    CutMesh { body: String, surface: Option<String>, msg: String },
+    /// A wearing surface; `key` names the case key (`coefficient`, `max_depth`, `cut`).
     #[error("wear of '{surface}': {msg}")]
     Wear { surface: String, key: &'static str, msg: String },
+    /// A contact pair's definition; `key` names the case key (`friction`, `mortar_surface`,
+    /// `mortar_cut`, `other_cut`).
     #[error("contact '{contact}': {msg}")]
     Contact { contact: String, key: &'static str, msg: String },
 }
@@ -522,6 +539,52 @@ fn coords_of(bodies: &[Body], n: usize) -> Point2<f64> {
     b.mesh.nodes[n - b.node_offset]
 }
 
+/// Per body, what cutting it gives: its cut state (`None`: not cut), the band of fixed points
+/// of its moving and wearing surfaces (`None`: nothing moves in it), its ghost-penalty entries.
+struct CutHosts {
+    cuts: Vec<Option<CutMesh>>,
+    bands: Vec<Option<Band>>,
+    penalty_parts: Vec<Vec<(usize, usize, f64)>>,
+}
+
+/// Quadrature rules, node coordinates (bodies concatenated) and the element table.
+struct Elements {
+    rules: Vec<QuadratureRule>,
+    coords: Vec<Point2<f64>>,
+    table: ElementTable,
+}
+
+/// The DOF map, the prescribed DOFs it constrains (`(dof, value, curve)`, one each, sorted) and
+/// the held DOFs of each body.
+struct Dofs {
+    map: DofMap,
+    prescribed: Vec<(usize, f64, usize)>,
+    held: Vec<Vec<usize>>,
+}
+
+/// One entry per prescribed DOF, the last one given, sorted by DOF.
+fn last_prescribed(prescribed: Vec<(usize, f64, usize)>) -> Vec<(usize, f64, usize)> {
+    let mut seen = std::collections::HashMap::new();
+    for (i, (d, _, _)) in prescribed.iter().enumerate() {
+        seen.insert(*d, i);
+    }
+    let mut keep: Vec<usize> = seen.into_values().collect();
+    keep.sort_unstable();
+    let mut last: Vec<(usize, f64, usize)> = keep.into_iter().map(|i| prescribed[i]).collect();
+    last.sort_by_key(|p| p.0);
+    last
+}
+
+/// The first of the named surfaces whose embedding runs through the host cell where a cut was
+/// found inconsistent (`None` for another error, or when none does).
+fn surface_through<'a>(
+    mut named: impl Iterator<Item = (&'a String, &'a Embedding)>,
+    e: &SurfaceError,
+) -> Option<String> {
+    let SurfaceError::Inconsistent { cell, .. } = e else { return None };
+    named.find(|(_, emb)| emb.cell_pieces.iter().any(|p| p.cell == *cell)).map(|(name, _)| name.clone())
+}
+
 /// Builds a [`Model`] body by body, then boundary conditions and loads by set name.
 pub struct ModelBuilder {
     hypothesis: PlaneHypothesis,
@@ -632,7 +695,7 @@ impl ModelBuilder {
     /// [`crate::discretisation`]). Its band of fixed points is derived from the motion's
     /// factor range when the model is built.
     pub fn set_cut_motion(&mut self, name: &str, motion: SurfaceMotion) -> Result<(), ModelError> {
-        let err = |msg: String| ModelError::Tie { tie: name.to_string(), msg };
+        let err = |msg: String| ModelError::MovingSurface { surface: name.to_string(), msg };
         let c = motion.curve();
         if c > self.curves.len() {
             return Err(err(format!("load curve {c} does not exist")));
@@ -667,11 +730,10 @@ impl ModelBuilder {
         other: ContactOther,
         params: ContactParams,
     ) -> Result<(), ModelError> {
-        let side = self.mortar_side(name, mortar, mortar_sets, "contact surface").map_err(|e| match e {
-            ModelError::Tie { msg, .. } => {
-                ModelError::Contact { contact: name.to_string(), key: "mortar_surface", msg }
-            }
-            other => other,
+        let side = self.mortar_side(mortar, mortar_sets, "contact surface", |msg| ModelError::Contact {
+            contact: name.to_string(),
+            key: "mortar_surface",
+            msg,
         })?;
         self.push_contact(name, mortar, side, None, other_body, other, params)
     }
@@ -797,14 +859,15 @@ impl ModelBuilder {
     /// boundary is extended past its ends along its end segments (a cut starts and ends outside
     /// its host); the material side comes from the cell along the first edge.
     pub fn add_boundary_cut(&mut self, name: &str, body: usize, sets: &[String]) -> Result<(), ModelError> {
-        let side = self.mortar_side(name, body, sets, "worn surface")?;
+        let err = |msg: String| ModelError::Cut { cut: name.to_string(), msg };
+        let side = self.mortar_side(body, sets, "worn surface", err)?;
         let mut pts = side.points.clone();
         let b = &self.bodies[body];
         let local: Vec<usize> = side.nodes.iter().map(|&n| n - b.node_offset).collect();
         // Which side of the first edge the body lies on.
         let (n0, n1) = (local[0], local[1]);
         let Some(cell) = b.mesh.cells.iter().find(|c| c.nodes().contains(&n0) && c.nodes().contains(&n1)) else {
-            return Err(ModelError::Tie { tie: name.to_string(), msg: "the first edge belongs to no cell".into() });
+            return Err(err("the first edge belongs to no cell".into()));
         };
         let centroid =
             cell.nodes().iter().fold(Vector2::zeros(), |s, &n| s + b.mesh.nodes[n].coords) / cell.nodes().len() as f64;
@@ -834,7 +897,7 @@ impl ModelBuilder {
     ) -> Result<(), ModelError> {
         // Validated as given, so that segment indices in errors are the user's.
         let given = VirtualSurface { vertices: vertices.clone(), closed };
-        given.validate().map_err(|e| ModelError::Tie { tie: name.to_string(), msg: e.to_string() })?;
+        given.validate().map_err(|e| ModelError::Cut { cut: name.to_string(), msg: e.to_string() })?;
         if !keep_left {
             vertices.reverse();
         }
@@ -844,9 +907,15 @@ impl ModelBuilder {
         Ok(())
     }
 
-    /// The polyline (one open or closed chain) formed by a body's edge sets, as a mortar side.
-    fn mortar_side(&self, name: &str, body: usize, sets: &[String], what: &str) -> Result<MortarSide, ModelError> {
-        let err = |msg: String| ModelError::Tie { tie: name.to_string(), msg };
+    /// The polyline (one open or closed chain) formed by a body's edge sets, as a mortar side;
+    /// `err` names its owner in the error when the edges form no such chain.
+    fn mortar_side(
+        &self,
+        body: usize,
+        sets: &[String],
+        what: &str,
+        err: impl Fn(String) -> ModelError,
+    ) -> Result<MortarSide, ModelError> {
         let mut edges: Vec<[usize; 2]> = Vec::new();
         for set in sets {
             edges.extend(self.edge_set(body, set, what)?);
@@ -880,7 +949,7 @@ impl ModelBuilder {
         if host == patch {
             return Err(err("host and patch must be different bodies".into()));
         }
-        let side = self.mortar_side(name, patch, boundary_sets, "tie boundary")?;
+        let side = self.mortar_side(patch, boundary_sets, "tie boundary", err)?;
         self.ties.push(TieSpec { name: name.to_string(), host, patch, side, space, other_edges: None });
         Ok(())
     }
@@ -901,7 +970,7 @@ impl ModelBuilder {
         if mortar == other {
             return Err(err("the two surfaces must belong to different bodies".into()));
         }
-        let side = self.mortar_side(name, mortar, mortar_sets, "tie surface")?;
+        let side = self.mortar_side(mortar, mortar_sets, "tie surface", err)?;
         let mut oe: Vec<[usize; 2]> = Vec::new();
         for set in other_sets {
             oe.extend(self.edge_set(other, set, "tie surface")?);
@@ -1070,8 +1139,10 @@ impl ModelBuilder {
         Ok(())
     }
 
-    /// Finishes the model: element table (one fixed rule per element kind), DOF map.
-    /// A DOF prescribed twice keeps its last value.
+    /// Finishes the model: tie surfaces embedded (patch boundaries snapped with them), free
+    /// cuts placed, hosts cut, element table (one fixed rule per element kind and per cut or
+    /// band cell), tying rows, DOF map, contact pairs, free surfaces, wear. A DOF prescribed
+    /// twice keeps its last value.
     pub fn build(
         mut self,
         load_path: LoadPath,
@@ -1079,14 +1150,59 @@ impl ModelBuilder {
         newton: NewtonParams,
         linear_solver: LinearSolverKind,
     ) -> Result<Model, ModelError> {
-        let mut rules = vec![
-            CellKind::Tri3.stiffness_rule(),
-            CellKind::Quad4.stiffness_rule(),
-            QuadratureRule { points: vec![], weights: vec![] },
-        ];
-        // Embed every tie's surface in its host and cut the hosts.
+        let tie_embeddings = self.embed_ties()?;
+        let cut_embeddings = self.place_free_cuts(&load_path)?;
+        let mut hosts = self.cut_hosts(&tie_embeddings, &cut_embeddings, &load_path)?;
+        let elements = self.element_table(&hosts.cuts, &mut hosts.bands);
+        let (mut constraints, ties) = self.tie_constraints(&tie_embeddings);
+        constraints.extend(self.rigid_rows.iter().cloned());
+        let prescribed = std::mem::take(&mut self.prescribed);
+        let dofs = self.dof_map(prescribed, &hosts, elements.coords.len())?;
+        let contact = self.contact_set(&cut_embeddings, elements.coords.len(), constraints.len())?;
+        let surfaces = self.free_surfaces(cut_embeddings, &load_path);
+        let wear = self.wear_model()?;
+        let mut f_ext_curves = std::mem::take(&mut self.f_curves);
+        let f_ext = f_ext_curves.remove(0);
+        let linear_solver =
+            if constraints.is_empty() && contact.rows.is_empty() { linear_solver } else { LinearSolverKind::Lu };
+        Ok(Model {
+            hypothesis: self.hypothesis,
+            bodies: self.bodies,
+            materials: self.materials,
+            material_names: self.material_names,
+            coords: elements.coords,
+            elements: elements.table,
+            rules: elements.rules,
+            dofs: dofs.map,
+            prescribed: dofs.prescribed.iter().map(|p| (p.0, p.1)).collect(),
+            prescribed_curve: dofs.prescribed.iter().map(|p| p.2).collect(),
+            f_ext,
+            load_path,
+            curves: self.curves,
+            f_ext_curves,
+            times,
+            newton,
+            linear_solver,
+            constraints,
+            ties,
+            cuts: hosts.cuts,
+            deactivated_dofs: dofs.held.iter().map(|h| h.len()).sum(),
+            penalty: hosts.penalty_parts.iter().flatten().copied().collect(),
+            contact,
+            surfaces,
+            bands: hosts.bands,
+            penalty_parts: hosts.penalty_parts,
+            ghost_penalty: self.ghost_penalty,
+            held: dofs.held,
+            cycle: self.cycle,
+            wear,
+        })
+    }
+
+    /// Embeds every tie's surface in its host (one embedding per tie without other edges, in
+    /// tie order), snapped onto the host grid, and moves the patch boundary with it.
+    fn embed_ties(&mut self) -> Result<Vec<(usize, Embedding)>, ModelError> {
         let mut embeddings: Vec<(usize, Embedding)> = Vec::new();
-        let mut cuts: Vec<Option<CutMesh>> = vec![None; self.bodies.len()];
         for t in self.ties.iter().filter(|t| t.other_edges.is_none()) {
             let host = &self.bodies[t.host];
             if let Some((i, a, b)) = edge_on_outer_boundary(&host.mesh, &t.side) {
@@ -1100,7 +1216,7 @@ impl ModelBuilder {
                     ),
                 });
             }
-            let terr = |e: crate::surface::SurfaceError| ModelError::Tie { tie: t.name.clone(), msg: e.to_string() };
+            let terr = |e: SurfaceError| ModelError::Tie { tie: t.name.clone(), msg: e.to_string() };
             // Validated in the patch boundary's own order, so that segment numbers in errors
             // follow the patch's edges (the embedded loop is its reverse).
             VirtualSurface { vertices: t.side.points.clone(), closed: t.side.closed }.validate().map_err(terr)?;
@@ -1125,110 +1241,158 @@ impl ModelBuilder {
                 msg: format!("after snapping the interface onto the host grid: {e}"),
             })?;
         }
-        let mut cut_embeddings: Vec<(usize, Embedding)> = Vec::new();
-        let t_start = load_path.points[0].0;
+        Ok(embeddings)
+    }
+
+    /// Gives every wearing polyline a vertex at each host edge crossing, then embeds every free
+    /// cut in its host where it is at the start of the load path (one embedding per cut).
+    fn place_free_cuts(&mut self, load_path: &LoadPath) -> Result<Vec<(usize, Embedding)>, ModelError> {
+        let cut_err = |name: &String, e: SurfaceError| ModelError::Cut { cut: name.clone(), msg: e.to_string() };
         // A wearing polyline wears at its own vertices: give it one at every host edge crossing.
         for (name, body, surf, _) in self.free_cuts.iter_mut() {
             if !self.wear_cuts.iter().any(|w| &w.0 == name) {
                 continue;
             }
             let index = BoxIndex::over_cells(&self.bodies[*body].mesh);
-            let emb = embed(surf, &self.bodies[*body].mesh, &index)
-                .map_err(|e| ModelError::Tie { tie: name.clone(), msg: e.to_string() })?;
+            let emb = embed(surf, &self.bodies[*body].mesh, &index).map_err(|e| cut_err(name, e))?;
             *surf = crate::discretisation::refined_at_crossings(surf, &emb);
         }
+        let mut cut_embeddings: Vec<(usize, Embedding)> = Vec::new();
         for (name, body, surf, motion) in &self.free_cuts {
             let index = BoxIndex::over_cells(&self.bodies[*body].mesh);
             // A moving surface starts where its motion puts it at the start of the load path.
-            let placed = match motion {
-                Some(m) => VirtualSurface {
-                    vertices: m.place(surf, curve_value(&self.curves, &load_path, m.curve(), t_start)),
-                    closed: surf.closed,
-                },
-                None => surf.clone(),
-            };
-            let emb = embed(&placed, &self.bodies[*body].mesh, &index)
-                .map_err(|e| ModelError::Tie { tie: name.clone(), msg: e.to_string() })?;
+            let placed =
+                VirtualSurface { vertices: self.start_vertices(surf, motion.as_ref(), load_path), closed: surf.closed };
+            let emb = embed(&placed, &self.bodies[*body].mesh, &index).map_err(|e| cut_err(name, e))?;
             cut_embeddings.push((*body, emb));
         }
-        let mut penalty_parts: Vec<Vec<(usize, usize, f64)>> = vec![vec![]; self.bodies.len()];
-        let mut bands: Vec<Option<Band>> = vec![None; self.bodies.len()];
+        Ok(cut_embeddings)
+    }
+
+    /// Vertices of a free cut at the start of the load path (where its motion, if any, puts it).
+    fn start_vertices(
+        &self,
+        surf: &VirtualSurface,
+        motion: Option<&SurfaceMotion>,
+        load_path: &LoadPath,
+    ) -> Vec<Point2<f64>> {
+        match motion {
+            Some(m) => m.place(surf, curve_value(&self.curves, load_path, m.curve(), load_path.points[0].0)),
+            None => surf.vertices.clone(),
+        }
+    }
+
+    /// Cuts every body some surface is embedded in: its cut state, its band of fixed points
+    /// (moving and wearing surfaces) and its ghost-penalty entries.
+    fn cut_hosts(
+        &self,
+        tie_embeddings: &[(usize, Embedding)],
+        cut_embeddings: &[(usize, Embedding)],
+        load_path: &LoadPath,
+    ) -> Result<CutHosts, ModelError> {
+        let n = self.bodies.len();
+        let mut hosts = CutHosts { cuts: vec![None; n], bands: vec![None; n], penalty_parts: vec![vec![]; n] };
         for (b, body) in self.bodies.iter().enumerate() {
             let embs: Vec<&Embedding> =
-                embeddings.iter().chain(cut_embeddings.iter()).filter(|(h, _)| *h == b).map(|(_, e)| e).collect();
-            if !embs.is_empty() {
-                let adjacency = crate::cut::CellAdjacency::new(&body.mesh);
-                let c = cut_mesh(&body.mesh, &adjacency, &embs).map_err(|e| {
-                    // Name the surface that runs through the failing cell.
-                    let names = self
-                        .ties
-                        .iter()
-                        .filter(|t| t.other_edges.is_none())
-                        .map(|t| &t.name)
-                        .zip(embeddings.iter())
-                        .chain(self.free_cuts.iter().map(|c| &c.0).zip(cut_embeddings.iter()));
-                    let mut tie = body.name.clone();
-                    if let crate::surface::SurfaceError::Inconsistent { cell, .. } = &e {
-                        for (name, (h, emb)) in names {
-                            if *h == b && emb.cell_pieces.iter().any(|p| p.cell == *cell) {
-                                tie = name.clone();
-                                break;
-                            }
-                        }
-                    }
-                    ModelError::Tie { tie, msg: e.to_string() }
-                })?;
-                // Moving surfaces: the band of cells they may visit gets fixed points now.
-                let mut band_cells_b: Vec<usize> = Vec::new();
-                for (name, cb, surf, motion) in self.free_cuts.iter() {
-                    let (Some(motion), true) = (motion, *cb == b) else { continue };
-                    let range = curve_range(&self.curves, &load_path, motion.curve());
-                    let cells = crate::discretisation::band_cells(&body.mesh, &adjacency, surf, motion, range)
-                        .map_err(|e| ModelError::Tie { tie: name.clone(), msg: e.to_string() })?;
-                    band_cells_b.extend(cells);
-                }
-                for (name, cb, surf, _) in self.free_cuts.iter() {
-                    let Some(w) = self.wear_cuts.iter().find(|w| &w.0 == name) else { continue };
-                    if *cb != b {
-                        continue;
-                    }
-                    let reach = SurfaceMotion::NormalOffset { distance: w.3, curve: 0 };
-                    let cells = crate::discretisation::band_cells(&body.mesh, &adjacency, surf, &reach, (0.0, 1.0))
-                        .map_err(|e| ModelError::Tie { tie: name.clone(), msg: e.to_string() })?;
-                    band_cells_b.extend(cells);
-                }
-                if !band_cells_b.is_empty() {
-                    band_cells_b.sort_unstable();
-                    band_cells_b.dedup();
-                    let fixed_embeddings = embeddings.iter().filter(|(h, _)| *h == b).map(|(_, e)| e.clone()).collect();
-                    let points = if self.materials[body.material].has_state() {
-                        crate::cut::BandPoints::Material
-                    } else {
-                        crate::cut::BandPoints::Any
-                    };
-                    bands[b] = Some(Band {
-                        cells: band_cells_b,
-                        rules: vec![],
-                        points,
-                        adjacency: adjacency.clone(),
-                        index: std::sync::Arc::new(BoxIndex::over_cells(&body.mesh)),
-                        fixed_embeddings,
-                    });
-                }
-                if self.ghost_penalty > 0.0 {
-                    let young = self.materials[body.material].elastic().young;
-                    penalty_parts[b].extend(crate::cut::ghost_penalty(
-                        &body.mesh,
-                        &adjacency,
-                        &c,
-                        body.node_offset,
-                        young,
-                        self.ghost_penalty,
-                    ));
-                }
-                cuts[b] = Some(c);
+                tie_embeddings.iter().chain(cut_embeddings).filter(|(h, _)| *h == b).map(|(_, e)| e).collect();
+            if embs.is_empty() {
+                continue;
             }
+            let adjacency = crate::cut::CellAdjacency::new(&body.mesh);
+            let c = cut_mesh(&body.mesh, &adjacency, &embs).map_err(|e| {
+                // Name the surface that runs through the failing cell.
+                let names = self
+                    .ties
+                    .iter()
+                    .filter(|t| t.other_edges.is_none())
+                    .map(|t| &t.name)
+                    .zip(tie_embeddings)
+                    .chain(self.free_cuts.iter().map(|c| &c.0).zip(cut_embeddings))
+                    .filter(|(_, (h, _))| *h == b)
+                    .map(|(name, (_, emb))| (name, emb));
+                ModelError::CutMesh { body: body.name.clone(), surface: surface_through(names, &e), msg: e.to_string() }
+            })?;
+            hosts.bands[b] = self.band(b, &adjacency, tie_embeddings, load_path)?;
+            if self.ghost_penalty > 0.0 {
+                let young = self.materials[body.material].elastic().young;
+                hosts.penalty_parts[b].extend(crate::cut::ghost_penalty(
+                    &body.mesh,
+                    &adjacency,
+                    &c,
+                    body.node_offset,
+                    young,
+                    self.ghost_penalty,
+                ));
+            }
+            hosts.cuts[b] = Some(c);
         }
+        Ok(hosts)
+    }
+
+    /// The band of fixed points of body `b`: the cells its moving surfaces may visit over their
+    /// motion's factor range and those its wearing surfaces may wear into (`None`: no such cell).
+    /// Its rules are filled in with the element table.
+    fn band(
+        &self,
+        b: usize,
+        adjacency: &crate::cut::CellAdjacency,
+        tie_embeddings: &[(usize, Embedding)],
+        load_path: &LoadPath,
+    ) -> Result<Option<Band>, ModelError> {
+        let body = &self.bodies[b];
+        let mut band_cells_b: Vec<usize> = Vec::new();
+        for (name, cb, surf, motion) in self.free_cuts.iter() {
+            let (Some(motion), true) = (motion, *cb == b) else { continue };
+            let range = curve_range(&self.curves, load_path, motion.curve());
+            let cells = crate::discretisation::band_cells(&body.mesh, adjacency, surf, motion, range)
+                .map_err(|e| ModelError::MovingSurface { surface: name.clone(), msg: e.to_string() })?;
+            band_cells_b.extend(cells);
+        }
+        for (name, cb, surf, _) in self.free_cuts.iter() {
+            let Some(w) = self.wear_cuts.iter().find(|w| &w.0 == name) else { continue };
+            if *cb != b {
+                continue;
+            }
+            let reach = SurfaceMotion::NormalOffset { distance: w.3, curve: 0 };
+            let cells =
+                crate::discretisation::band_cells(&body.mesh, adjacency, surf, &reach, (0.0, 1.0)).map_err(|e| {
+                    ModelError::Wear {
+                        surface: name.clone(),
+                        key: "max_depth",
+                        msg: format!("its band of fixed points, max_depth = {} deep: {e}", w.3),
+                    }
+                })?;
+            band_cells_b.extend(cells);
+        }
+        if band_cells_b.is_empty() {
+            return Ok(None);
+        }
+        band_cells_b.sort_unstable();
+        band_cells_b.dedup();
+        let fixed_embeddings = tie_embeddings.iter().filter(|(h, _)| *h == b).map(|(_, e)| e.clone()).collect();
+        let points = if self.materials[body.material].has_state() {
+            crate::cut::BandPoints::Material
+        } else {
+            crate::cut::BandPoints::Any
+        };
+        Ok(Some(Band {
+            cells: band_cells_b,
+            rules: vec![],
+            points,
+            adjacency: adjacency.clone(),
+            index: std::sync::Arc::new(BoxIndex::over_cells(&body.mesh)),
+            fixed_embeddings,
+        }))
+    }
+
+    /// Quadrature rules (one per element kind, an empty one for void cells, one per cut or band
+    /// cell), node coordinates and the element table; each band records its cells' rules.
+    fn element_table(&self, cuts: &[Option<CutMesh>], bands: &mut [Option<Band>]) -> Elements {
+        let mut rules = vec![
+            CellKind::Tri3.stiffness_rule(),
+            CellKind::Quad4.stiffness_rule(),
+            QuadratureRule { points: vec![], weights: vec![] },
+        ];
         let rule_of = |k: CellKind| match k {
             CellKind::Tri3 => 0,
             CellKind::Quad4 => 1,
@@ -1242,6 +1406,7 @@ impl ModelBuilder {
             let stateful = self.materials[b.material].has_state();
             let cut = cuts[bi].as_ref();
             for (ci, c) in b.mesh.cells.iter().enumerate() {
+                // A Tri3 leaves its fourth entry at usize::MAX, the padding of its mesh cell.
                 let mut nodes = [usize::MAX; 4];
                 for (k, &n) in c.nodes().iter().enumerate() {
                     nodes[k] = n + b.node_offset;
@@ -1277,13 +1442,15 @@ impl ModelBuilder {
                 el.state_offset.push(s + if stateful { np } else { 0 });
             }
         }
-        let mut prescribed = self.prescribed;
-        let mut f_ext_curves = std::mem::take(&mut self.f_curves);
-        let f_ext0 = f_ext_curves.remove(0);
-        // Mortar tying rows.
+        Elements { rules, coords, table: el }
+    }
+
+    /// Mortar tying: every tie's multipliers and constraint rows (from the embeddings of the
+    /// ties with a virtual surface, in tie order).
+    fn tie_constraints(&self, tie_embeddings: &[(usize, Embedding)]) -> (Vec<ConstraintRow>, Vec<TieInfo>) {
         let mut constraints = Vec::new();
         let mut ties = Vec::new();
-        let mut embedded = embeddings.iter();
+        let mut embedded = tie_embeddings.iter();
         for t in &self.ties {
             let (multipliers, rows) = match &t.other_edges {
                 None => {
@@ -1321,154 +1488,194 @@ impl ModelBuilder {
             });
             constraints.extend(rows);
         }
-        constraints.extend(self.rigid_rows.iter().cloned());
-        // Last value wins for duplicates; keep one entry per DOF.
-        let mut seen = std::collections::HashMap::new();
-        for (i, (d, _, _)) in prescribed.iter().enumerate() {
-            seen.insert(*d, i);
-        }
-        let mut keep: Vec<usize> = seen.into_values().collect();
-        keep.sort_unstable();
-        prescribed = keep.into_iter().map(|i| prescribed[i]).collect();
-        prescribed.sort_by_key(|p| p.0);
+        (constraints, ties)
+    }
+
+    /// The DOF map: prescribed DOFs (one entry each, the last given), DOFs held because their
+    /// support keeps (almost) no material, the rest free.
+    fn dof_map(
+        &self,
+        prescribed: Vec<(usize, f64, usize)>,
+        hosts: &CutHosts,
+        num_nodes: usize,
+    ) -> Result<Dofs, ModelError> {
+        let prescribed = last_prescribed(prescribed);
         // Switch off host nodes whose support keeps (almost) no material: their DOFs leave the
         // unknowns and keep their value (zero until a surface moves).
         let prescribed_pairs: Vec<(usize, f64)> = prescribed.iter().map(|p| (p.0, p.1)).collect();
-        let held: Vec<Vec<usize>> = cuts
+        let held: Vec<Vec<usize>> = hosts
+            .cuts
             .iter()
             .enumerate()
             .map(|(b, cut)| {
                 cut.as_ref().map_or(vec![], |cm| {
-                    held_dofs(cm, self.bodies[b].node_offset, &prescribed_pairs, &penalty_parts[b])
+                    held_dofs(cm, self.bodies[b].node_offset, &prescribed_pairs, &hosts.penalty_parts[b])
                 })
             })
             .collect();
-        let deactivated_dofs = held.iter().map(|h| h.len()).sum();
         let mut constrained: Vec<usize> = prescribed.iter().map(|p| p.0).collect();
         constrained.extend(held.iter().flatten().copied());
-        let dofs = DofMap::new(coords.len(), &constrained);
-        if dofs.num_free == 0 {
+        let map = DofMap::new(num_nodes, &constrained);
+        if map.num_free == 0 {
             return Err(ModelError::NoFreeDofs);
         }
-        // Contact pairs: weighted-gap rows from the reference geometry.
-        let (mut contact_rows, mut contact_g0, mut contact_phi, mut contact_eps, mut contact_mu, mut contacts) =
-            (vec![], vec![], vec![], vec![], vec![], vec![]);
-        let (mut friction_rows, mut friction_normal, mut tangents) = (vec![], vec![], vec![]);
+        Ok(Dofs { map, prescribed, held })
+    }
+
+    /// Contact pairs and their weighted-gap (and slip) rows from the reference geometry; their
+    /// multipliers follow the first `first_multiplier` (ties, rigid sets).
+    fn contact_set(
+        &self,
+        cut_embeddings: &[(usize, Embedding)],
+        num_nodes: usize,
+        first_multiplier: usize,
+    ) -> Result<ContactSet, ModelError> {
+        let mut set = ContactSet { first_multiplier, ..Default::default() };
+        let hosts: Vec<(&Mesh2, usize)> = self.bodies.iter().map(|b| (&b.mesh, b.node_offset)).collect();
         for c in &self.contacts {
-            // A virtual mortar side: the cut's polyline, vertices standing in for nodes.
-            let mut virtual_mortar = None;
-            let virtual_side;
-            let side = match &c.mortar_cut {
-                None => &c.side,
-                Some(cut) => {
-                    let si = self.free_cuts.iter().position(|f| &f.0 == cut).unwrap_or(usize::MAX);
-                    let (body, emb) = &cut_embeddings[si];
-                    let surf = &self.free_cuts[si].2;
-                    let base = coords.len();
-                    let host = &self.bodies[*body];
-                    virtual_mortar = Some(crate::contact::VirtualMortar {
-                        surface: si,
-                        host: *body,
-                        base,
-                        interpolation: crate::contact::VirtualMortar::interpolation(
-                            &host.mesh,
-                            host.node_offset,
-                            emb,
-                            &surf.vertices,
-                            surf.closed,
-                        ),
-                    });
-                    virtual_side = MortarSide {
-                        nodes: (base..base + surf.vertices.len()).collect(),
-                        points: surf.vertices.clone(),
-                        closed: surf.closed,
-                    };
-                    &virtual_side
-                }
-            };
-            let nseg = side.num_segments();
-            let h = (0..nseg).map(|i| (side.points[(i + 1) % side.points.len()] - side.points[i]).norm()).sum::<f64>()
-                / nseg as f64;
-            // Wearing sides sink by up to their max_depth: they stay within reach.
-            let depth_of = |cut: &String| self.wear_cuts.iter().find(|w| &w.0 == cut).map_or(0.0, |w| w.3);
-            let wear_reach = match &c.other {
-                ContactOther::Cut(cut) => depth_of(cut),
-                _ => 0.0,
-            } + c.mortar_cut.as_ref().map_or(0.0, depth_of);
-            let max_gap = 2.0 * h + wear_reach;
-            let pts: Vec<[Point2<f64>; 2]>;
-            let mut other_surface = None;
-            let (other, paired) = match &c.other {
-                ContactOther::Edges(edges) => {
-                    pts =
-                        edges.iter().map(|e| [coords_of(&self.bodies, e[0]), coords_of(&self.bodies, e[1])]).collect();
-                    (OtherSide::Edges { nodes: edges, points: &pts }, PairedSide::Edges(edges.clone()))
-                }
-                ContactOther::Cut(cut) => {
-                    let Some(i) = self.free_cuts.iter().position(|f| &f.0 == cut) else {
-                        return Err(ModelError::Contact {
-                            contact: c.name.clone(),
-                            key: "other_cut",
-                            msg: format!("no cut named '{cut}'"),
-                        });
-                    };
-                    other_surface = Some(i);
-                    let (b, emb) = &cut_embeddings[i];
-                    let host = &self.bodies[*b];
-                    (
-                        OtherSide::Embedded { host: &host.mesh, host_offset: host.node_offset, embedding: emb },
-                        PairedSide::Embedded { host: *b, embedding: emb.clone() },
-                    )
-                }
-            };
-            let lm = match c.params.multipliers {
-                MultiplierSpace::Classical => build_multipliers(side, MultiplierSpace::Classical, 1.0),
-                MultiplierSpace::CoarseGrained => {
-                    build_multipliers_local(side, &other_side_spacing(side, &other, max_gap))
-                }
-            };
-            let mut info = ContactInfo {
-                name: c.name.clone(),
-                mortar: c.mortar,
-                mu: c.params.friction,
-                space: c.params.multipliers,
-                first_row: contact_rows.len(),
-                friction_row: vec![],
-                multipliers: lm,
-                sliding: c.params.sliding,
-                side: side.clone(),
-                other: paired,
-                max_gap,
-                other_surface,
-                virtual_mortar,
-            };
+            let (mut info, h) = self.contact_pair(c, cut_embeddings, num_nodes)?;
+            info.first_row = set.rows.len();
             // The reference pairing, by the same routine as every re-pairing.
-            let hosts: Vec<(&Mesh2, usize)> = self.bodies.iter().map(|b| (&b.mesh, b.node_offset)).collect();
             let rows = crate::contact::pair_rows(&hosts, &info, &|n| coords_of(&self.bodies, n));
             for r in rows {
-                tangents.push(r.tangent.clone());
+                set.tangents.push(r.tangent.clone());
                 // Every node of a frictional pair gets a friction row, paired or not (pairings
                 // come and go under finite sliding and moving surfaces): the multiplier layout
                 // is fixed for the run.
                 info.friction_row.push(if c.params.friction > 0.0 {
-                    friction_rows.push(r.tangent);
-                    friction_normal.push(contact_rows.len());
-                    Some(friction_rows.len() - 1)
+                    set.friction_rows.push(r.tangent);
+                    set.friction_normal.push(set.rows.len());
+                    Some(set.friction_rows.len() - 1)
                 } else {
                     None
                 });
-                contact_rows.push(r.normal);
-                contact_g0.push(r.g0);
-                contact_phi.push(r.phi);
+                set.rows.push(r.normal);
+                set.g0.push(r.g0);
+                set.phi.push(r.phi);
                 // Augmentation from the local bulk stiffness: E / h.
-                contact_eps.push(c.young / h);
-                contact_mu.push(c.params.friction);
+                set.eps.push(c.young / h);
+                set.mu.push(c.params.friction);
             }
-            contacts.push(info);
+            set.pairs.push(info);
         }
-        let friction_s0 = vec![0.0; friction_rows.len()];
-        let surfaces = self
-            .free_cuts
+        set.friction_s0 = vec![0.0; set.friction_rows.len()];
+        Ok(set)
+    }
+
+    /// One contact pair before pairing (no rows yet, `first_row` 0) and the mean segment length
+    /// `h` of its mortar side; its gap reach is `2 h` plus the depth its wearing sides may sink.
+    fn contact_pair(
+        &self,
+        c: &ContactSpec,
+        cut_embeddings: &[(usize, Embedding)],
+        num_nodes: usize,
+    ) -> Result<(ContactInfo, f64), ModelError> {
+        let (side, virtual_mortar) = self.contact_mortar_side(c, cut_embeddings, num_nodes)?;
+        let nseg = side.num_segments();
+        let h = (0..nseg).map(|i| (side.points[(i + 1) % side.points.len()] - side.points[i]).norm()).sum::<f64>()
+            / nseg as f64;
+        // Wearing sides sink by up to their max_depth: they stay within reach.
+        let depth_of = |cut: &String| self.wear_cuts.iter().find(|w| &w.0 == cut).map_or(0.0, |w| w.3);
+        let wear_reach = match &c.other {
+            ContactOther::Cut(cut) => depth_of(cut),
+            _ => 0.0,
+        } + c.mortar_cut.as_ref().map_or(0.0, depth_of);
+        let max_gap = 2.0 * h + wear_reach;
+        let pts: Vec<[Point2<f64>; 2]>;
+        let mut other_surface = None;
+        let (other, paired) = match &c.other {
+            ContactOther::Edges(edges) => {
+                pts = edges.iter().map(|e| [coords_of(&self.bodies, e[0]), coords_of(&self.bodies, e[1])]).collect();
+                (OtherSide::Edges { nodes: edges, points: &pts }, PairedSide::Edges(edges.clone()))
+            }
+            ContactOther::Cut(cut) => {
+                let Some(i) = self.free_cut_index(cut) else {
+                    return Err(ModelError::Contact {
+                        contact: c.name.clone(),
+                        key: "other_cut",
+                        msg: format!("no cut named '{cut}'"),
+                    });
+                };
+                other_surface = Some(i);
+                let (b, emb) = &cut_embeddings[i];
+                let host = &self.bodies[*b];
+                (
+                    OtherSide::Embedded { host: &host.mesh, host_offset: host.node_offset, embedding: emb },
+                    PairedSide::Embedded { host: *b, embedding: emb.clone() },
+                )
+            }
+        };
+        let multipliers = match c.params.multipliers {
+            MultiplierSpace::Classical => build_multipliers(&side, MultiplierSpace::Classical, 1.0),
+            MultiplierSpace::CoarseGrained => {
+                build_multipliers_local(&side, &other_side_spacing(&side, &other, max_gap))
+            }
+        };
+        let info = ContactInfo {
+            name: c.name.clone(),
+            mortar: c.mortar,
+            mu: c.params.friction,
+            space: c.params.multipliers,
+            first_row: 0,
+            friction_row: vec![],
+            multipliers,
+            sliding: c.params.sliding,
+            side,
+            other: paired,
+            max_gap,
+            other_surface,
+            virtual_mortar,
+        };
+        Ok((info, h))
+    }
+
+    /// A contact pair's mortar side: its real edges, or the polyline of its mortar cut, whose
+    /// vertices stand in for nodes numbered from `base` (interpolated in the cut's host).
+    fn contact_mortar_side(
+        &self,
+        c: &ContactSpec,
+        cut_embeddings: &[(usize, Embedding)],
+        base: usize,
+    ) -> Result<(MortarSide, Option<crate::contact::VirtualMortar>), ModelError> {
+        let Some(cut) = &c.mortar_cut else { return Ok((c.side.clone(), None)) };
+        let Some(si) = self.free_cut_index(cut) else {
+            return Err(ModelError::Contact {
+                contact: c.name.clone(),
+                key: "mortar_cut",
+                msg: format!("no cut named '{cut}'"),
+            });
+        };
+        let (body, emb) = &cut_embeddings[si];
+        let surf = &self.free_cuts[si].2;
+        let host = &self.bodies[*body];
+        let virtual_mortar = crate::contact::VirtualMortar {
+            surface: si,
+            host: *body,
+            base,
+            interpolation: crate::contact::VirtualMortar::interpolation(
+                &host.mesh,
+                host.node_offset,
+                emb,
+                &surf.vertices,
+                surf.closed,
+            ),
+        };
+        let side = MortarSide {
+            nodes: (base..base + surf.vertices.len()).collect(),
+            points: surf.vertices.clone(),
+            closed: surf.closed,
+        };
+        Ok((side, Some(virtual_mortar)))
+    }
+
+    /// Index of the free cut named `name`.
+    fn free_cut_index(&self, name: &str) -> Option<usize> {
+        self.free_cuts.iter().position(|f| f.0 == name)
+    }
+
+    /// The free surfaces where the load path starts, with their embeddings (one per cut).
+    fn free_surfaces(&self, cut_embeddings: Vec<(usize, Embedding)>, load_path: &LoadPath) -> Vec<FreeSurface> {
+        self.free_cuts
             .iter()
             .zip(cut_embeddings)
             .zip(&self.reversed_cuts)
@@ -1478,15 +1685,14 @@ impl ModelBuilder {
                 body: *body,
                 base: surf.clone(),
                 motion: *motion,
-                vertices: match motion {
-                    Some(m) => m.place(surf, curve_value(&self.curves, &load_path, m.curve(), t_start)),
-                    None => surf.vertices.clone(),
-                },
+                vertices: self.start_vertices(surf, motion.as_ref(), load_path),
                 embedding,
             })
-            .collect();
-        let penalty = penalty_parts.iter().flatten().copied().collect();
-        let n_constraints = constraints.len();
+            .collect()
+    }
+
+    /// The wearing surfaces, each with the contact pair it wears in, and the cycle-jump policy.
+    fn wear_model(&self) -> Result<crate::wear::WearModel, ModelError> {
         let mut wear = crate::wear::WearModel {
             surfaces: vec![],
             jump: self.wear_jump,
@@ -1494,7 +1700,13 @@ impl ModelBuilder {
             smoothing: self.wear_smoothing,
         };
         for (name, law, coefficient, max_depth) in &self.wear_cuts {
-            let surface = self.free_cuts.iter().position(|f| &f.0 == name).unwrap_or(usize::MAX);
+            let Some(surface) = self.free_cut_index(name) else {
+                return Err(ModelError::Wear {
+                    surface: name.clone(),
+                    key: "cut",
+                    msg: format!("no cut named '{name}'"),
+                });
+            };
             let as_other = self.contacts.iter().position(|c| matches!(&c.other, ContactOther::Cut(n) if n == name));
             let as_mortar = self.contacts.iter().position(|c| c.mortar_cut.as_ref() == Some(name));
             let Some(contact) = as_other.or(as_mortar) else {
@@ -1514,54 +1726,7 @@ impl ModelBuilder {
                 max_depth: *max_depth,
             });
         }
-        Ok(Model {
-            hypothesis: self.hypothesis,
-            bodies: self.bodies,
-            materials: self.materials,
-            material_names: self.material_names,
-            coords,
-            elements: el,
-            rules,
-            dofs,
-            prescribed: prescribed.iter().map(|p| (p.0, p.1)).collect(),
-            prescribed_curve: prescribed.iter().map(|p| p.2).collect(),
-            f_ext: f_ext0,
-            load_path,
-            curves: self.curves,
-            f_ext_curves,
-            times,
-            newton,
-            linear_solver: if constraints.is_empty() && contact_rows.is_empty() {
-                linear_solver
-            } else {
-                LinearSolverKind::Lu
-            },
-            constraints,
-            ties,
-            cuts,
-            deactivated_dofs,
-            penalty,
-            contact: ContactSet {
-                first_multiplier: n_constraints,
-                rows: contact_rows,
-                g0: contact_g0,
-                phi: contact_phi,
-                eps: contact_eps,
-                mu: contact_mu,
-                friction_rows,
-                friction_normal,
-                tangents,
-                friction_s0,
-                pairs: contacts,
-            },
-            surfaces,
-            bands,
-            penalty_parts,
-            ghost_penalty: self.ghost_penalty,
-            held,
-            cycle: self.cycle,
-            wear,
-        })
+        Ok(wear)
     }
 }
 
@@ -1637,7 +1802,6 @@ impl Model {
         }
     }
 
-    /// Whether any surface of the model moves during the run.
     /// What the wear update reads of this model's current discretisation.
     pub fn wear_scene(&self) -> crate::wear::WearScene<'_> {
         crate::wear::WearScene {
@@ -1650,6 +1814,7 @@ impl Model {
         }
     }
 
+    /// Whether any surface of the model moves during the run.
     pub fn has_moving_surfaces(&self) -> bool {
         self.surfaces.iter().any(|s| s.motion.is_some())
     }
@@ -1672,7 +1837,7 @@ impl Model {
         let mut moved: Vec<usize> = Vec::new();
         for (i, v) in positions {
             let s = &self.surfaces[*i];
-            let err = |msg: String| ModelError::Tie { tie: s.name.clone(), msg };
+            let err = |msg: String| ModelError::MovingSurface { surface: s.name.clone(), msg };
             if v.len() != s.base.vertices.len() {
                 return Err(err(format!(
                     "a move gave {} vertices, the surface has {}",
@@ -1767,16 +1932,27 @@ impl Model {
         let body = &self.bodies[b];
         let mut embs: Vec<&Embedding> = band.fixed_embeddings.iter().collect();
         embs.extend(self.surfaces.iter().filter(|s| s.body == b).map(|s| &s.embedding));
-        let first_surface = self.surfaces.iter().find(|s| s.body == b).map(|s| s.name.clone()).unwrap_or_default();
-        let tie_err = |msg: String| ModelError::Tie { tie: first_surface.clone(), msg };
-        let cm = cut_mesh(&body.mesh, &band.adjacency, &embs).map_err(|e| tie_err(e.to_string()))?;
+        let named = || self.surfaces.iter().filter(|s| s.body == b).map(|s| (&s.name, &s.embedding));
+        let cm = cut_mesh(&body.mesh, &band.adjacency, &embs).map_err(|e| ModelError::CutMesh {
+            body: body.name.clone(),
+            surface: surface_through(named(), &e),
+            msg: e.to_string(),
+        })?;
         // Outside the band nothing may change: its cells have fixed rules.
         if let Some(old) = &self.cuts[b] {
             for c in 0..body.mesh.num_cells() {
                 if cm.cells[c] != old.cells[c] && band.cells.binary_search(&c).is_err() {
-                    return Err(tie_err(format!(
-                        "the surface reached host cell {c}, outside the band of fixed points prepared for its motion"
-                    )));
+                    // The surface now in the cell, else (it left the cell) the body's first.
+                    let surface = named()
+                        .find(|(_, emb)| emb.cell_pieces.iter().any(|p| p.cell == c))
+                        .or_else(|| named().next())
+                        .map_or_else(String::new, |(name, _)| name.clone());
+                    return Err(ModelError::MovingSurface {
+                        surface,
+                        msg: format!(
+                            "the surface reached host cell {c}, outside the band of fixed points prepared for its motion"
+                        ),
+                    });
                 }
             }
         }

@@ -275,7 +275,11 @@ impl Units {
 fn significant(v: f64) -> String {
     let digits = if v == 0.0 { 0 } else { (3 - v.abs().log10().floor() as i32).max(0) as usize };
     let s = format!("{v:.digits$}");
-    if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
 }
 
 #[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
@@ -1274,7 +1278,10 @@ fn newton_params(cx: &Ctx, solver: &SolverSpec) -> Result<NewtonParams, CaseErro
 /// The case key of an error of [`ModelBuilder::build`]: the tie, cut, contact or wear it names.
 fn build_error_key(raw: &CaseFile, wear_cuts: &[String], e: &ModelError) -> String {
     match e {
-        ModelError::Tie { tie, .. } => raw
+        ModelError::Tie { tie, .. }
+        | ModelError::Cut { cut: tie, .. }
+        | ModelError::MovingSurface { surface: tie, .. }
+        | ModelError::CutMesh { surface: Some(tie), .. } => raw
             .ties
             .iter()
             .enumerate()
