@@ -242,8 +242,10 @@ fn fretting_loop_case() {
 }
 
 /// Finite sliding (`sliding_block`): after the 3 mm drag the tangential reaction on the block is
-/// mu P = 15 N/mm (Coulomb and equilibrium; tolerance 1e-3: each step is paired on the deformed
-/// configuration it starts from, tests/sliding.rs), every node carrying pressure slips, the
+/// mu P = 15 N/mm (Coulomb and equilibrium; tolerance 1e-3: each step is paired in its own end
+/// configuration, re-paired until the estimated pressure change is below 1e-3 of the largest,
+/// and Coulomb's law holds in the frame of the deformed, slightly tilted segments,
+/// tests/sliding.rs), every node carrying pressure slips, the
 /// multiplier nodes sit on the block's new footprint x in [2.5, 3.5] (current positions), and
 /// their accumulated slip is the stroke less the elastic shear of the first increments (1%).
 #[test]

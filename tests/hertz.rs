@@ -1,5 +1,5 @@
-//! Hertz line contact, frictionless, plane strain (Johnson, *Contact Mechanics*, 1985, sec. 4.3;
-//! REFERENCES.md): cylinder R = 10 mm on a block 40 x 20 mm, both E = 210000 MPa, nu = 0.3,
+//! Hertz line contact, frictionless, plane strain (Johnson, *Contact Mechanics*, Cambridge,
+//! 1985, sec. 4.3): cylinder R = 10 mm on a block 40 x 20 mm, both E = 210000 MPa, nu = 0.3,
 //! load P = 100 N/mm: E* = 115384.6 MPa, a = sqrt(4 P R / (pi E*)) = 0.105046 mm,
 //! p0 = 2 P / (pi a) = 606.04 MPa, p(x) = p0 sqrt(1 - x^2 / a^2).
 //!
@@ -240,7 +240,7 @@ fn density_deviation(
 /// the pressure oscillates; coarse-grained ones (spaced like the block's segments) remove it.
 /// Deviation = max over the multiplier nodes with |x| <= 0.9 a of |p - p_Hertz| / p0 (the band
 /// 0.9 a < |x| < a, where Hertz' profile has an infinite slope, is left out: there every space
-/// shows the edge's interpolation error, 5-6% at this block size). Issue target: coarse-grained
+/// shows the edge's interpolation error, 5-6% at this block size). Target: coarse-grained
 /// <= 2% of p0; classical reported (measured 5.06%) and asserted to exceed 2% (the failure the
 /// stabilised space exists for is real here).
 #[test]

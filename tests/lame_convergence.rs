@@ -1,5 +1,5 @@
 //! Convergence of `Quad4` against Lamé's thick cylinder under internal pressure (plane strain).
-//! Exact (REFERENCES.md; Timoshenko & Goodier, *Theory of Elasticity*, sec. 33):
+//! Exact (Timoshenko & Goodier, *Theory of Elasticity*, sec. 33):
 //! `sigma_r = A - B/r^2`, `sigma_t = A + B/r^2`, `A = p a^2/(b^2 - a^2)`, `B = p a^2 b^2/(b^2 - a^2)`,
 //! `u_r = ((1+nu)/E) [ (1 - 2 nu) A r + B / r ]`.
 //! Sketch: quarter annulus a = 1 mm, b = 2 mm, symmetry (u_y = 0 on y = 0, u_x = 0 on x = 0),

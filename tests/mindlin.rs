@@ -1,5 +1,5 @@
 //! Cattaneo-Mindlin partial slip (Johnson, *Contact Mechanics*, 1985, sec. 7.1; Hills & Nowell,
-//! *Mechanics of Fretting Fatigue*, 1994; REFERENCES.md) and the Mindlin-Deresiewicz fretting
+//! *Mechanics of Fretting Fatigue*, Kluwer, 1994) and the Mindlin-Deresiewicz fretting
 //! loop, plane strain, elastically similar bodies (normal and tangential problems uncouple).
 //!
 //!        ___  <- rigid platen: normal force P, then tangential force Q (mu = 0.3)

@@ -1,11 +1,11 @@
 //! J2 plasticity checks.
 //!
 //! 1. Thick-walled cylinder, elastic-perfectly-plastic, plane strain (Hill, *The Mathematical
-//!    Theory of Plasticity*, 1950, ch. V; REFERENCES.md): plastic zone `a <= r <= c` with
+//!    Theory of Plasticity*, Oxford, 1950, ch. V): plastic zone `a <= r <= c` with
 //!    `p = (sigma_y / sqrt 3) [2 ln(c/a) + 1 - c^2/b^2]`. Sketch: quarter annulus a = 1, b = 2 mm,
 //!    40 x 10 B-bar Quad4, symmetry on both straight edges, pressure on r = a.
 //!    nu = 0.49 because Hill's solution assumes `sigma_z = (sigma_r + sigma_t)/2` (exact only
-//!    for incompressibility). Issue tolerance: 2% on the plastic radius.
+//!    for incompressibility). Tolerance: 2% on the plastic radius.
 //! 2. Single material point: radial return against the closed-form response to pure shear
 //!    (monotonic, and a full kinematic-hardening cycle), to round-off.
 

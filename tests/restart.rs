@@ -1,4 +1,4 @@
-//! Checkpoint and restart (roadmap: "a run resumes from any checkpoint, bit for bit").
+//! Checkpoint and restart: a run resumes from any checkpoint, bit for bit.
 //!
 //! Each test runs a model to its end, writing a result file with a checkpoint per output step,
 //! then reads the checkpoint of a middle step back, resumes a fresh analysis from it and runs to
