@@ -1197,7 +1197,12 @@ fn cycle(
                      where the stroke is back where it started, so nothing would slide (4 or more resolve a stroke)",
                 ));
             }
-            if n.checked_mul(increments).is_none_or(|v| v > MAX_OUTPUT_STEPS) {
+            if ramp > MAX_OUTPUT_STEPS {
+                return Err(
+                    cx.err("steps.ramp_increments", format!("{ramp} is more than {MAX_OUTPUT_STEPS} output steps"))
+                );
+            }
+            if n.checked_mul(increments).is_none_or(|v| v > MAX_OUTPUT_STEPS - ramp) {
                 return Err(cx.err(
                     "steps.cycles",
                     format!("{n} cycles x {increments} increments is more than {MAX_OUTPUT_STEPS} output steps"),

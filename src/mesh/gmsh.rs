@@ -56,6 +56,20 @@ impl<'a> Tokens<'a> {
         self.pos += 1;
         Ok(l)
     }
+    /// Lines left in the file.
+    fn remaining(&self) -> usize {
+        self.lines.len() - self.pos
+    }
+    /// A count read from the file, checked before anything is sized by it: a whole number,
+    /// not negative, and no more items than the rest of the file can hold at `lines_each`
+    /// lines per item (a damaged count must not ask for terabytes before the file runs out).
+    fn count(&self, raw: i64, lines_each: usize, what: &str) -> Result<usize, GmshError> {
+        let n = usize::try_from(raw).map_err(|_| self.err(format!("{what} is {raw}, must not be negative")))?;
+        if n.saturating_mul(lines_each) > self.remaining() {
+            return Err(self.err(format!("{what} is {n}, but the file has only {} lines left", self.remaining())));
+        }
+        Ok(n)
+    }
     fn nums<T: std::str::FromStr>(&mut self, at_least: usize) -> Result<Vec<T>, GmshError> {
         let l = self.next_line()?;
         let v: Result<Vec<T>, _> = l.split_whitespace().map(|t| t.parse::<T>()).collect();
@@ -164,10 +178,16 @@ fn read_entities(tk: &mut Tokens, entity_phys: &mut HashMap<(usize, i64), Vec<i6
             if v.len() <= k {
                 return Err(tk.err("truncated entity line"));
             }
-            let np = v[k] as usize;
-            if v.len() < k + 1 + np {
-                return Err(tk.err("truncated entity physical tags"));
+            // The count of physical tags is read as a float like the rest of the line: it must
+            // be a whole number that the line holds (inf or 1e30 would saturate `as usize`).
+            let available = v.len() - k - 1;
+            if !(v[k] >= 0.0 && v[k].fract() == 0.0 && v[k] <= available as f64) {
+                return Err(tk.err(format!(
+                    "entity {}: physical tag count {} is not a whole number of at most the {available} values left on its line",
+                    v[0], v[k]
+                )));
             }
+            let np = v[k] as usize;
             let phys: Vec<i64> = v[k + 1..k + 1 + np].iter().map(|&x| x as i64).collect();
             entity_phys.insert((dim, v[0] as i64), phys);
         }
@@ -177,15 +197,18 @@ fn read_entities(tk: &mut Tokens, entity_phys: &mut HashMap<(usize, i64), Vec<i6
 
 /// `$Nodes`: appends the nodes to `mesh`, recording each tag's node index.
 fn read_nodes(tk: &mut Tokens, node_index: &mut HashMap<usize, usize>, mesh: &mut Mesh2) -> Result<(), GmshError> {
-    let h = tk.nums::<usize>(4)?;
-    let (blocks, total) = (h[0], h[1]);
+    let h = tk.nums::<i64>(4)?;
+    let blocks = tk.count(h[0], 1, "the number of node blocks")?;
+    // A node takes two lines: its tag and its coordinates.
+    let total = tk.count(h[1], 2, "the number of nodes")?;
     mesh.nodes.reserve(total);
     for _ in 0..blocks {
         let b = tk.nums::<i64>(4)?;
-        let (parametric, n) = (b[2], b[3] as usize);
+        let parametric = b[2];
         if parametric != 0 {
             return Err(tk.err("parametric node coordinates are not supported"));
         }
+        let n = tk.count(b[3], 2, "the number of nodes in a block")?;
         let mut tags = Vec::with_capacity(n);
         for _ in 0..n {
             tags.push(tk.nums::<usize>(1)?[0]);
@@ -213,7 +236,8 @@ fn read_elements(
     let mut cell_sets: BTreeMap<String, Vec<usize>> = BTreeMap::new();
     for _ in 0..blocks {
         let b = tk.nums::<i64>(4)?;
-        let (dim, ent, etype, n) = (b[0] as usize, b[1], b[2] as usize, b[3] as usize);
+        let (dim, ent, etype) = (b[0] as usize, b[1], b[2] as usize);
+        let n = tk.count(b[3], 1, "the number of elements in a block")?;
         let nn = match etype {
             15 => 1,
             1 => 2,
