@@ -5,8 +5,8 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use mortex::assembly::{Assembler, AssemblyInput, AssemblyOutput, SparsityPattern};
-use mortex::bench::block_model;
 use mortex::fem::material::{PlasticState, Stress4};
+use mortex::scenes::block_model;
 use mortex::solver::linear::{LinearSolverKind, SparseSolver};
 use std::hint::black_box;
 

@@ -17,9 +17,9 @@ fn benches(c: &mut Criterion) {
     for virtual_top in [false, true] {
         let name = if virtual_top { "virtual" } else { "real" };
         g.bench_function(format!("whole_process_{name}"), |b| {
-            b.iter(|| black_box(mortex::bench::run_hertz(h, virtual_top).map(|r| r.l2_error)))
+            b.iter(|| black_box(mortex::scenes::run_hertz(h, virtual_top).map(|r| r.l2_error)))
         });
-        let model = match mortex::bench::hertz_model(h, virtual_top) {
+        let model = match mortex::scenes::hertz_model(h, virtual_top) {
             Ok(m) => m,
             Err(e) => panic!("Hertz model: {e}"),
         };

@@ -24,13 +24,13 @@
 //! * [`driver`]: runs a case: load steps, or the wear loop around the contact solve.
 //! * [`post`], [`io`], [`case`]: derived fields; HDF5/XDMF output, checkpoints, plots; case
 //!   files (TOML) into a validated model.
-//! * [`bench`]: benchmark scenes and timings (nothing in the library uses it).
+//! * [`scenes`]: model scenes shared by the tests, benches and `mortex bench` (nothing in the
+//!   library uses them).
 //!
 //! Physics modules never print or touch files; logging goes through `tracing`.
 
 pub mod analysis;
 pub mod assembly;
-pub mod bench;
 pub mod case;
 pub mod contact;
 pub mod cut;
@@ -42,6 +42,7 @@ pub mod mesh;
 pub mod model;
 pub mod mortar;
 pub mod post;
+pub mod scenes;
 pub mod solver;
 pub mod state;
 pub mod surface;

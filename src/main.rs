@@ -7,6 +7,11 @@ use mortex::io::ResultWriter;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+/// The binary's own modules: the timings of `mortex bench`.
+mod cli {
+    pub mod bench;
+}
+
 #[derive(Parser)]
 #[command(name = "mortex", version, about = "MorteX wear simulation engine (2D FE, mortar, X-FEM surfaces)")]
 struct Cli {
@@ -554,12 +559,12 @@ fn bench(n: usize, repeat: usize, serial: bool) -> Result<(), String> {
     if n == 0 || repeat == 0 {
         return Err("bench: n and repeat must be at least 1".into());
     }
-    let mut best: Option<mortex::bench::LinearSolveTimes> = None;
+    let mut best: Option<cli::bench::LinearSolveTimes> = None;
     for _ in 0..repeat {
-        let t = mortex::bench::time_linear_solve(n, !serial).map_err(|e| e.to_string())?;
+        let t = cli::bench::time_linear_solve(n, !serial).map_err(|e| e.to_string())?;
         best = Some(match best {
             None => t,
-            Some(b) => mortex::bench::LinearSolveTimes {
+            Some(b) => cli::bench::LinearSolveTimes {
                 pattern: b.pattern.min(t.pattern),
                 assembly: b.assembly.min(t.assembly),
                 symbolic: b.symbolic.min(t.symbolic),
@@ -590,12 +595,12 @@ fn bench_embed(n: usize, segments: usize, repeat: usize) -> Result<(), String> {
     if n == 0 || repeat == 0 || segments < 3 {
         return Err("bench --embed: n and repeat must be at least 1, segments at least 3".into());
     }
-    let mut best: Option<mortex::bench::EmbedTimes> = None;
+    let mut best: Option<cli::bench::EmbedTimes> = None;
     for _ in 0..repeat {
-        let t = mortex::bench::time_embedding(n, segments).map_err(|e| e.to_string())?;
+        let t = cli::bench::time_embedding(n, segments).map_err(|e| e.to_string())?;
         best = Some(match best {
             None => t,
-            Some(b) => mortex::bench::EmbedTimes {
+            Some(b) => cli::bench::EmbedTimes {
                 index: b.index.min(t.index),
                 embed: b.embed.min(t.embed),
                 cut: b.cut.min(t.cut),
@@ -630,9 +635,9 @@ fn bench_hertz(repeat: usize) -> Result<(), String> {
     println!("  block h    surface   DOFs      whole s  iterations  p0 err    a err     pressure L2");
     for h in [0.02, 0.01, 0.005] {
         for virtual_top in [false, true] {
-            let mut best: Option<mortex::bench::HertzRun> = None;
+            let mut best: Option<mortex::scenes::HertzRun> = None;
             for _ in 0..repeat {
-                let r = mortex::bench::run_hertz(h, virtual_top)?;
+                let r = mortex::scenes::run_hertz(h, virtual_top)?;
                 if best.is_none_or(|b| r.seconds < b.seconds) {
                     best = Some(r);
                 }
@@ -666,7 +671,7 @@ fn bench_output(steps: usize) -> Result<(), String> {
             continue;
         }
         let out = dir.join(format!("bench_{fields}_{checkpoints}.h5"));
-        let r = mortex::bench::run_output_bench(steps, fields, checkpoints, &out)?;
+        let r = cli::bench::run_output_bench(steps, fields, checkpoints, &out)?;
         println!(
             "  {fields:<6}  {checkpoints:<11}  {:<7}  {:8.2}  {:8.2}  {:10.1}%  {:7.1}  {:7.1}",
             r.dofs,
@@ -685,7 +690,7 @@ fn bench_recut(n: usize, repeat: usize) -> Result<(), String> {
     if n < 2 || repeat == 0 {
         return Err("bench --recut: n >= 2 and repeat >= 1".into());
     }
-    let (cells, band, cut, secs) = mortex::bench::time_recut(n, repeat.max(4))?;
+    let (cells, band, cut, secs) = cli::bench::time_recut(n, repeat.max(4))?;
     println!(
         "re-cut after a surface move: {cells} host cells, band of {band} cells, {cut} cut cells: {:.1} ms per move \
          (embed + cut + refit + ghost penalty + DOF map)",

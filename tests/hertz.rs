@@ -219,7 +219,7 @@ fn density_deviation(
     space: mortex::mortar::MultiplierSpace,
     frac: f64,
 ) -> (f64, usize) {
-    let model = mortex::bench::hertz_model_with(h, refine, 0.15, virtual_top, space).expect("model");
+    let model = mortex::scenes::hertz_model_with(h, refine, 0.15, virtual_top, space).expect("model");
     let s = solve(&model);
     let e_star = E / (2.0 * (1.0 - NU * NU));
     let a = (4.0 * LOAD * R / (std::f64::consts::PI * e_star)).sqrt();
@@ -286,7 +286,7 @@ fn hertz_cylinder_refinement_table() {
     let exact = |x: f64| if x.abs() < a { p0 * (1.0 - x * x / (a * a)).sqrt() } else { 0.0 };
     for (h, refine) in [(0.005, 1.0), (0.005, 1.5), (0.005, 3.0), (0.0033333, 1.0), (0.0025, 1.5)] {
         let space = mortex::mortar::MultiplierSpace::Classical;
-        let model = mortex::bench::hertz_model_with(h, refine, 0.5, false, space).expect("model");
+        let model = mortex::scenes::hertz_model_with(h, refine, 0.5, false, space).expect("model");
         let s = solve(&model);
         let prof: Vec<(f64, f64)> =
             mortex::post::contact_profile(&model, &s, 0).iter().map(|n| (n.x.x, n.pressure)).collect();
@@ -301,7 +301,7 @@ fn hertz_cylinder_refinement_table() {
 /// Returns (p0 error, pressure L2 over [-2a, 2a]) against Hertz with
 /// `1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2`.
 fn dissimilar(h: f64, refine: f64, space: MultiplierSpace) -> (f64, f64) {
-    use mortex::bench::{hertz_model_materials, ALUMINIUM, STEEL};
+    use mortex::scenes::{hertz_model_materials, ALUMINIUM, STEEL};
     let model = hertz_model_materials(h, refine, 0.5, false, space, STEEL, ALUMINIUM).unwrap();
     let s = solve(&model);
     let e_star = 1.0 / ((1.0 - STEEL.1 * STEEL.1) / STEEL.0 + (1.0 - ALUMINIUM.1 * ALUMINIUM.1) / ALUMINIUM.0);

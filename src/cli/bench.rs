@@ -1,0 +1,250 @@
+//! The timings of `mortex bench`: assembly, factorisation and solve of a block, embedding and
+//! cutting, output writing and re-cutting, on the scenes of [`mortex::scenes`].
+
+use mortex::assembly::{Assembler, AssemblyInput, AssemblyOutput, SparsityPattern};
+use mortex::fem::kernel::Formulation;
+use mortex::fem::material::{Elastic, Material, PlaneHypothesis, PlasticState, Stress4};
+use mortex::mesh::{generate, CellKind};
+use mortex::model::{LoadPath, ModelBuilder};
+use mortex::scenes::{block_model, fretting_blocks_model};
+use mortex::solver::linear::{LinearSolverError, LinearSolverKind, SparseSolver};
+use mortex::solver::newton::NewtonParams;
+use std::time::Instant;
+
+/// Wall times in seconds of the pieces of one linear solve.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct LinearSolveTimes {
+    pub dofs: usize,
+    pub nnz: usize,
+    pub pattern: f64,
+    pub assembly: f64,
+    pub symbolic: f64,
+    pub numeric: f64,
+    pub solve: f64,
+    /// Second assembly into the existing pattern (values refilled).
+    pub refill: f64,
+    pub refactor: f64,
+    /// Relative residual `|K u - f| / |f|` of the solution.
+    pub residual: f64,
+}
+
+impl LinearSolveTimes {
+    /// pattern + assembly + symbolic + numeric + solve.
+    pub fn whole(&self) -> f64 {
+        self.pattern + self.assembly + self.symbolic + self.numeric + self.solve
+    }
+}
+
+/// Times one linear solve of the `n x n` block, then a refill and a refactorisation.
+pub fn time_linear_solve(n: usize, parallel: bool) -> Result<LinearSolveTimes, LinearSolverError> {
+    let model = block_model(n);
+    let mut t = LinearSolveTimes { dofs: model.dofs.num_dofs, ..Default::default() };
+    let el = &model.elements;
+    let t0 = Instant::now();
+    let pattern = SparsityPattern::new(model.num_nodes(), el, &model.dofs);
+    t.pattern = t0.elapsed().as_secs_f64();
+    t.nnz = pattern.nnz();
+    let t0 = Instant::now();
+    let mut solver = SparseSolver::new(&pattern.symbolic, LinearSolverKind::Cholesky)?;
+    t.symbolic = t0.elapsed().as_secs_f64();
+    let mut asm = Assembler::new(pattern, el);
+    let mut values = vec![0.0; asm.pattern.nnz()];
+    let mut f_int = vec![0.0; model.dofs.num_dofs];
+    let mut stress = vec![Stress4::zeros(); el.num_points()];
+    let mut hist: Vec<PlasticState> = vec![];
+    let u = vec![0.0; model.dofs.num_dofs];
+    let mut assemble = |values: &mut [f64], f_int: &mut [f64]| {
+        asm.assemble(
+            &AssemblyInput {
+                coords: &model.coords,
+                elements: el,
+                materials: &model.materials,
+                rules: &model.rules,
+                u: &u,
+                state_old: &[],
+            },
+            AssemblyOutput { values: Some(values), f_int, stress: &mut stress, state_new: &mut hist },
+            parallel,
+        )
+    };
+    let t0 = Instant::now();
+    assemble(&mut values, &mut f_int);
+    t.assembly = t0.elapsed().as_secs_f64();
+    let t0 = Instant::now();
+    solver.factor(&values)?;
+    t.numeric = t0.elapsed().as_secs_f64();
+    let rhs: Vec<f64> = model.dofs.free.iter().map(|&g| model.f_ext[g]).collect();
+    let mut x = rhs.clone();
+    let t0 = Instant::now();
+    solver.solve(&mut x)?;
+    t.solve = t0.elapsed().as_secs_f64();
+    let t0 = Instant::now();
+    assemble(&mut values, &mut f_int);
+    t.refill = t0.elapsed().as_secs_f64();
+    let t0 = Instant::now();
+    solver.factor(&values)?;
+    t.refactor = t0.elapsed().as_secs_f64();
+    let mut kx = vec![0.0; x.len()];
+    mortex::solver::linear::spmv(&asm.pattern.symbolic, &values, &x, &mut kx);
+    let num: f64 = kx.iter().zip(&rhs).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
+    let den: f64 = rhs.iter().map(|b| b * b).sum::<f64>().sqrt();
+    t.residual = num / den;
+    Ok(t)
+}
+
+/// Wall times of embedding a closed polyline in a host mesh and cutting the host.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct EmbedTimes {
+    pub cells: usize,
+    pub segments: usize,
+    pub cut_cells: usize,
+    /// Built once per host mesh: BVH over cells and cell adjacency.
+    pub index: f64,
+    /// Embedding the surface (clipping against BVH candidates).
+    pub embed: f64,
+    /// Classification, material loops and node fractions.
+    pub cut: f64,
+    /// Moment-fitted weights on the band rule, per cut cell (seconds per cell).
+    pub fit_per_cell: f64,
+    /// Sub-triangulation rule, per cut cell (seconds per cell).
+    pub subtri_per_cell: f64,
+}
+
+/// A circle of `segments` segments (radius 0.3, centre slightly off the grid) in an `n x n`
+/// `Quad4` unit square.
+pub fn time_embedding(n: usize, segments: usize) -> Result<EmbedTimes, mortex::surface::SurfaceError> {
+    use mortex::cut::{band_rule, cut_mesh, fit_weights, rule_points, subtriangulation_rule, CellAdjacency, CellCut};
+    use mortex::surface::{embed, BoxIndex, VirtualSurface};
+    let host = match generate::rectangle(0.0, 0.0, 1.0, 1.0, n, n, 1.0, 1.0, CellKind::Quad4) {
+        Ok(m) => m,
+        Err(e) => unreachable!("a unit square with n >= 1 divisions is valid: {e}"),
+    };
+    let mut t = EmbedTimes { cells: host.num_cells(), segments, ..Default::default() };
+    // Clockwise circle: host material outside.
+    let vertices: Vec<nalgebra::Point2<f64>> = (0..segments)
+        .map(|i| {
+            let a = -std::f64::consts::TAU * i as f64 / segments as f64;
+            nalgebra::Point2::new(0.5013 + 0.3 * a.cos(), 0.4987 + 0.3 * a.sin())
+        })
+        .collect();
+    let surface = VirtualSurface { vertices, closed: true };
+    surface.validate()?;
+    let t0 = Instant::now();
+    let index = BoxIndex::over_cells(&host);
+    let adjacency = CellAdjacency::new(&host);
+    t.index = t0.elapsed().as_secs_f64();
+    let t0 = Instant::now();
+    let emb = embed(&surface, &host, &index)?;
+    t.embed = t0.elapsed().as_secs_f64();
+    let t0 = Instant::now();
+    let cut = cut_mesh(&host, &adjacency, &[&emb])?;
+    t.cut = t0.elapsed().as_secs_f64();
+    let cut_cells: Vec<usize> =
+        (0..host.num_cells()).filter(|&c| matches!(cut.cells[c], CellCut::Cut { .. })).collect();
+    t.cut_cells = cut_cells.len();
+    let rule = band_rule(CellKind::Quad4);
+    let t0 = Instant::now();
+    for &c in &cut_cells {
+        if let CellCut::Cut { loops, .. } = &cut.cells[c] {
+            let x = rule_points(&host, c, &rule);
+            let inside: Vec<bool> = x.iter().map(|p| loops.iter().any(|l| mortex::cut::point_in_loop(l, *p))).collect();
+            std::hint::black_box(fit_weights(&x, &inside, loops));
+        }
+    }
+    t.fit_per_cell = t0.elapsed().as_secs_f64() / cut_cells.len().max(1) as f64;
+    let t0 = Instant::now();
+    for &c in &cut_cells {
+        if let CellCut::Cut { loops, .. } = &cut.cells[c] {
+            std::hint::black_box(subtriangulation_rule(&host, c, loops));
+        }
+    }
+    t.subtri_per_cell = t0.elapsed().as_secs_f64() / cut_cells.len().max(1) as f64;
+    Ok(t)
+}
+
+/// Figures of the output benchmark: a many-step contact run, solve and output timed apart.
+#[derive(Debug, Clone, Copy)]
+pub struct OutputRun {
+    pub dofs: usize,
+    /// Seconds in the solver (driver minus observer) and in the result writer.
+    pub solve: f64,
+    pub output: f64,
+    /// Size of the result file and of the contact CSV, bytes.
+    pub h5_bytes: u64,
+    pub csv_bytes: u64,
+}
+
+/// Runs [`fretting_blocks_model`] for `steps` steps writing `out` (full fields every
+/// `fields_every` steps, a checkpoint every `checkpoint_every`, 0: none).
+pub fn run_output_bench(
+    steps: usize,
+    fields_every: usize,
+    checkpoint_every: usize,
+    out: &std::path::Path,
+) -> Result<OutputRun, String> {
+    let model = fretting_blocks_model(steps).map_err(|e| e.to_string())?;
+    let mut state = mortex::analysis::StaticAnalysis::initial_state_of(&model);
+    let mut writer = mortex::io::ResultWriter::create(out, &model, "output-bench").map_err(|e| e.to_string())?;
+    writer.set_fields_every(fields_every);
+    writer.set_checkpoint_every(checkpoint_every);
+    let mut output = 0.0;
+    let start = Instant::now();
+    mortex::driver::run(&model, &mut state, mortex::driver::RunOptions::default(), |r, s, m| {
+        let t0 = Instant::now();
+        writer.write_step(m, r, s).map_err(|e| e.to_string())?;
+        output += t0.elapsed().as_secs_f64();
+        Ok(())
+    })
+    .map_err(|e| e.to_string())?;
+    let t0 = Instant::now();
+    let file = writer.finish(true).map_err(|e| e.to_string())?;
+    output += t0.elapsed().as_secs_f64();
+    let total = start.elapsed().as_secs_f64();
+    let size = |p: &std::path::Path| std::fs::metadata(p).map(|m| m.len()).unwrap_or(0);
+    let csv = std::path::PathBuf::from(format!("{}_contact.csv", file.with_extension("").display()));
+    Ok(OutputRun {
+        dofs: model.dofs.num_dofs,
+        solve: total - output,
+        output,
+        h5_bytes: size(&file),
+        csv_bytes: size(&csv),
+    })
+}
+
+/// Re-cut after a surface move: a straight open surface crossing an `n x n` `Quad4` unit square
+/// host, moving one cell down; returns (cells, band cells, cut cells, seconds per move: embed,
+/// re-cut, refit, ghost penalty, DOF map, averaged over `moves` moves).
+pub fn time_recut(n: usize, moves: usize) -> Result<(usize, usize, usize, f64), String> {
+    use mortex::discretisation::SurfaceMotion;
+    use nalgebra::{Point2, Vector2};
+    let hyp = PlaneHypothesis::PlaneStrain;
+    let mut b = ModelBuilder::new(hyp);
+    let mi = b.add_material("steel", Material::Elastic(Elastic { young: 210_000.0, poisson: 0.3, hypothesis: hyp }));
+    let host = generate::rectangle(0.0, 0.0, 1.0, 1.0, n, n, 1.0, 1.0, CellKind::Quad4).map_err(|e| e.to_string())?;
+    let body = b.add_body("host", host, mi, Formulation::Standard, 1.0);
+    let h = 1.0 / n as f64;
+    let y0 = 0.5 + 0.37 * h;
+    b.add_cut("surface", body, vec![Point2::new(-0.1, y0), Point2::new(1.1, y0 + 0.013)], false, false)
+        .map_err(|e| e.to_string())?;
+    let curve = b.add_curve(LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)]).map_err(|e| e.to_string())?);
+    b.set_cut_motion("surface", SurfaceMotion::Translation { direction: Vector2::new(0.0, -h), curve })
+        .map_err(|e| e.to_string())?;
+    b.fix(body, "bottom", 0, 0.0).map_err(|e| e.to_string())?;
+    b.fix(body, "bottom", 1, 0.0).map_err(|e| e.to_string())?;
+    let mut model = b
+        .build(
+            LoadPath::new(vec![(0.0, 1.0), (1.0, 1.0)]).map_err(|e| e.to_string())?,
+            vec![1.0],
+            NewtonParams::default(),
+            LinearSolverKind::Cholesky,
+        )
+        .map_err(|e| e.to_string())?;
+    let band = model.bands[body].as_ref().map_or(0, |b| b.cells.len());
+    let start = Instant::now();
+    let mut cut = 0;
+    for k in 1..=moves {
+        let r = model.place_surfaces(k as f64 / moves as f64).map_err(|e| e.to_string())?;
+        cut = r.cut_cells_by_degree.iter().sum::<usize>() + r.unfitted_cells;
+    }
+    Ok((n * n, band, cut, start.elapsed().as_secs_f64() / moves as f64))
+}
