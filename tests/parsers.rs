@@ -159,7 +159,6 @@ fn all_values() -> Vec<&'static str> {
     [FLOATS, SMALL_COUNTS, NEGATIVE_COUNTS, HUGE_COUNTS, WRONG_TYPES].concat()
 }
 
-
 // ---------------------------------------------------------------------------------------------
 // Mutations.
 
