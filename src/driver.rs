@@ -111,6 +111,7 @@ where
                 &mut reuse,
                 same_bulk,
                 at_rest,
+                None,
                 step,
                 t,
                 options,
@@ -231,21 +232,28 @@ where
         let first = state.wear.increment;
         let Self { current, reuse, options, timings, observer } = self;
         if current.has_finite_sliding() {
+            state.wear.pairing_guess.resize(cycle.increments, vec![]);
             for i in first..cycle.increments {
                 let step = state.step + 1;
                 // The surfaces moved before the cycle's first increment: its set-up refactors.
                 let mut solve_timings = RunTimings::default();
+                // First paired where the last computed cycle ended this increment: a cycle
+                // later (or a jump later) the surfaces meet almost there.
+                let guess = std::mem::take(&mut state.wear.pairing_guess[i]);
+                let guess = (guess.len() == state.u.len()).then_some(guess);
                 solve_paired_step(
                     current,
                     state,
                     reuse,
                     i > first,
                     false,
+                    guess.as_deref(),
                     step,
                     step_time(i),
                     *options,
                     &mut solve_timings,
                     |m, analysis, state, report, start| {
+                        state.wear.pairing_guess[i].clone_from(&state.u);
                         let start = (start.u.as_slice(), start.multipliers.as_slice());
                         let report =
                             integrate_step_wear(m, analysis, state, start, report, i, n, cycle.increments, timings)?;
@@ -355,6 +363,7 @@ fn solve_paired_step<R>(
     reuse: &mut Option<crate::analysis::SolverReuse>,
     same_bulk: bool,
     surface_compliance: bool,
+    guess: Option<&[f64]>,
     step: usize,
     t: f64,
     options: RunOptions,
@@ -362,7 +371,7 @@ fn solve_paired_step<R>(
     then: impl FnOnce(&Model, &StaticAnalysis, &mut SimState, StepReport, &SimState) -> Result<R, AnalysisError>,
 ) -> Result<R, AnalysisError> {
     let start = state.clone();
-    let mut u_pair = state.u.clone();
+    let mut u_pair = guess.map_or_else(|| state.u.clone(), <[f64]>::to_vec);
     let mut last_pressure: Option<Vec<f64>> = None;
     let (mut change, mut last_change, mut estimate) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
     let mut iterations = 0;
@@ -386,14 +395,22 @@ fn solve_paired_step<R>(
         if let Some(last) = &last_pressure {
             let p_max = pressure.iter().fold(0.0_f64, |a, &b| a.max(b)).max(f64::MIN_POSITIVE);
             change = pressure.iter().zip(last).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / p_max;
-            if last_change.is_finite() {
-                let rho = (change / last_change).max(PAIRING_CONTRACTION_FLOOR);
+            let rho = if last_change.is_finite() {
+                Some((change / last_change).max(PAIRING_CONTRACTION_FLOOR))
+            } else {
+                // Paired first at a guess of the end: the second pairing's change is already
+                // the fixed point's last one; its contraction is taken at the floor (measured
+                // below it).
+                guess.map(|_| PAIRING_CONTRACTION_FLOOR)
+            };
+            if let Some(rho) = rho {
                 estimate = if rho < 1.0 { change * rho / (1.0 - rho) } else { f64::INFINITY };
             }
             last_change = change;
         }
         tracing::debug!(step, pairing, change, estimate, "finite sliding: step solved in its pairing");
-        if change == 0.0 || estimate <= PAIRING_TOLERANCE || (pairing == 1 && !state_slid(&model, state, &start.u)) {
+        let at_rest = pairing == 1 && guess.is_none() && !state_slid(&model, state, &start.u);
+        if change == 0.0 || estimate <= PAIRING_TOLERANCE || at_rest {
             if let Err(e) = check_on_counter_surface(current, &model, state, step, t) {
                 *state = start;
                 return Err(e);

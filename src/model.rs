@@ -165,6 +165,9 @@ pub struct Model {
     pub cycle: Option<Cycle>,
     /// Wearing surfaces and the cycle-jump policy (empty: no wear).
     pub wear: crate::wear::WearModel,
+    /// [`Model::ghost_reach`], formed on first use and shared by the run's later models (moved
+    /// surfaces and re-pairings change neither the bands nor the penalty of unbanded bodies).
+    ghost_reach_cache: std::sync::Arc<std::sync::OnceLock<Vec<(usize, usize)>>>,
 }
 
 /// A load history declared as one cycle repeated: every curve is evaluated at
@@ -1196,6 +1199,7 @@ impl ModelBuilder {
             held: dofs.held,
             cycle: self.cycle,
             wear,
+            ghost_reach_cache: Default::default(),
         })
     }
 
@@ -1891,7 +1895,12 @@ impl Model {
     /// a band cell and its neighbour) across a shared face, whether or not the face is next to
     /// a cut cell now; on other bodies the entries it has. A solver pattern holding these does
     /// not change when the surfaces move (see `analysis::condensed`).
-    pub fn ghost_reach(&self) -> Vec<(usize, usize)> {
+    pub fn ghost_reach(&self) -> &[(usize, usize)] {
+        self.ghost_reach_cache.get_or_init(|| self.form_ghost_reach())
+    }
+
+    /// [`Model::ghost_reach`] formed from the bands (sorted, without repeats).
+    fn form_ghost_reach(&self) -> Vec<(usize, usize)> {
         let mut v: Vec<(usize, usize)> = Vec::new();
         for (b, body) in self.bodies.iter().enumerate() {
             let Some(band) = &self.bands[b] else {

@@ -389,6 +389,43 @@ impl SolverReuse {
     }
 }
 
+/// The sorted union of `sorted` (sorted, no repeats: the ghost-penalty reach) and `extra`
+/// (the regularisation's few entries), without repeats.
+fn merged_pairs(sorted: &[(usize, usize)], mut extra: Vec<(usize, usize)>) -> Vec<(usize, usize)> {
+    extra.sort_unstable();
+    extra.dedup();
+    let mut out = Vec::with_capacity(sorted.len() + extra.len());
+    let (mut i, mut j) = (0, 0);
+    while i < sorted.len() || j < extra.len() {
+        let next = match (sorted.get(i), extra.get(j)) {
+            (Some(a), Some(b)) if a < b => {
+                i += 1;
+                *a
+            }
+            (Some(a), Some(b)) if a > b => {
+                j += 1;
+                *b
+            }
+            (Some(a), Some(_)) => {
+                i += 1;
+                j += 1;
+                *a
+            }
+            (Some(a), None) => {
+                i += 1;
+                *a
+            }
+            (None, Some(b)) => {
+                j += 1;
+                *b
+            }
+            (None, None) => break,
+        };
+        out.push(next);
+    }
+    out
+}
+
 /// Pattern, assembler and Cholesky factor of `K_rho`, and the condensed operator on the initial
 /// set: ties, grounding rows and the contact rows near the smallest initial gap (see
 /// [`near_rows`]). `reuse`: the structure of the previous model of the run, if any.
@@ -409,10 +446,7 @@ pub(super) fn setup(
     let e_max = m.materials.iter().map(|mat| mat.elastic().young).fold(0.0, f64::max);
     let grounds = ground_rows(m);
     let (regularisation, rho_tie, rho_ground) = regularisation(&all[..nt], &grounds, e_max);
-    let mut pairs = m.ghost_reach();
-    pairs.extend(regularisation.iter().map(|&(i, j, _)| (i, j)));
-    pairs.sort_unstable();
-    pairs.dedup();
+    let pairs = merged_pairs(m.ghost_reach(), regularisation.iter().map(|&(i, j, _)| (i, j)).collect());
     let equations = solver_equations(m);
     let key = ReuseKey { eq: equations.eq.clone(), elements: m.elements.len(), pairs };
     let mut penalty = m.penalty.clone();

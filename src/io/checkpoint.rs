@@ -118,6 +118,7 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
         worn_area,
         work,
         controller,
+        pairing_guess,
     } = w;
     let crate::wear::ControllerState {
         last_rate,
@@ -155,7 +156,38 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
     super::write_attr(&g, "last_jump", last_jump)?;
     super::write_attr(&g, "jump_before", jump_before)?;
     super::write_attr(&g, "decay", decay)?;
+    super::write_attr(&g, "pairing_guesses", &(pairing_guess.len() as u64))?;
+    for (j, u) in pairing_guess.iter().enumerate() {
+        vec1(&format!("pairing_guess_{j}"), u)?;
+    }
     Ok(())
+}
+
+/// The finite-sliding pairing guesses (see `WearState::pairing_guess`): each empty or one
+/// value per DOF. A checkpoint written before they were kept has none.
+fn read_pairing_guess(g: &hdf5::Group, model: &Model) -> Result<Vec<Vec<f64>>, String> {
+    let Ok(count) = g.attr("pairing_guesses").and_then(|a| a.read_scalar::<u64>()) else {
+        return Ok(vec![]);
+    };
+    let increments = model.cycle.map_or(0, |c| c.increments);
+    if count as usize > increments {
+        return Err(format!("wear attribute pairing_guesses is {count}, the cycle has {increments} increments"));
+    }
+    (0..count)
+        .map(|j| {
+            let name = format!("pairing_guess_{j}");
+            let u =
+                g.dataset(&name).and_then(|d| d.read_raw::<f64>()).map_err(|e| format!("wear dataset {name}: {e}"))?;
+            if !u.is_empty() && u.len() != model.dofs.num_dofs {
+                return Err(format!(
+                    "wear dataset {name} has {} values, the model {} DOFs",
+                    u.len(),
+                    model.dofs.num_dofs
+                ));
+            }
+            Ok(u)
+        })
+        .collect()
 }
 
 fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, String> {
@@ -242,6 +274,7 @@ fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, 
         worn_area,
         work,
         controller,
+        pairing_guess: read_pairing_guess(&g, model)?,
     };
     let finite = w
         .vertices

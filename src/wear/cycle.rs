@@ -53,6 +53,10 @@ pub struct WearState {
     pub work: Vec<f64>,
     /// Jump controller memory (see [`next_jump`]).
     pub controller: ControllerState,
+    /// Finite sliding: per increment of the cycle, the displacements the last computed cycle
+    /// converged to there (empty before the first), where the next cycle's step is paired
+    /// first.
+    pub pairing_guess: Vec<Vec<f64>>,
 }
 
 /// How the multipliers of the active normal rows answer a change of their weighted gaps with
