@@ -176,46 +176,16 @@ pub fn triangulate(poly: &[Point2<f64>]) -> Vec<[Point2<f64>; 3]> {
     tris
 }
 
-/// Material loops of one cell from its surface pieces.
+/// A chain of surface pieces through a cell and the perimeter parameters of its start and end
+/// where they lie on the cell boundary (`None`: inside the cell).
+type Chain = (Vec<Point2<f64>>, (Option<f64>, Option<f64>));
+
+/// Material loops of one cell from its surface pieces: the chains the pieces form, closed
+/// inside the cell or walked along the cell boundary from each exit to the next entry.
 fn cell_loops(mesh: &Mesh2, c: usize, pieces: &[Piece]) -> Result<Vec<Vec<Point2<f64>>>, SurfaceError> {
     let poly = cell_polygon(mesh, c);
-    let n = poly.len();
-    let h = cell_size(&poly);
-    let on_tol = 1e3 * SNAP * h;
-    // Chains: consecutive pieces joined at points inside the cell.
-    let mut chains: Vec<Vec<Point2<f64>>> = Vec::new();
-    let mut chain_ends: Vec<(Option<f64>, Option<f64>)> = Vec::new(); // perimeter params of start/end if on boundary
-    for p in pieces {
-        let (sa, da) = perimeter_param(&poly, p.a);
-        let (sb, db) = perimeter_param(&poly, p.b);
-        let start_on = da <= on_tol;
-        let end_on = db <= on_tol;
-        // A piece starting where the previous one (in polyline order) ended continues its
-        // chain, even on the cell boundary: the surface touches the boundary and goes on.
-        let continues = chains.last().map(|ch| (ch[ch.len() - 1] - p.a).norm() <= on_tol).unwrap_or(false);
-        if continues {
-            let ch = chains.last_mut().ok_or(SurfaceError::Inconsistent { cell: c, msg: "empty chain".into() })?;
-            ch.push(p.b);
-            if let Some(e) = chain_ends.last_mut() {
-                e.1 = if end_on { Some(sb) } else { None };
-            }
-        } else {
-            chains.push(vec![p.a, p.b]);
-            chain_ends.push((if start_on { Some(sa) } else { None }, if end_on { Some(sb) } else { None }));
-        }
-    }
-    // A closed polyline wraps around: join the last chain into the first if they meet inside.
-    if chains.len() > 1 {
-        let k = chains.len() - 1;
-        if (chains[k][chains[k].len() - 1] - chains[0][0]).norm() <= on_tol {
-            let last = chains.pop().unwrap_or_default();
-            let le = chain_ends.pop().unwrap_or((None, None));
-            let mut joined = last;
-            joined.extend_from_slice(&chains[0][1..]);
-            chains[0] = joined;
-            chain_ends[0].0 = le.0;
-        }
-    }
+    let on_tol = 1e3 * SNAP * cell_size(&poly);
+    let (chains, chain_ends): (Vec<_>, Vec<_>) = surface_chains(&poly, c, pieces, on_tol)?.into_iter().unzip();
     let mut loops = Vec::new();
     // Chains without boundary events are closed loops inside the cell.
     let mut events: Vec<(f64, bool, usize)> = Vec::new(); // (sigma, is_exit, chain)
@@ -250,6 +220,59 @@ fn cell_loops(mesh: &Mesh2, c: usize, pieces: &[Piece]) -> Result<Vec<Vec<Point2
         }
         return Ok(loops);
     }
+    loops.extend(boundary_loops(&poly, c, &chains, events, on_tol)?);
+    Ok(loops)
+}
+
+/// The chains of a cell's surface pieces: consecutive pieces joined at points inside the cell.
+fn surface_chains(poly: &[Point2<f64>], c: usize, pieces: &[Piece], on_tol: f64) -> Result<Vec<Chain>, SurfaceError> {
+    let mut chains: Vec<Vec<Point2<f64>>> = Vec::new();
+    let mut chain_ends: Vec<(Option<f64>, Option<f64>)> = Vec::new(); // perimeter params of start/end if on boundary
+    for p in pieces {
+        let (sa, da) = perimeter_param(&poly, p.a);
+        let (sb, db) = perimeter_param(&poly, p.b);
+        let start_on = da <= on_tol;
+        let end_on = db <= on_tol;
+        // A piece starting where the previous one (in polyline order) ended continues its
+        // chain, even on the cell boundary: the surface touches the boundary and goes on.
+        let continues = chains.last().map(|ch| (ch[ch.len() - 1] - p.a).norm() <= on_tol).unwrap_or(false);
+        if continues {
+            let ch = chains.last_mut().ok_or(SurfaceError::Inconsistent { cell: c, msg: "empty chain".into() })?;
+            ch.push(p.b);
+            if let Some(e) = chain_ends.last_mut() {
+                e.1 = if end_on { Some(sb) } else { None };
+            }
+        } else {
+            chains.push(vec![p.a, p.b]);
+            chain_ends.push((if start_on { Some(sa) } else { None }, if end_on { Some(sb) } else { None }));
+        }
+    }
+    // A closed polyline wraps around: join the last chain into the first if they meet inside.
+    if chains.len() > 1 {
+        let k = chains.len() - 1;
+        if (chains[k][chains[k].len() - 1] - chains[0][0]).norm() <= on_tol {
+            let last = chains.pop().unwrap_or_default();
+            let le = chain_ends.pop().unwrap_or((None, None));
+            let mut joined = last;
+            joined.extend_from_slice(&chains[0][1..]);
+            chains[0] = joined;
+            chain_ends[0].0 = le.0;
+        }
+    }
+    Ok(chains.into_iter().zip(chain_ends).collect())
+}
+
+/// The material loops that run along the cell boundary: from each exit event of a chain,
+/// counter-clockwise along the boundary to the next entry, then along that chain.
+fn boundary_loops(
+    poly: &[Point2<f64>],
+    c: usize,
+    chains: &[Vec<Point2<f64>>],
+    mut events: Vec<(f64, bool, usize)>,
+    on_tol: f64,
+) -> Result<Vec<Vec<Point2<f64>>>, SurfaceError> {
+    let n = poly.len();
+    let mut loops = Vec::new();
     events.sort_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)));
     let ne = events.len();
     let mut used = vec![false; ne];
