@@ -7,9 +7,10 @@ use mortex::io::ResultWriter;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-/// The binary's own modules: the timings of `mortex bench`.
+/// The binary's own modules: the timings of `mortex bench`, the studies of `mortex study`.
 mod cli {
     pub mod bench;
+    pub mod study;
 }
 
 #[derive(Parser)]
@@ -65,6 +66,11 @@ enum Command {
     },
     /// Validate a case without running it and summarise what it defines.
     Check { case: PathBuf },
+    /// Run a study: many runs of one case, gathered into one table.
+    Study {
+        #[command(subcommand)]
+        study: StudyCommand,
+    },
     /// Time assembly, factorisation and solve of an n x n Quad4 plane-strain block.
     Bench {
         /// Cells per side (300 gives about 181k DOFs).
@@ -104,6 +110,19 @@ enum Command {
     },
 }
 
+#[derive(Subcommand)]
+enum StudyCommand {
+    /// Run a case over a grid of its inputs (a sweep file: `case`, `output`, `[[vary]]` with
+    /// `key` and `values`), each run a process of its own; finished runs are skipped when the
+    /// sweep is started again; the table goes to `<output>/sweep.csv` and `sweep.md`.
+    Sweep {
+        file: PathBuf,
+        /// Runs at once (default: the cores).
+        #[arg(long)]
+        parallel: Option<usize>,
+    },
+}
+
 // mimalloc keeps freed pages for reuse: the large short-lived buffers of set-up (Delassus
 // columns, factor workspaces) no longer fault in fresh pages from the system each time (the
 // Hertz benchmark at 174k DOFs: 568k page faults and 2.8 s of system time with the system
@@ -124,6 +143,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run { case, output, quiet, restart, from_step } => run(case, output, quiet, restart, from_step),
         Command::Check { case } => check(case),
+        Command::Study { study: StudyCommand::Sweep { file, parallel } } => study_sweep(&file, parallel),
         Command::Plot { result, wear: true, output, .. } => {
             let out = output.unwrap_or_else(|| {
                 let stem = result.file_stem().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
@@ -654,6 +674,25 @@ fn bench_hertz(repeat: usize) -> Result<(), String> {
                 100.0 * r.l2_error
             );
         }
+    }
+    Ok(())
+}
+
+fn study_sweep(file: &std::path::Path, parallel: Option<usize>) -> Result<(), String> {
+    let parallel = parallel.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let exe = std::env::current_exe().map_err(|e| format!("the mortex binary: {e}"))?;
+    let s = cli::study::sweep(file, parallel, &exe).map_err(|e| e.to_string())?;
+    println!(
+        "{}: {} runs: {} run now, {} done before, {} failed -> {} (+ sweep.md)",
+        file.display(),
+        s.runs,
+        s.ran,
+        s.skipped,
+        s.failed,
+        s.table.display()
+    );
+    if s.failed > 0 {
+        return Err(format!("{} of {} runs failed: see their run.log and the status column", s.failed, s.runs));
     }
     Ok(())
 }

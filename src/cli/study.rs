@@ -1,0 +1,344 @@
+//! `mortex study sweep`: one case run over a grid of its inputs, each run a `mortex run`
+//! process of its own, as many at once as asked (default: the cores), resumable, and gathered
+//! into one table.
+//!
+//! A sweep file names the case and the inputs to vary, each by its key path in the case:
+//!
+//! ```toml
+//! case = "wear_cases/uniform_wear.toml"   # relative to the sweep file
+//! output = "results/uniform_sweep"        # default: results/<sweep file stem>
+//! [[vary]]
+//! key = "wear[0].coefficient"            # `section.key`, `array[index].key`
+//! values = [1e-3, 2e-3, 4e-3]
+//! [[vary]]
+//! key = "steps.cycles"
+//! values = [5, 10]
+//! ```
+//!
+//! Every run's case is written and validated before the first run starts (a bad value is an
+//! error naming the run and the key, and nothing is run). Run `i` lives in
+//! `<output>/run_<i>/`: `case.toml`, `result.h5`, `run.log`, and `figures.csv` once it ended
+//! (its status, wall time and, per wearing surface, the largest depth and the worn area at the
+//! end). A sweep started again skips the runs that have `figures.csv`: a killed sweep resumes.
+//! The table of all runs is `<output>/sweep.csv` and `sweep.md`.
+
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// Most runs a sweep may ask for.
+pub const MAX_RUNS: usize = 10_000;
+
+/// A sweep that cannot start or finish: the file, the key and what is wrong.
+#[derive(Debug, thiserror::Error)]
+pub enum StudyError {
+    #[error("{file}: {key}: {msg}")]
+    Input { file: String, key: String, msg: String },
+    #[error("{path}: {msg}")]
+    Io { path: String, msg: String },
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SweepFile {
+    case: PathBuf,
+    output: Option<PathBuf>,
+    vary: Vec<Vary>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Vary {
+    key: String,
+    values: Vec<toml::Value>,
+}
+
+/// What a sweep did: runs in all, run now, found done, failed; the table's path.
+#[derive(Debug)]
+pub struct SweepSummary {
+    pub runs: usize,
+    pub ran: usize,
+    pub skipped: usize,
+    pub failed: usize,
+    pub table: PathBuf,
+}
+
+fn io_err(path: &Path) -> impl Fn(std::io::Error) -> StudyError + '_ {
+    move |e| StudyError::Io { path: path.display().to_string(), msg: e.to_string() }
+}
+
+/// Runs the sweep in `file` with `parallel` runs at once, `exe` the `mortex` binary.
+pub fn sweep(file: &Path, parallel: usize, exe: &Path) -> Result<SweepSummary, StudyError> {
+    let name = file.display().to_string();
+    let input = |key: &str, msg: String| StudyError::Input { file: name.clone(), key: key.into(), msg };
+    let text = std::fs::read_to_string(file).map_err(io_err(file))?;
+    let spec: SweepFile = toml::from_str(&text).map_err(|e| input("(file)", e.message().to_string()))?;
+    let dir = file.parent().unwrap_or(Path::new("."));
+    let case_path = dir.join(&spec.case);
+    let case_text =
+        std::fs::read_to_string(&case_path).map_err(|e| input("case", format!("{}: {e}", case_path.display())))?;
+    let base: toml::Table =
+        toml::from_str(&case_text).map_err(|e| input("case", format!("{}: {}", case_path.display(), e.message())))?;
+    let runs = grid(&spec.vary, &base, &input)?;
+    let stem = file.file_stem().map_or("sweep".into(), |s| s.to_string_lossy().to_string());
+    let out = spec.output.as_ref().map_or_else(|| PathBuf::from("results").join(&stem), |o| dir.join(o));
+    let case_dir = case_path.parent().unwrap_or(Path::new(".")).to_path_buf();
+    // Every run's case, validated before anything runs.
+    let mut cases = Vec::with_capacity(runs.len());
+    for (i, values) in runs.iter().enumerate() {
+        let mut table = base.clone();
+        for (v, value) in spec.vary.iter().zip(values) {
+            set_key(&mut table, &v.key, value.clone()).map_err(|msg| input(&v.key, msg))?;
+        }
+        absolute_mesh_files(&mut table, &case_dir);
+        let text = toml::to_string(&table).map_err(|e| input("case", e.to_string()))?;
+        let run_case = out.join(format!("run_{i:04}")).join("case.toml");
+        mortex::case::parse(&text, &run_case.display().to_string(), &case_dir, &format!("run_{i:04}")).map_err(
+            |e| {
+                let at: Vec<String> = spec.vary.iter().zip(values).map(|(v, x)| format!("{} = {x}", v.key)).collect();
+                input("vary", format!("run {i} ({}) is not a valid case: {e}", at.join(", ")))
+            },
+        )?;
+        cases.push((run_case, text));
+    }
+    for (path, text) in &cases {
+        let d = path.parent().unwrap_or(Path::new("."));
+        std::fs::create_dir_all(d).map_err(io_err(d))?;
+        std::fs::write(path, text).map_err(io_err(path))?;
+    }
+    let (ran, skipped) = run_all(&cases, parallel.max(1), exe)?;
+    let table = gather(&out, &spec.vary, &runs)?;
+    let failed = (0..runs.len()).filter(|&i| !run_ok(&out, i)).count();
+    Ok(SweepSummary { runs: runs.len(), ran, skipped, failed, table })
+}
+
+/// The grid of values: every combination of the `vary` lists, the last varying fastest.
+fn grid(
+    vary: &[Vary],
+    base: &toml::Table,
+    input: &dyn Fn(&str, String) -> StudyError,
+) -> Result<Vec<Vec<toml::Value>>, StudyError> {
+    if vary.is_empty() {
+        return Err(input("vary", "nothing to vary: give at least one [[vary]] with a key and values".into()));
+    }
+    let mut count = 1usize;
+    for (i, v) in vary.iter().enumerate() {
+        if v.values.is_empty() {
+            return Err(input(&format!("vary[{i}].values"), "empty: give at least one value".into()));
+        }
+        let mut probe = base.clone();
+        set_key(&mut probe, &v.key, v.values[0].clone()).map_err(|msg| input(&format!("vary[{i}].key"), msg))?;
+        count = count.saturating_mul(v.values.len());
+    }
+    if count > MAX_RUNS {
+        return Err(input("vary", format!("{count} runs: more than {MAX_RUNS}")));
+    }
+    let mut runs = vec![vec![]];
+    for v in vary {
+        runs = runs
+            .into_iter()
+            .flat_map(|r| v.values.iter().map(move |x| [r.clone(), vec![x.clone()]].concat()))
+            .collect();
+    }
+    Ok(runs)
+}
+
+/// Sets `key` (`a.b`, `a[2].b`) of a case to `value`. The key must exist in the case, and the
+/// value must have its type (an integer where a float is expected is taken as a float).
+fn set_key(table: &mut toml::Table, key: &str, value: toml::Value) -> Result<(), String> {
+    let mut root = toml::Value::Table(std::mem::take(table));
+    let result = set_in(&mut root, key.split('.').collect::<Vec<_>>().as_slice(), value);
+    if let toml::Value::Table(t) = root {
+        *table = t;
+    }
+    result
+}
+
+fn set_in(node: &mut toml::Value, parts: &[&str], value: toml::Value) -> Result<(), String> {
+    let Some((part, rest)) = parts.split_first() else { return Err("empty key".into()) };
+    let (name, index) = match part.split_once('[') {
+        Some((n, tail)) => {
+            let i = tail.strip_suffix(']').and_then(|s| s.parse::<usize>().ok());
+            (n, Some(i.ok_or(format!("'{part}' is not `name[index]`"))?))
+        }
+        None => (*part, None),
+    };
+    let table = node.as_table_mut().ok_or(format!("'{name}' is under a value, not a table"))?;
+    let child =
+        table.get_mut(name).ok_or(format!("the case has no key '{name}' there (a sweep varies what the case sets)"))?;
+    let child = match index {
+        Some(i) => child
+            .as_array_mut()
+            .ok_or(format!("'{name}' is not an array"))?
+            .get_mut(i)
+            .ok_or(format!("'{name}' has no element {i}"))?,
+        None => child,
+    };
+    if !rest.is_empty() {
+        return set_in(child, rest, value);
+    }
+    *child = match (&*child, value) {
+        (toml::Value::Float(_), toml::Value::Integer(n)) => toml::Value::Float(n as f64),
+        (old, new) if std::mem::discriminant(old) == std::mem::discriminant(&new) => new,
+        (old, new) => {
+            return Err(format!("{new} is a {}, the case's value {old} a {}", new.type_str(), old.type_str()))
+        }
+    };
+    Ok(())
+}
+
+/// Mesh files of the case (`bodies[i].mesh.file`) made absolute: the run's case lives in the
+/// sweep's output, not beside the original.
+fn absolute_mesh_files(table: &mut toml::Table, case_dir: &Path) {
+    let Some(bodies) = table.get_mut("bodies").and_then(|b| b.as_array_mut()) else { return };
+    for body in bodies {
+        let Some(file) = body.get_mut("mesh").and_then(|m| m.get_mut("file")) else { continue };
+        if let Some(f) = file.as_str().map(PathBuf::from).filter(|f| f.is_relative()) {
+            let joined = case_dir.join(f);
+            let full = joined.canonicalize().unwrap_or(joined);
+            *file = toml::Value::String(full.display().to_string());
+        }
+    }
+}
+
+fn run_dir(out: &Path, i: usize) -> PathBuf {
+    out.join(format!("run_{i:04}"))
+}
+
+fn figures_path(out: &Path, i: usize) -> PathBuf {
+    run_dir(out, i).join("figures.csv")
+}
+
+fn run_ok(out: &Path, i: usize) -> bool {
+    read_figures(&figures_path(out, i)).is_some_and(|f| f.first().is_some_and(|(k, v)| k == "status" && v == "ok"))
+}
+
+/// Runs every case whose run has no `figures.csv` yet, `parallel` at a time. Returns the runs
+/// started and the runs found done.
+fn run_all(cases: &[(PathBuf, String)], parallel: usize, exe: &Path) -> Result<(usize, usize), StudyError> {
+    let mut todo: Vec<usize> =
+        (0..cases.len()).filter(|&i| !cases[i].0.with_file_name("figures.csv").exists()).collect();
+    let skipped = cases.len() - todo.len();
+    let started = todo.len();
+    todo.reverse();
+    let mut running: Vec<(usize, std::process::Child, Instant)> = Vec::new();
+    while !todo.is_empty() || !running.is_empty() {
+        while running.len() < parallel {
+            let Some(i) = todo.pop() else { break };
+            let case = &cases[i].0;
+            let dir = case.parent().unwrap_or(Path::new("."));
+            let log_path = dir.join("run.log");
+            let log = std::fs::File::create(&log_path).map_err(io_err(&log_path))?;
+            let err = log.try_clone().map_err(io_err(&log_path))?;
+            let child = std::process::Command::new(exe)
+                .arg("run")
+                .arg("--quiet")
+                .arg(case)
+                .arg("-o")
+                .arg(dir.join("result.h5"))
+                .stdout(log)
+                .stderr(err)
+                .spawn()
+                .map_err(io_err(exe))?;
+            tracing::info!(run = i, case = %case.display(), "sweep run started");
+            running.push((i, child, Instant::now()));
+        }
+        let mut k = 0;
+        while k < running.len() {
+            let status = running[k].1.try_wait().map_err(io_err(exe))?;
+            let Some(status) = status else {
+                k += 1;
+                continue;
+            };
+            let (i, _, t0) = running.swap_remove(k);
+            let dir = cases[i].0.parent().unwrap_or(Path::new(".")).to_path_buf();
+            write_figures(&dir, status, t0.elapsed().as_secs_f64())?;
+        }
+        if !running.is_empty() {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+    Ok((started, skipped))
+}
+
+/// `figures.csv` of an ended run: its status (`ok`, or the exit and the log's last line), wall
+/// time, and per wearing surface its largest depth and worn area at the end.
+fn write_figures(dir: &Path, status: std::process::ExitStatus, seconds: f64) -> Result<(), StudyError> {
+    let mut rows: Vec<(String, String)> = Vec::new();
+    if status.success() {
+        rows.push(("status".into(), "ok".into()));
+    } else {
+        let log = std::fs::read_to_string(dir.join("run.log")).unwrap_or_default();
+        let last = log.lines().rev().find(|l| !l.trim().is_empty()).unwrap_or("").replace(',', ";");
+        rows.push(("status".into(), format!("failed ({status}): {last}")));
+    }
+    rows.push(("wall_s".into(), format!("{seconds:.3}")));
+    if status.success() {
+        rows.extend(wear_figures(&dir.join("result.h5")));
+    }
+    let text: String = rows.iter().map(|(k, v)| format!("{k},{v}\n")).collect();
+    let path = dir.join("figures.csv");
+    std::fs::write(&path, text).map_err(io_err(&path))
+}
+
+/// Per wearing surface of a result file: its largest depth and worn area at the last wear
+/// update (none for a run without wear).
+fn wear_figures(result: &Path) -> Vec<(String, String)> {
+    let Ok(file) = hdf5::File::open(result) else { return vec![] };
+    let Ok(wear) = file.group("wear") else { return vec![] };
+    let mut out = Vec::new();
+    for name in wear.member_names().unwrap_or_default() {
+        let Ok(g) = wear.group(&name) else { continue };
+        for what in ["max_depth", "worn_area"] {
+            if let Some(v) = g.dataset(what).and_then(|d| d.read_raw::<f64>()).ok().and_then(|v| v.last().copied()) {
+                out.push((format!("{name} {what}"), format!("{v:e}")));
+            }
+        }
+    }
+    out
+}
+
+fn read_figures(path: &Path) -> Option<Vec<(String, String)>> {
+    let text = std::fs::read_to_string(path).ok()?;
+    Some(text.lines().filter_map(|l| l.split_once(',')).map(|(k, v)| (k.to_string(), v.to_string())).collect())
+}
+
+/// `sweep.csv` and `sweep.md` of every run: its index, the varied values, its figures.
+fn gather(out: &Path, vary: &[Vary], runs: &[Vec<toml::Value>]) -> Result<PathBuf, StudyError> {
+    let figures: Vec<Vec<(String, String)>> =
+        (0..runs.len()).map(|i| read_figures(&figures_path(out, i)).unwrap_or_default()).collect();
+    let mut columns: Vec<String> = Vec::new();
+    for f in &figures {
+        for (k, _) in f.iter().filter(|(k, _)| k != "status") {
+            if !columns.contains(k) {
+                columns.push(k.clone());
+            }
+        }
+    }
+    let header: Vec<String> = ["run".to_string()]
+        .into_iter()
+        .chain(vary.iter().map(|v| v.key.clone()))
+        .chain(columns.iter().cloned())
+        .chain(["status".to_string()])
+        .collect();
+    let mut rows: Vec<Vec<String>> = Vec::new();
+    for (i, (values, f)) in runs.iter().zip(&figures).enumerate() {
+        let get = |k: &str| f.iter().find(|(n, _)| n == k).map(|(_, v)| v.clone());
+        let mut row = vec![i.to_string()];
+        row.extend(values.iter().map(|v| v.to_string()));
+        // A missing figure stays empty: never a number the run did not produce.
+        row.extend(columns.iter().map(|c| get(c).unwrap_or_default()));
+        row.push(get("status").unwrap_or_else(|| "missing".into()));
+        rows.push(row);
+    }
+    let csv: String = std::iter::once(&header).chain(&rows).map(|r| r.join(",") + "\n").collect();
+    let md: String = std::iter::once(format!("| {} |\n", header.join(" | ")))
+        .chain(std::iter::once(format!("|{}\n", "---|".repeat(header.len()))))
+        .chain(rows.iter().map(|r| format!("| {} |\n", r.join(" | "))))
+        .collect();
+    let csv_path = out.join("sweep.csv");
+    std::fs::write(&csv_path, csv).map_err(io_err(&csv_path))?;
+    let md_path = out.join("sweep.md");
+    std::fs::write(&md_path, md).map_err(io_err(&md_path))?;
+    Ok(csv_path)
+}
