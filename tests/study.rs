@@ -86,6 +86,55 @@ fn sweep_gathers_exact_wear_and_resumes_without_running_again() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A Latin hypercube of 8 runs over the wear coefficient (log scale, 1e-3 to 4e-3 /MPa) and the
+/// pressure (40 to 60 MPa), seeded: each key's range cut into 8 strata holds exactly one run
+/// (exact), the same seed gives the same values (bit for bit), and every run's depth is
+/// `k p S N` (1e-8 relative, as above).
+#[test]
+fn latin_hypercube_puts_one_run_in_each_stratum() {
+    let dir = scratch("lhs");
+    let n = 8usize;
+    let body = |out: &str| {
+        format!(
+            "case = {:?}\noutput = \"{out}\"\nsampling = \"latin_hypercube\"\nsamples = {n}\nseed = 3\n\
+             [[vary]]\nkey = \"wear[0].coefficient\"\nrange = [1e-3, 4e-3]\nscale = \"log\"\n\
+             [[vary]]\nkey = \"loads[0].pressure\"\nrange = [40.0, 60.0]\n",
+            case().display().to_string()
+        )
+    };
+    let mut tables = vec![];
+    for out in ["a", "b"] {
+        let file = dir.join(format!("{out}.toml"));
+        std::fs::write(&file, body(out)).unwrap();
+        let run = sweep(&file);
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        tables.push(std::fs::read_to_string(dir.join(out).join("sweep.csv")).unwrap());
+    }
+    let rows: Vec<Vec<String>> =
+        tables[0].lines().skip(1).map(|l| l.split(',').map(str::to_string).collect()).collect();
+    let values = |t: &str| -> Vec<String> {
+        t.lines().skip(1).map(|l| l.split(',').take(3).collect::<Vec<_>>().join(",")).collect()
+    };
+    assert_eq!(values(&tables[0]), values(&tables[1]), "the same seed must give the same sample");
+    assert_eq!(rows.len(), n);
+    let stratum = |x: f64, lo: f64, hi: f64| ((x - lo) / (hi - lo) * n as f64).floor() as usize;
+    let mut k_strata: Vec<usize> =
+        rows.iter().map(|r| stratum(r[1].parse::<f64>().unwrap().ln(), 1e-3f64.ln(), 4e-3f64.ln())).collect();
+    let mut p_strata: Vec<usize> = rows.iter().map(|r| stratum(r[2].parse().unwrap(), 40.0, 60.0)).collect();
+    k_strata.sort_unstable();
+    p_strata.sort_unstable();
+    assert_eq!(k_strata, (0..n).collect::<Vec<_>>());
+    assert_eq!(p_strata, (0..n).collect::<Vec<_>>());
+    let header: Vec<&str> = tables[0].lines().next().unwrap().split(',').collect();
+    let cd = header.iter().position(|h| *h == "surface max_depth").unwrap();
+    for r in &rows {
+        let (k, p, depth): (f64, f64, f64) = (r[1].parse().unwrap(), r[2].parse().unwrap(), r[cd].parse().unwrap());
+        let w = k * p * SLIP_PER_CYCLE * 20.0;
+        assert!((depth / w - 1.0).abs() < 1e-8, "k {k}, p {p}: depth {depth} against {w}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Bad sweeps: a key the case does not set, no values, a value of the wrong type, a value the
 /// case refuses (a negative wear coefficient), too many runs. Each is an error naming the
 /// sweep file and the key, exit code 1, and nothing is run (no output directory).

@@ -43,6 +43,11 @@ pub enum StudyError {
 struct SweepFile {
     case: PathBuf,
     output: Option<PathBuf>,
+    /// `"grid"` (default: every combination of the `values`) or `"latin_hypercube"` (`samples`
+    /// runs over the `range`s, seeded by `seed`).
+    sampling: Option<String>,
+    samples: Option<usize>,
+    seed: Option<u64>,
     vary: Vec<Vary>,
 }
 
@@ -50,7 +55,12 @@ struct SweepFile {
 #[serde(deny_unknown_fields)]
 struct Vary {
     key: String,
-    values: Vec<toml::Value>,
+    /// Grid: the values.
+    values: Option<Vec<toml::Value>>,
+    /// Latin hypercube: the interval, sampled uniformly (`scale = "log"`: uniformly in its
+    /// logarithm, for quantities that scatter by factors, as wear coefficients do).
+    range: Option<[f64; 2]>,
+    scale: Option<String>,
 }
 
 /// What a sweep did: runs in all, run now, found done, failed; the table's path.
@@ -79,7 +89,7 @@ pub fn sweep(file: &Path, parallel: usize, exe: &Path) -> Result<SweepSummary, S
         std::fs::read_to_string(&case_path).map_err(|e| input("case", format!("{}: {e}", case_path.display())))?;
     let base: toml::Table =
         toml::from_str(&case_text).map_err(|e| input("case", format!("{}: {}", case_path.display(), e.message())))?;
-    let runs = grid(&spec.vary, &base, &input)?;
+    let runs = grid(&spec, &base, &input)?;
     let stem = file.file_stem().map_or("sweep".into(), |s| s.to_string_lossy().to_string());
     let out = spec.output.as_ref().map_or_else(|| PathBuf::from("results").join(&stem), |o| dir.join(o));
     let case_dir = case_path.parent().unwrap_or(Path::new(".")).to_path_buf();
@@ -112,35 +122,136 @@ pub fn sweep(file: &Path, parallel: usize, exe: &Path) -> Result<SweepSummary, S
     Ok(SweepSummary { runs: runs.len(), ran, skipped, failed, table })
 }
 
-/// The grid of values: every combination of the `vary` lists, the last varying fastest.
+/// The runs' values: the grid of the `vary` lists (every combination, the last varying
+/// fastest), or a Latin hypercube over their ranges.
 fn grid(
-    vary: &[Vary],
+    spec: &SweepFile,
     base: &toml::Table,
     input: &dyn Fn(&str, String) -> StudyError,
 ) -> Result<Vec<Vec<toml::Value>>, StudyError> {
+    let vary = &spec.vary;
     if vary.is_empty() {
         return Err(input("vary", "nothing to vary: give at least one [[vary]] with a key and values".into()));
     }
+    let lhs = match spec.sampling.as_deref() {
+        None | Some("grid") => false,
+        Some("latin_hypercube") => true,
+        Some(other) => return Err(input("sampling", format!("'{other}': use \"grid\" or \"latin_hypercube\""))),
+    };
+    if lhs {
+        return latin_hypercube(spec, base, input);
+    }
+    if spec.samples.is_some() || spec.seed.is_some() {
+        return Err(input("samples", "samples and seed belong to sampling = \"latin_hypercube\"".into()));
+    }
     let mut count = 1usize;
     for (i, v) in vary.iter().enumerate() {
-        if v.values.is_empty() {
-            return Err(input(&format!("vary[{i}].values"), "empty: give at least one value".into()));
+        let Some(values) = v.values.as_ref().filter(|x| !x.is_empty()) else {
+            return Err(input(&format!("vary[{i}].values"), "empty or missing: give at least one value".into()));
+        };
+        if v.range.is_some() || v.scale.is_some() {
+            return Err(input(
+                &format!("vary[{i}].range"),
+                "range and scale belong to sampling = \"latin_hypercube\"".into(),
+            ));
         }
         let mut probe = base.clone();
-        set_key(&mut probe, &v.key, v.values[0].clone()).map_err(|msg| input(&format!("vary[{i}].key"), msg))?;
-        count = count.saturating_mul(v.values.len());
+        set_key(&mut probe, &v.key, values[0].clone()).map_err(|msg| input(&format!("vary[{i}].key"), msg))?;
+        count = count.saturating_mul(values.len());
     }
     if count > MAX_RUNS {
         return Err(input("vary", format!("{count} runs: more than {MAX_RUNS}")));
     }
     let mut runs = vec![vec![]];
     for v in vary {
-        runs = runs
-            .into_iter()
-            .flat_map(|r| v.values.iter().map(move |x| [r.clone(), vec![x.clone()]].concat()))
-            .collect();
+        let values = v.values.as_deref().unwrap_or_default();
+        runs =
+            runs.into_iter().flat_map(|r| values.iter().map(move |x| [r.clone(), vec![x.clone()]].concat())).collect();
     }
     Ok(runs)
+}
+
+/// SplitMix64 (Steele, Lea & Flood 2014): a seeded stream that gives the same sample on every
+/// machine and version.
+struct SplitMix64(u64);
+
+impl SplitMix64 {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in [0, 1).
+    fn unit(&mut self) -> f64 {
+        (self.next() >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// `samples` runs, each key's range cut into `samples` equal strata (in the logarithm for
+/// `scale = "log"`) and every stratum used by exactly one run, at a uniform point inside it;
+/// strata shuffled independently per key. A key whose case value is an integer gets the
+/// sample rounded.
+fn latin_hypercube(
+    spec: &SweepFile,
+    base: &toml::Table,
+    input: &dyn Fn(&str, String) -> StudyError,
+) -> Result<Vec<Vec<toml::Value>>, StudyError> {
+    let n =
+        spec.samples.ok_or_else(|| input("samples", "latin_hypercube needs samples (the number of runs)".into()))?;
+    if n == 0 || n > MAX_RUNS {
+        return Err(input("samples", format!("{n}: give 1 to {MAX_RUNS} runs")));
+    }
+    let mut rng = SplitMix64(spec.seed.unwrap_or(1));
+    let mut columns: Vec<Vec<toml::Value>> = Vec::with_capacity(spec.vary.len());
+    for (i, v) in spec.vary.iter().enumerate() {
+        let key = |k: &str| format!("vary[{i}].{k}");
+        if v.values.is_some() {
+            return Err(input(&key("values"), "latin_hypercube samples a range: give range = [low, high]".into()));
+        }
+        let [lo, hi] = v.range.ok_or_else(|| input(&key("range"), "missing: give range = [low, high]".into()))?;
+        let log = match v.scale.as_deref() {
+            None | Some("linear") => false,
+            Some("log") => true,
+            Some(other) => return Err(input(&key("scale"), format!("'{other}': use \"linear\" or \"log\""))),
+        };
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) || (log && lo <= 0.0) {
+            return Err(input(
+                &key("range"),
+                format!("[{lo}, {hi}]: give finite low < high (> 0 for scale = \"log\")"),
+            ));
+        }
+        let integer = key_is_integer(base, &v.key);
+        let probe = if integer { toml::Value::Integer(lo.round() as i64) } else { toml::Value::Float(lo) };
+        set_key(&mut base.clone(), &v.key, probe).map_err(|msg| input(&key("key"), msg))?;
+        let (a, b) = if log { (lo.ln(), hi.ln()) } else { (lo, hi) };
+        let mut strata: Vec<usize> = (0..n).collect();
+        for k in (1..n).rev() {
+            strata.swap(k, (rng.next() % (k as u64 + 1)) as usize);
+        }
+        columns.push(
+            strata
+                .iter()
+                .map(|&s| {
+                    let t = a + (s as f64 + rng.unit()) / n as f64 * (b - a);
+                    let x = if log { t.exp() } else { t };
+                    if integer {
+                        toml::Value::Integer(x.round() as i64)
+                    } else {
+                        toml::Value::Float(x)
+                    }
+                })
+                .collect(),
+        );
+    }
+    Ok((0..n).map(|r| columns.iter().map(|c| c[r].clone()).collect()).collect())
+}
+
+/// Whether the case's value at `key` is an integer (an integer may replace it, a float not).
+fn key_is_integer(base: &toml::Table, key: &str) -> bool {
+    set_key(&mut base.clone(), key, toml::Value::Integer(0)).is_ok()
+        && set_key(&mut base.clone(), key, toml::Value::Float(0.5)).is_err()
 }
 
 /// Sets `key` (`a.b`, `a[2].b`) of a case to `value`. The key must exist in the case, and the
@@ -181,7 +292,11 @@ fn set_in(node: &mut toml::Value, parts: &[&str], value: toml::Value) -> Result<
         (toml::Value::Float(_), toml::Value::Integer(n)) => toml::Value::Float(n as f64),
         (old, new) if std::mem::discriminant(old) == std::mem::discriminant(&new) => new,
         (old, new) => {
-            return Err(format!("{new} is a {}, the case's value {old} a {}", new.type_str(), old.type_str()))
+            return Err(format!(
+                "{new} is of type {}, where the case has {old} of type {}",
+                new.type_str(),
+                old.type_str()
+            ))
         }
     };
     Ok(())
@@ -340,5 +455,50 @@ fn gather(out: &Path, vary: &[Vary], runs: &[Vec<toml::Value>]) -> Result<PathBu
     std::fs::write(&csv_path, csv).map_err(io_err(&csv_path))?;
     let md_path = out.join("sweep.md");
     std::fs::write(&md_path, md).map_err(io_err(&md_path))?;
+    chart(out, vary, runs, &columns, &figures);
     Ok(csv_path)
+}
+
+/// `sweep.png`: per numeric key varied, each surface's largest depth against it. A chart that
+/// cannot be drawn (no font) is reported in the log, not as a failed sweep: the table holds
+/// the figures.
+fn chart(out: &Path, vary: &[Vary], runs: &[Vec<toml::Value>], columns: &[String], figures: &[Vec<(String, String)>]) {
+    use mortex::io::plot::{write_xy_png, Series};
+    let number = |v: &toml::Value| v.as_float().or_else(|| v.as_integer().map(|n| n as f64));
+    let depths: Vec<&String> = columns.iter().filter(|c| c.ends_with("max_depth")).collect();
+    if depths.is_empty() {
+        return;
+    }
+    let mut panels = Vec::new();
+    for (k, v) in vary.iter().enumerate() {
+        if runs.first().and_then(|r| number(&r[k])).is_none() {
+            continue;
+        }
+        let series: Vec<Series> = depths
+            .iter()
+            .map(|c| Series {
+                label: c.trim_end_matches(" max_depth").to_string(),
+                // One key varied: a curve; several: each panel is a projection, points only.
+                joined: vary.len() == 1,
+                points: runs
+                    .iter()
+                    .zip(figures)
+                    .filter_map(|(r, f)| {
+                        let y = f.iter().find(|(n, _)| n == *c).and_then(|(_, y)| y.parse::<f64>().ok())?;
+                        Some((number(&r[k])?, y))
+                    })
+                    .collect(),
+            })
+            .collect();
+        panels.push((
+            format!("largest wear depth against {}", v.key),
+            v.key.clone(),
+            "max depth (mm)".to_string(),
+            series,
+        ));
+    }
+    let path = out.join("sweep.png");
+    if let Err(e) = write_xy_png(&panels, &path) {
+        tracing::warn!(error = %e, "sweep chart not drawn");
+    }
 }

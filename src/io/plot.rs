@@ -377,3 +377,54 @@ pub fn write_wear_png(path: &Path, out: &Path) -> Result<usize, PlotError> {
     root.present().map_err(|e| de(&e))?;
     Ok(names.len())
 }
+
+/// One curve of an XY chart: its label and its points.
+pub struct Series {
+    pub label: String,
+    pub points: Vec<(f64, f64)>,
+    /// Points joined in x order (a curve), or points only (a scatter).
+    pub joined: bool,
+}
+
+/// An XY chart of several series, one panel per `(title, x
+/// label, y label, series)`: the chart of a study. Non-finite points are left out.
+pub fn write_xy_png(panels: &[(String, String, String, Vec<Series>)], out: &Path) -> Result<(), PlotError> {
+    register_font()?;
+    let draw_err = |e: &dyn std::fmt::Display| PlotError::Draw { path: out.display().to_string(), msg: e.to_string() };
+    let root = BitMapBackend::new(out, (900, 380 * panels.len().max(1) as u32)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| draw_err(&e))?;
+    let areas = root.split_evenly((panels.len().max(1), 1));
+    let palette = [BLUE, RED, GREEN, MAGENTA, CYAN, BLACK];
+    for ((title, x_desc, y_desc, series), area) in panels.iter().zip(areas.iter()) {
+        let finite = |p: &&(f64, f64)| p.0.is_finite() && p.1.is_finite();
+        let all: Vec<(f64, f64)> = series.iter().flat_map(|s| s.points.iter().filter(finite).copied()).collect();
+        let (x0, x1) = all.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.0), b.max(p.0)));
+        let (y0, y1) = all.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.1), b.max(p.1)));
+        if !(x0.is_finite() && y0.is_finite()) {
+            continue;
+        }
+        let pad = |a: f64, b: f64| 0.05 * (b - a).abs().max(1e-12 * a.abs().max(1e-300));
+        let (px, py) = (pad(x0, x1), pad(y0, y1));
+        let mut ch = ChartBuilder::on(area)
+            .caption(title, ("sans-serif", 20))
+            .margin(12)
+            .x_label_area_size(36)
+            .y_label_area_size(80)
+            .build_cartesian_2d((x0 - px)..(x1 + px), (y0 - py)..(y1 + py))
+            .map_err(|e| draw_err(&e))?;
+        ch.configure_mesh().x_desc(x_desc.as_str()).y_desc(y_desc.as_str()).draw().map_err(|e| draw_err(&e))?;
+        for (k, s) in series.iter().enumerate() {
+            let color = palette[k % palette.len()];
+            let mut pts: Vec<(f64, f64)> = s.points.iter().filter(finite).copied().collect();
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let line = if s.joined { pts.clone() } else { vec![] };
+            ch.draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled()))).map_err(|e| draw_err(&e))?;
+            ch.draw_series(LineSeries::new(line, color.stroke_width(1)))
+                .map_err(|e| draw_err(&e))?
+                .label(s.label.clone())
+                .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()));
+        }
+        legend(&mut ch).map_err(|e| draw_err(&e))?;
+    }
+    root.present().map_err(|e| draw_err(&e))
+}
