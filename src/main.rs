@@ -10,6 +10,7 @@ use std::process::ExitCode;
 /// The binary's own modules: the timings of `mortex bench`, the studies of `mortex study`.
 mod cli {
     pub mod bench;
+    pub mod convergence;
     pub mod study;
 }
 
@@ -121,6 +122,15 @@ enum StudyCommand {
         #[arg(long)]
         parallel: Option<usize>,
     },
+    /// Refine a case one knob at a time (a file: `case`, `output`, `[[knob]]` with `key`,
+    /// `values` coarse to fine and `size`): errors against each knob's finest run, observed
+    /// orders, table `<output>/convergence.csv` and `.md`, chart `convergence.png`.
+    Convergence {
+        file: PathBuf,
+        /// Runs at once (default: the cores).
+        #[arg(long)]
+        parallel: Option<usize>,
+    },
 }
 
 // mimalloc keeps freed pages for reuse: the large short-lived buffers of set-up (Delassus
@@ -144,6 +154,7 @@ fn main() -> ExitCode {
         Command::Run { case, output, quiet, restart, from_step } => run(case, output, quiet, restart, from_step),
         Command::Check { case } => check(case),
         Command::Study { study: StudyCommand::Sweep { file, parallel } } => study_sweep(&file, parallel),
+        Command::Study { study: StudyCommand::Convergence { file, parallel } } => study_convergence(&file, parallel),
         Command::Plot { result, wear: true, output, .. } => {
             let out = output.unwrap_or_else(|| {
                 let stem = result.file_stem().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
@@ -693,6 +704,32 @@ fn study_sweep(file: &std::path::Path, parallel: Option<usize>) -> Result<(), St
     );
     if s.failed > 0 {
         return Err(format!("{} of {} runs failed: see their run.log and the status column", s.failed, s.runs));
+    }
+    Ok(())
+}
+
+fn study_convergence(file: &std::path::Path, parallel: Option<usize>) -> Result<(), String> {
+    let parallel = parallel.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let exe = std::env::current_exe().map_err(|e| format!("the mortex binary: {e}"))?;
+    let s = cli::convergence::convergence(file, parallel, &exe).map_err(|e| e.to_string())?;
+    println!("{}: {} runs: {} run now, {} done before", file.display(), s.runs, s.ran, s.skipped);
+    // The finest observed order of each knob and figure.
+    let mut last: Vec<(&str, &str, f64)> = Vec::new();
+    for r in &s.rows {
+        if let Some(o) = r.order {
+            match last.iter_mut().find(|(k, f, _)| *k == r.knob && *f == r.figure) {
+                Some(entry) => entry.2 = o,
+                None => last.push((&r.knob, &r.figure, o)),
+            }
+        }
+    }
+    for (knob, figure, order) in last {
+        println!("  {knob}: {figure}: observed order {order:.2}");
+    }
+    println!("-> {} (+ convergence.md, convergence.png)", s.table.display());
+    let missing = s.rows.iter().filter(|r| r.result.is_none()).count();
+    if missing > 0 {
+        return Err(format!("{missing} figures missing: a run failed (see its run.log)"));
     }
     Ok(())
 }

@@ -135,7 +135,50 @@ fn latin_hypercube_puts_one_run_in_each_stratum() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Bad sweeps: a key the case does not set, no values, a value of the wrong type, a value the
+/// `mortex study convergence` of the uniform-wear case in its increments per cycle (4, 8,
+/// 16): the wear is exact at any setting, so every error against
+/// the finest run is round-off (below 1e-12), the reference rows read 0, and the table holds
+/// a row per value and figure. Knob values that do not refine (the step size growing) are an
+/// error naming the knob.
+#[test]
+fn convergence_of_an_exact_case_is_round_off() {
+    let dir = scratch("conv");
+    let file = dir.join("conv.toml");
+    let text = format!(
+        "case = {:?}\noutput = \"out\"\n[[knob]]\nkey = \"steps.increments\"\nvalues = [4, 8, 16]\n",
+        case().display().to_string()
+    );
+    std::fs::write(&file, text).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_mortex")).args(["study", "convergence"]).arg(&file).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let csv = std::fs::read_to_string(dir.join("out/convergence.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 3 * 2, "3 values x (depth, worn area): {csv}");
+    for r in &rows {
+        let error: f64 = r[5].parse().unwrap();
+        assert!(error < 1e-12, "{r:?}");
+        if r[1] == "16" {
+            assert_eq!(error, 0.0);
+        }
+    }
+    let bad = dir.join("bad.toml");
+    std::fs::write(
+        &bad,
+        format!(
+            "case = {:?}\noutput = \"bad\"\n[[knob]]\nkey = \"steps.increments\"\nvalues = [8, 4]\n",
+            case().display().to_string()
+        ),
+    )
+    .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_mortex")).args(["study", "convergence"]).arg(&bad).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("bad.toml") && err.contains("knob[0].values"), "{err}");
+    assert!(!dir.join("bad").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Bad sweeps: a misspelt key, an array element the case does not have, no values, a value of the wrong type, a value the
 /// case refuses (a negative wear coefficient), too many runs. Each is an error naming the
 /// sweep file and the key, exit code 1, and nothing is run (no output directory).
 #[test]
@@ -144,7 +187,10 @@ fn bad_sweeps_give_clear_errors_and_run_nothing() {
     let cycles: Vec<String> = (1..=200).map(|n| n.to_string()).collect();
     let increments: Vec<String> = (4..=104).map(|n| n.to_string()).collect();
     let cases = [
-        ("key = \"wear[0].coef\"\nvalues = [1e-3]".to_string(), "vary[0].key"),
+        // Keys the case leaves out are added and checked by the case reader: a typo is its
+        // unknown field, named with the run.
+        ("key = \"wear[0].coef\"\nvalues = [1e-3]".to_string(), "wear[0].coef = 0.001"),
+        ("key = \"wear[3].coefficient\"\nvalues = [1e-3]".to_string(), "vary[0].key"),
         ("key = \"wear[0].coefficient\"\nvalues = []".to_string(), "vary[0].values"),
         ("key = \"steps.cycles\"\nvalues = [2.5]".to_string(), "vary[0].key"),
         ("key = \"wear[0].coefficient\"\nvalues = [1e-3, -1e-3]".to_string(), "wear[0].coefficient"),

@@ -73,42 +73,61 @@ pub struct SweepSummary {
     pub table: PathBuf,
 }
 
-fn io_err(path: &Path) -> impl Fn(std::io::Error) -> StudyError + '_ {
+pub(super) fn io_err(path: &Path) -> impl Fn(std::io::Error) -> StudyError + '_ {
     move |e| StudyError::Io { path: path.display().to_string(), msg: e.to_string() }
 }
 
-/// Runs the sweep in `file` with `parallel` runs at once, `exe` the `mortex` binary.
-pub fn sweep(file: &Path, parallel: usize, exe: &Path) -> Result<SweepSummary, StudyError> {
-    let name = file.display().to_string();
-    let input = |key: &str, msg: String| StudyError::Input { file: name.clone(), key: key.into(), msg };
+/// A study's base case and where its runs go.
+pub(super) struct Base {
+    /// The case as a TOML table, and the folder its relative paths start from.
+    pub(super) table: toml::Table,
+    pub(super) case_dir: PathBuf,
+    pub(super) out: PathBuf,
+}
+
+/// Reads a study file as `T` and its base case (`case`, relative to the study file); `output`
+/// defaults to `results/<study file stem>`.
+pub(super) fn read_study<T: serde::de::DeserializeOwned>(
+    file: &Path,
+    input: &dyn Fn(&str, String) -> StudyError,
+    case_and_output: impl Fn(&T) -> (PathBuf, Option<PathBuf>),
+) -> Result<(T, Base), StudyError> {
     let text = std::fs::read_to_string(file).map_err(io_err(file))?;
-    let spec: SweepFile = toml::from_str(&text).map_err(|e| input("(file)", e.message().to_string()))?;
+    let spec: T = toml::from_str(&text).map_err(|e| input("(file)", e.message().to_string()))?;
+    let (case, output) = case_and_output(&spec);
     let dir = file.parent().unwrap_or(Path::new("."));
-    let case_path = dir.join(&spec.case);
+    let case_path = dir.join(case);
     let case_text =
         std::fs::read_to_string(&case_path).map_err(|e| input("case", format!("{}: {e}", case_path.display())))?;
-    let base: toml::Table =
+    let table: toml::Table =
         toml::from_str(&case_text).map_err(|e| input("case", format!("{}: {}", case_path.display(), e.message())))?;
-    let runs = grid(&spec, &base, &input)?;
-    let stem = file.file_stem().map_or("sweep".into(), |s| s.to_string_lossy().to_string());
-    let out = spec.output.as_ref().map_or_else(|| PathBuf::from("results").join(&stem), |o| dir.join(o));
+    let stem = file.file_stem().map_or("study".into(), |s| s.to_string_lossy().to_string());
+    let out = output.map_or_else(|| PathBuf::from("results").join(&stem), |o| dir.join(o));
     let case_dir = case_path.parent().unwrap_or(Path::new(".")).to_path_buf();
-    // Every run's case, validated before anything runs.
+    Ok((spec, Base { table, case_dir, out }))
+}
+
+/// Every run's case (the base with `(key, value)` set), validated before anything runs, then
+/// written to `<out>/run_<i>/case.toml`.
+pub(super) fn write_cases(
+    base: &Base,
+    runs: &[Vec<(String, toml::Value)>],
+    input: &dyn Fn(&str, String) -> StudyError,
+) -> Result<Vec<(PathBuf, String)>, StudyError> {
     let mut cases = Vec::with_capacity(runs.len());
     for (i, values) in runs.iter().enumerate() {
-        let mut table = base.clone();
-        for (v, value) in spec.vary.iter().zip(values) {
-            set_key(&mut table, &v.key, value.clone()).map_err(|msg| input(&v.key, msg))?;
+        let mut table = base.table.clone();
+        for (key, value) in values {
+            set_key(&mut table, key, value.clone()).map_err(|msg| input(key, msg))?;
         }
-        absolute_mesh_files(&mut table, &case_dir);
+        absolute_mesh_files(&mut table, &base.case_dir);
         let text = toml::to_string(&table).map_err(|e| input("case", e.to_string()))?;
-        let run_case = out.join(format!("run_{i:04}")).join("case.toml");
-        mortex::case::parse(&text, &run_case.display().to_string(), &case_dir, &format!("run_{i:04}")).map_err(
-            |e| {
-                let at: Vec<String> = spec.vary.iter().zip(values).map(|(v, x)| format!("{} = {x}", v.key)).collect();
-                input("vary", format!("run {i} ({}) is not a valid case: {e}", at.join(", ")))
-            },
-        )?;
+        let run_case = run_dir(&base.out, i).join("case.toml");
+        let name = format!("run_{i:04}");
+        mortex::case::parse(&text, &run_case.display().to_string(), &base.case_dir, &name).map_err(|e| {
+            let at: Vec<String> = values.iter().map(|(k, x)| format!("{k} = {x}")).collect();
+            input("vary", format!("run {i} ({}) is not a valid case: {e}", at.join(", ")))
+        })?;
         cases.push((run_case, text));
     }
     for (path, text) in &cases {
@@ -116,9 +135,21 @@ pub fn sweep(file: &Path, parallel: usize, exe: &Path) -> Result<SweepSummary, S
         std::fs::create_dir_all(d).map_err(io_err(d))?;
         std::fs::write(path, text).map_err(io_err(path))?;
     }
+    Ok(cases)
+}
+
+/// Runs the sweep in `file` with `parallel` runs at once, `exe` the `mortex` binary.
+pub fn sweep(file: &Path, parallel: usize, exe: &Path) -> Result<SweepSummary, StudyError> {
+    let name = file.display().to_string();
+    let input = |key: &str, msg: String| StudyError::Input { file: name.clone(), key: key.into(), msg };
+    let (spec, base) = read_study(file, &input, |s: &SweepFile| (s.case.clone(), s.output.clone()))?;
+    let runs = grid(&spec, &base.table, &input)?;
+    let keyed: Vec<Vec<(String, toml::Value)>> =
+        runs.iter().map(|r| spec.vary.iter().map(|v| v.key.clone()).zip(r.iter().cloned()).collect()).collect();
+    let cases = write_cases(&base, &keyed, &input)?;
     let (ran, skipped) = run_all(&cases, parallel.max(1), exe)?;
-    let table = gather(&out, &spec.vary, &runs)?;
-    let failed = (0..runs.len()).filter(|&i| !run_ok(&out, i)).count();
+    let table = gather(&base.out, &spec.vary, &runs)?;
+    let failed = (0..runs.len()).filter(|&i| !run_ok(&base.out, i)).count();
     Ok(SweepSummary { runs: runs.len(), ran, skipped, failed, table })
 }
 
@@ -254,8 +285,9 @@ fn key_is_integer(base: &toml::Table, key: &str) -> bool {
         && set_key(&mut base.clone(), key, toml::Value::Float(0.5)).is_err()
 }
 
-/// Sets `key` (`a.b`, `a[2].b`) of a case to `value`. The key must exist in the case, and the
-/// value must have its type (an integer where a float is expected is taken as a float).
+/// Sets `key` (`a.b`, `a[2].b`) of a case to `value`. A key the case sets keeps its type (an
+/// integer where a float is expected is taken as a float); a key it leaves out is added (the
+/// case reader then checks it); array elements must exist.
 fn set_key(table: &mut toml::Table, key: &str, value: toml::Value) -> Result<(), String> {
     let mut root = toml::Value::Table(std::mem::take(table));
     let result = set_in(&mut root, key.split('.').collect::<Vec<_>>().as_slice(), value);
@@ -275,8 +307,16 @@ fn set_in(node: &mut toml::Value, parts: &[&str], value: toml::Value) -> Result<
         None => (*part, None),
     };
     let table = node.as_table_mut().ok_or(format!("'{name}' is under a value, not a table"))?;
-    let child =
-        table.get_mut(name).ok_or(format!("the case has no key '{name}' there (a sweep varies what the case sets)"))?;
+    if !table.contains_key(name) && index.is_none() {
+        // A key the case leaves at its default (a `[cycle_jump]` setting, say): added, and
+        // checked with the rest of the run's case by the case reader.
+        let fresh = if rest.is_empty() { value.clone() } else { toml::Value::Table(toml::Table::new()) };
+        table.insert(name.to_string(), fresh);
+        if rest.is_empty() {
+            return Ok(());
+        }
+    }
+    let child = table.get_mut(name).ok_or(format!("the case has no '{name}' there"))?;
     let child = match index {
         Some(i) => child
             .as_array_mut()
@@ -320,7 +360,7 @@ fn run_dir(out: &Path, i: usize) -> PathBuf {
     out.join(format!("run_{i:04}"))
 }
 
-fn figures_path(out: &Path, i: usize) -> PathBuf {
+pub(super) fn figures_path(out: &Path, i: usize) -> PathBuf {
     run_dir(out, i).join("figures.csv")
 }
 
@@ -330,7 +370,7 @@ fn run_ok(out: &Path, i: usize) -> bool {
 
 /// Runs every case whose run has no `figures.csv` yet, `parallel` at a time. Returns the runs
 /// started and the runs found done.
-fn run_all(cases: &[(PathBuf, String)], parallel: usize, exe: &Path) -> Result<(usize, usize), StudyError> {
+pub(super) fn run_all(cases: &[(PathBuf, String)], parallel: usize, exe: &Path) -> Result<(usize, usize), StudyError> {
     let mut todo: Vec<usize> =
         (0..cases.len()).filter(|&i| !cases[i].0.with_file_name("figures.csv").exists()).collect();
     let skipped = cases.len() - todo.len();
@@ -413,7 +453,7 @@ fn wear_figures(result: &Path) -> Vec<(String, String)> {
     out
 }
 
-fn read_figures(path: &Path) -> Option<Vec<(String, String)>> {
+pub(super) fn read_figures(path: &Path) -> Option<Vec<(String, String)>> {
     let text = std::fs::read_to_string(path).ok()?;
     Some(text.lines().filter_map(|l| l.split_once(',')).map(|(k, v)| (k.to_string(), v.to_string())).collect())
 }

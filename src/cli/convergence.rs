@@ -1,0 +1,236 @@
+//! `mortex study convergence`: a case refined one knob at a time (the increments per cycle, a
+//! mesh's divisions, the cycle jump's depth fraction, ...), each knob's finest value the
+//! reference of its runs; the errors of each surface's largest depth and worn area, their
+//! observed orders, and a log-log chart.
+//!
+//! ```toml
+//! case = "wear_cases/mccoll_fretting.toml"
+//! output = "results/mccoll_convergence"
+//! [[knob]]
+//! key = "steps.increments"
+//! values = [4, 8, 16, 32]     # coarse to fine: the last is the reference
+//! size = "inverse"            # the step size h ~ 1 / value; "direct": h ~ value
+//! ```
+//!
+//! The runs are those of a sweep (`<output>/run_<i>/`, a process each, resumable); the table
+//! is `<output>/convergence.csv` and `.md`, the chart `convergence.png`. The observed order
+//! between two runs `a`, `b` is `ln(e_a / e_b) / ln(h_a / h_b)`.
+
+use super::study::{figures_path, read_figures, read_study, run_all, write_cases, StudyError};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ConvergenceFile {
+    case: PathBuf,
+    output: Option<PathBuf>,
+    knob: Vec<Knob>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Knob {
+    key: String,
+    values: Vec<toml::Value>,
+    size: Option<String>,
+}
+
+/// One row of the table: a knob's value, its step size, a figure, its result, its error
+/// against the knob's finest run and the order observed from the previous value.
+#[derive(Debug, Clone)]
+pub struct Row {
+    pub knob: String,
+    pub value: String,
+    pub h: f64,
+    pub figure: String,
+    pub result: Option<f64>,
+    pub error: Option<f64>,
+    pub order: Option<f64>,
+}
+
+/// What a convergence study did: runs, run now, found done; its rows; the table's path.
+pub struct ConvergenceSummary {
+    pub runs: usize,
+    pub ran: usize,
+    pub skipped: usize,
+    pub rows: Vec<Row>,
+    pub table: PathBuf,
+}
+
+/// Observed order between errors `e_a` at step size `h_a` and `e_b` at `h_b`.
+pub fn observed_order(e_a: f64, h_a: f64, e_b: f64, h_b: f64) -> Option<f64> {
+    (e_a > 0.0 && e_b > 0.0 && h_a > 0.0 && h_b > 0.0 && h_a != h_b).then(|| (e_a / e_b).ln() / (h_a / h_b).ln())
+}
+
+/// Runs the convergence study in `file`, `parallel` runs at once.
+pub fn convergence(file: &Path, parallel: usize, exe: &Path) -> Result<ConvergenceSummary, StudyError> {
+    let name = file.display().to_string();
+    let input = |key: &str, msg: String| StudyError::Input { file: name.clone(), key: key.into(), msg };
+    let (spec, base) = read_study(file, &input, |s: &ConvergenceFile| (s.case.clone(), s.output.clone()))?;
+    if spec.knob.is_empty() {
+        return Err(input("knob", "nothing to refine: give at least one [[knob]] with a key and values".into()));
+    }
+    // Step sizes per knob, coarse to fine.
+    let mut sizes: Vec<Vec<f64>> = Vec::with_capacity(spec.knob.len());
+    let mut runs: Vec<Vec<(String, toml::Value)>> = Vec::new();
+    for (j, k) in spec.knob.iter().enumerate() {
+        let key = |s: &str| format!("knob[{j}].{s}");
+        let inverse = match k.size.as_deref() {
+            None | Some("inverse") => true,
+            Some("direct") => false,
+            Some(other) => return Err(input(&key("size"), format!("'{other}': use \"inverse\" or \"direct\""))),
+        };
+        let numbers: Option<Vec<f64>> =
+            k.values.iter().map(|v| v.as_float().or_else(|| v.as_integer().map(|n| n as f64))).collect();
+        let Some(numbers) = numbers.filter(|v| v.len() >= 2) else {
+            return Err(input(&key("values"), "give at least two numbers, coarse to fine".into()));
+        };
+        let h: Vec<f64> = numbers.iter().map(|&v| if inverse { 1.0 / v } else { v }).collect();
+        if h.iter().any(|x| !x.is_finite() || *x <= 0.0) || h.windows(2).any(|w| w[1] >= w[0]) {
+            return Err(input(
+                &key("values"),
+                format!(
+                    "{numbers:?}: the step sizes must be positive and shrink from coarse to fine (size = {})",
+                    if inverse { "inverse" } else { "direct" }
+                ),
+            ));
+        }
+        sizes.push(h);
+        runs.extend(k.values.iter().map(|v| vec![(k.key.clone(), v.clone())]));
+    }
+    let cases = write_cases(&base, &runs, &input)?;
+    let (ran, skipped) = run_all(&cases, parallel.max(1), exe)?;
+    let figures: Vec<Vec<(String, String)>> =
+        (0..runs.len()).map(|i| read_figures(&figures_path(&base.out, i)).unwrap_or_default()).collect();
+    let rows = rows(&spec.knob, &sizes, &figures);
+    let table = write_table(&base.out, &rows)?;
+    chart(&base.out, &spec.knob, &rows);
+    Ok(ConvergenceSummary { runs: runs.len(), ran, skipped, rows, table })
+}
+
+/// The table's rows: per knob, per figure (largest depth and worn area of each surface), per
+/// value; the knob's last value is its reference.
+fn rows(knobs: &[Knob], sizes: &[Vec<f64>], figures: &[Vec<(String, String)>]) -> Vec<Row> {
+    let mut names: Vec<String> = Vec::new();
+    for f in figures {
+        for (n, _) in f.iter().filter(|(n, _)| n.ends_with("max_depth") || n.ends_with("worn_area")) {
+            if !names.contains(n) {
+                names.push(n.clone());
+            }
+        }
+    }
+    let mut out = Vec::new();
+    let mut first = 0;
+    for (k, h) in knobs.iter().zip(sizes) {
+        let runs = &figures[first..first + h.len()];
+        first += h.len();
+        for name in &names {
+            let result =
+                |f: &[(String, String)]| f.iter().find(|(n, _)| n == name).and_then(|(_, v)| v.parse::<f64>().ok());
+            let reference = runs.last().and_then(|f| result(f));
+            let mut previous: Option<(f64, f64)> = None;
+            for (i, f) in runs.iter().enumerate() {
+                let r = result(f);
+                let error = match (r, reference) {
+                    (Some(a), Some(b)) if b != 0.0 => Some(((a - b) / b).abs()),
+                    _ => None,
+                };
+                let is_reference = i + 1 == runs.len();
+                let order = match (previous, error) {
+                    (Some((e0, h0)), Some(e)) if !is_reference => observed_order(e0, h0, e, h[i]),
+                    _ => None,
+                };
+                if let Some(e) = error.filter(|_| !is_reference) {
+                    previous = Some((e, h[i]));
+                }
+                out.push(Row {
+                    knob: k.key.clone(),
+                    value: k.values[i].to_string(),
+                    h: h[i],
+                    figure: name.clone(),
+                    result: r,
+                    error: if is_reference { Some(0.0).filter(|_| r.is_some()) } else { error },
+                    order,
+                });
+            }
+        }
+    }
+    out
+}
+
+fn write_table(out: &Path, rows: &[Row]) -> Result<PathBuf, StudyError> {
+    let opt = |v: Option<f64>, f: &dyn Fn(f64) -> String| v.map_or_else(|| "-".to_string(), f);
+    let line = |r: &Row| {
+        vec![
+            r.knob.clone(),
+            r.value.clone(),
+            format!("{:e}", r.h),
+            r.figure.clone(),
+            opt(r.result, &|x| format!("{x:e}")),
+            opt(r.error, &|x| format!("{x:.3e}")),
+            opt(r.order, &|x| format!("{x:.2}")),
+        ]
+    };
+    let header = ["knob", "value", "h", "figure", "result", "error", "order"];
+    let csv: String =
+        std::iter::once(header.join(",")).chain(rows.iter().map(|r| line(r).join(","))).map(|l| l + "\n").collect();
+    let md: String = std::iter::once(format!("| {} |", header.join(" | ")))
+        .chain(std::iter::once(format!("|{}", "---|".repeat(header.len()))))
+        .chain(rows.iter().map(|r| format!("| {} |", line(r).join(" | "))))
+        .map(|l| l + "\n")
+        .collect();
+    let csv_path = out.join("convergence.csv");
+    std::fs::write(&csv_path, csv).map_err(super::study::io_err(&csv_path))?;
+    let md_path = out.join("convergence.md");
+    std::fs::write(&md_path, md).map_err(super::study::io_err(&md_path))?;
+    Ok(csv_path)
+}
+
+/// `convergence.png`: per knob, log10 of each figure's error against log10 h (the reference
+/// left out: its error is zero).
+fn chart(out: &Path, knobs: &[Knob], rows: &[Row]) {
+    use mortex::io::plot::{write_xy_png, Series};
+    let mut panels = Vec::new();
+    for k in knobs {
+        let mut series: Vec<Series> = Vec::new();
+        for r in rows.iter().filter(|r| r.knob == k.key) {
+            let Some(e) = r.error.filter(|e| *e > 0.0) else { continue };
+            let point = (r.h.log10(), e.log10());
+            match series.iter_mut().find(|s| s.label == r.figure) {
+                Some(s) => s.points.push(point),
+                None => series.push(Series { label: r.figure.clone(), points: vec![point], joined: true }),
+            }
+        }
+        if !series.is_empty() {
+            panels.push((
+                format!("error against {}", k.key),
+                "log10 h".to_string(),
+                "log10 relative error".to_string(),
+                series,
+            ));
+        }
+    }
+    if panels.is_empty() {
+        return;
+    }
+    if let Err(e) = write_xy_png(&panels, &out.join("convergence.png")) {
+        tracing::warn!(error = %e, "convergence chart not drawn");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::observed_order;
+
+    /// Errors `C h^2` give order 2, `C h` order 1 (exact up to round-off).
+    #[test]
+    fn observed_order_of_power_laws() {
+        let e = |h: f64, p: f64| 0.3 * h.powf(p);
+        for p in [1.0, 2.0, 0.5] {
+            let o = observed_order(e(0.1, p), 0.1, e(0.05, p), 0.05).unwrap();
+            assert!((o - p).abs() < 1e-12, "order {o} for {p}");
+        }
+        assert!(observed_order(0.0, 0.1, 1e-3, 0.05).is_none());
+    }
+}
