@@ -11,6 +11,7 @@ use std::process::ExitCode;
 mod cli {
     pub mod bench;
     pub mod convergence;
+    pub mod pareto;
     pub mod study;
 }
 
@@ -131,6 +132,15 @@ enum StudyCommand {
         #[arg(long)]
         parallel: Option<usize>,
     },
+    /// Error against wall time over a grid of discretisations (a sweep file with
+    /// `reference = [{ key, value }]`, the converged setting), with the Pareto front:
+    /// `<output>/pareto.csv`, `.md` and `pareto.png`.
+    Pareto {
+        file: PathBuf,
+        /// Runs at once (default: the cores; 1 gives wall times free of each other's load).
+        #[arg(long)]
+        parallel: Option<usize>,
+    },
 }
 
 // mimalloc keeps freed pages for reuse: the large short-lived buffers of set-up (Delassus
@@ -155,6 +165,7 @@ fn main() -> ExitCode {
         Command::Check { case } => check(case),
         Command::Study { study: StudyCommand::Sweep { file, parallel } } => study_sweep(&file, parallel),
         Command::Study { study: StudyCommand::Convergence { file, parallel } } => study_convergence(&file, parallel),
+        Command::Study { study: StudyCommand::Pareto { file, parallel } } => study_pareto(&file, parallel),
         Command::Plot { result, wear: true, output, .. } => {
             let out = output.unwrap_or_else(|| {
                 let stem = result.file_stem().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
@@ -730,6 +741,45 @@ fn study_convergence(file: &std::path::Path, parallel: Option<usize>) -> Result<
     let missing = s.rows.iter().filter(|r| r.result.is_none()).count();
     if missing > 0 {
         return Err(format!("{missing} figures missing: a run failed (see its run.log)"));
+    }
+    Ok(())
+}
+
+fn study_pareto(file: &std::path::Path, parallel: Option<usize>) -> Result<(), String> {
+    let parallel = parallel.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let exe = std::env::current_exe().map_err(|e| format!("the mortex binary: {e}"))?;
+    let s = cli::pareto::pareto(file, parallel, &exe).map_err(|e| e.to_string())?;
+    println!("{}: {} runs: {} run now, {} done before", file.display(), s.runs, s.ran, s.skipped);
+    if let Some(w) = s.reference_wall_s {
+        println!("  reference: {w:.2} s");
+    }
+    let mut front: Vec<&cli::pareto::Point> = s.points.iter().filter(|p| p.front).collect();
+    front.sort_by(|a, b| a.wall_s.unwrap_or(f64::INFINITY).total_cmp(&b.wall_s.unwrap_or(f64::INFINITY)));
+    for p in front {
+        println!(
+            "  front: {} s, error {}: {}",
+            p.wall_s.map_or("-".into(), |w| format!("{w:.2}")),
+            p.error.map_or("-".into(), |e| format!("{e:.2e}")),
+            p.settings
+        );
+    }
+    for tol in [0.01, 0.05] {
+        let cheapest = s
+            .points
+            .iter()
+            .filter(|p| p.error.is_some_and(|e| e <= tol))
+            .min_by(|a, b| a.wall_s.unwrap_or(f64::INFINITY).total_cmp(&b.wall_s.unwrap_or(f64::INFINITY)));
+        match cheapest {
+            Some(p) => {
+                println!("  cheapest within {}%: {} ({:.2} s)", tol * 100.0, p.settings, p.wall_s.unwrap_or(f64::NAN))
+            }
+            None => println!("  none within {}%", tol * 100.0),
+        }
+    }
+    println!("-> {} (+ pareto.md, pareto.png)", s.table.display());
+    let missing = s.points.iter().filter(|p| p.error.is_none()).count();
+    if missing > 0 {
+        return Err(format!("{missing} runs without an error: a run failed (see its run.log)"));
     }
     Ok(())
 }

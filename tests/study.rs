@@ -178,6 +178,35 @@ fn convergence_of_an_exact_case_is_round_off() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `mortex study pareto` measures each run's error against the reference run: on the uniform-wear
+/// case with the wear coefficient as the "setting" (reference k = 2e-3 /MPa, runs at 1e-3,
+/// 1.5e-3, 3e-3), the depth is `k p S N`, so each error is `|k / k_ref - 1|` (tolerance 1e-3:
+/// the table prints the error to 4 significant digits; the wear itself is exact to 1e-8), and
+/// some run is on the front.
+#[test]
+fn pareto_errors_are_against_the_reference_run() {
+    let dir = scratch("pareto");
+    let file = dir.join("pareto.toml");
+    let text = format!(
+        "case = {:?}\noutput = \"out\"\nreference = [{{ key = \"wear[0].coefficient\", value = 2e-3 }}]\n\
+         [[vary]]\nkey = \"wear[0].coefficient\"\nvalues = [1e-3, 1.5e-3, 3e-3]\n",
+        case().display().to_string()
+    );
+    std::fs::write(&file, text).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_mortex")).args(["study", "pareto"]).arg(&file).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let csv = std::fs::read_to_string(dir.join("out/pareto.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 3);
+    for (r, k) in rows.iter().zip([1e-3, 1.5e-3, 3e-3]) {
+        let error: f64 = r[3].parse().unwrap();
+        let exact = (k / 2e-3 - 1.0_f64).abs();
+        assert!((error / exact - 1.0).abs() < 1e-3, "k {k}: error {error} against {exact}");
+    }
+    assert!(rows.iter().any(|r| r[4] == "yes"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Bad sweeps: a misspelt key, an array element the case does not have, no values, a value of the wrong type, a value the
 /// case refuses (a negative wear coefficient), too many runs. Each is an error naming the
 /// sweep file and the key, exit code 1, and nothing is run (no output directory).

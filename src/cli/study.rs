@@ -40,21 +40,21 @@ pub enum StudyError {
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct SweepFile {
-    case: PathBuf,
-    output: Option<PathBuf>,
+pub(super) struct SweepFile {
+    pub(super) case: PathBuf,
+    pub(super) output: Option<PathBuf>,
     /// `"grid"` (default: every combination of the `values`) or `"latin_hypercube"` (`samples`
     /// runs over the `range`s, seeded by `seed`).
-    sampling: Option<String>,
-    samples: Option<usize>,
-    seed: Option<u64>,
-    vary: Vec<Vary>,
+    pub(super) sampling: Option<String>,
+    pub(super) samples: Option<usize>,
+    pub(super) seed: Option<u64>,
+    pub(super) vary: Vec<Vary>,
 }
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct Vary {
-    key: String,
+pub(super) struct Vary {
+    pub(super) key: String,
     /// Grid: the values.
     values: Option<Vec<toml::Value>>,
     /// Latin hypercube: the interval, sampled uniformly (`scale = "log"`: uniformly in its
@@ -155,7 +155,7 @@ pub fn sweep(file: &Path, parallel: usize, exe: &Path) -> Result<SweepSummary, S
 
 /// The runs' values: the grid of the `vary` lists (every combination, the last varying
 /// fastest), or a Latin hypercube over their ranges.
-fn grid(
+pub(super) fn grid(
     spec: &SweepFile,
     base: &toml::Table,
     input: &dyn Fn(&str, String) -> StudyError,
