@@ -172,19 +172,10 @@ fn write_table(out: &Path, rows: &[Row]) -> Result<PathBuf, StudyError> {
             opt(r.order, &|x| format!("{x:.2}")),
         ]
     };
-    let header = ["knob", "value", "h", "figure", "result", "error", "order"];
-    let csv: String =
-        std::iter::once(header.join(",")).chain(rows.iter().map(|r| line(r).join(","))).map(|l| l + "\n").collect();
-    let md: String = std::iter::once(format!("| {} |", header.join(" | ")))
-        .chain(std::iter::once(format!("|{}", "---|".repeat(header.len()))))
-        .chain(rows.iter().map(|r| format!("| {} |", line(r).join(" | "))))
-        .map(|l| l + "\n")
-        .collect();
-    let csv_path = out.join("convergence.csv");
-    std::fs::write(&csv_path, csv).map_err(super::study::io_err(&csv_path))?;
-    let md_path = out.join("convergence.md");
-    std::fs::write(&md_path, md).map_err(super::study::io_err(&md_path))?;
-    Ok(csv_path)
+    let header: Vec<String> =
+        ["knob", "value", "h", "figure", "result", "error", "order"].iter().map(|h| h.to_string()).collect();
+    let rows: Vec<Vec<String>> = rows.iter().map(line).collect();
+    super::study::write_table(out, "convergence", &header, &rows)
 }
 
 /// `convergence.png`: per knob, log10 of each figure's error against log10 h (the reference

@@ -128,19 +128,9 @@ fn write_table(out: &Path, points: &[Point]) -> Result<PathBuf, StudyError> {
             if p.front { "yes".into() } else { String::new() },
         ]
     };
-    let header = ["run", "settings", "wall_s", "error", "front"];
-    let csv: String =
-        std::iter::once(header.join(",")).chain(points.iter().map(|p| line(p).join(","))).map(|l| l + "\n").collect();
-    let md: String = std::iter::once(format!("| {} |", header.join(" | ")))
-        .chain(std::iter::once(format!("|{}", "---|".repeat(header.len()))))
-        .chain(points.iter().map(|p| format!("| {} |", line(p).join(" | "))))
-        .map(|l| l + "\n")
-        .collect();
-    let csv_path = out.join("pareto.csv");
-    std::fs::write(&csv_path, csv).map_err(super::study::io_err(&csv_path))?;
-    let md_path = out.join("pareto.md");
-    std::fs::write(&md_path, md).map_err(super::study::io_err(&md_path))?;
-    Ok(csv_path)
+    let header: Vec<String> = ["run", "settings", "wall_s", "error", "front"].iter().map(|h| h.to_string()).collect();
+    let rows: Vec<Vec<String>> = points.iter().map(line).collect();
+    super::study::write_table(out, "pareto", &header, &rows)
 }
 
 /// `pareto.png`: log10 error against wall time, every run, the front joined.

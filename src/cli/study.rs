@@ -486,16 +486,28 @@ fn gather(out: &Path, vary: &[Vary], runs: &[Vec<toml::Value>]) -> Result<PathBu
         row.push(get("status").unwrap_or_else(|| "missing".into()));
         rows.push(row);
     }
-    let csv: String = std::iter::once(&header).chain(&rows).map(|r| r.join(",") + "\n").collect();
+    let csv_path = write_table(out, "sweep", &header, &rows)?;
+    chart(out, vary, runs, &columns, &figures);
+    Ok(csv_path)
+}
+
+/// A study's table as `<out>/<stem>.csv` and `<stem>.md`; returns the CSV's path.
+pub(super) fn write_table(
+    out: &Path,
+    stem: &str,
+    header: &[String],
+    rows: &[Vec<String>],
+) -> Result<PathBuf, StudyError> {
+    let csv: String =
+        std::iter::once(header).chain(rows.iter().map(|r| r.as_slice())).map(|r| r.join(",") + "\n").collect();
     let md: String = std::iter::once(format!("| {} |\n", header.join(" | ")))
         .chain(std::iter::once(format!("|{}\n", "---|".repeat(header.len()))))
         .chain(rows.iter().map(|r| format!("| {} |\n", r.join(" | "))))
         .collect();
-    let csv_path = out.join("sweep.csv");
+    let csv_path = out.join(format!("{stem}.csv"));
     std::fs::write(&csv_path, csv).map_err(io_err(&csv_path))?;
-    let md_path = out.join("sweep.md");
+    let md_path = out.join(format!("{stem}.md"));
     std::fs::write(&md_path, md).map_err(io_err(&md_path))?;
-    chart(out, vary, runs, &columns, &figures);
     Ok(csv_path)
 }
 
