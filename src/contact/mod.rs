@@ -378,8 +378,11 @@ pub fn paired_points(
     hosts: &[(&Mesh2, usize)],
     c: &ContactInfo,
     x: &dyn Fn(usize) -> Point2<f64>,
+    rows: Option<&[bool]>,
 ) -> Vec<crate::mortar::PairedPoint> {
-    with_pairing(hosts, c, x, &mut |side, other| crate::mortar::paired_points(side, &c.multipliers, other, c.max_gap))
+    with_pairing(hosts, c, x, &mut |side, other| {
+        crate::mortar::paired_points(side, &c.multipliers, other, c.max_gap, rows)
+    })
 }
 
 /// Calls `f` with the pair's mortar side and other side placed by `x`.

@@ -275,7 +275,8 @@ impl Chain {
             return [(m - 1, phi), (0, 1.0 - phi)];
         }
         // Interval j (nodes j, j + 1) holding s; the end intervals extend to the chain ends.
-        let j = (0..m - 1).find(|&j| s <= at(j + 1)).unwrap_or(m - 2);
+        // The first j with s <= at(j + 1) (the arc grows along the chain), else the last.
+        let j = self.lm_at[1..].partition_point(|&v| self.arc[v] < s).min(m - 2);
         let (s0, s1) = (at(j), at(j + 1));
         let mut phi = (s1 - s) / (s1 - s0);
         if j > 0 && j < m - 2 {
@@ -414,12 +415,14 @@ struct MortarPoint {
 /// initial gap closes (exactly for a symmetric pair, and for elastically similar bodies the
 /// interface normal): pairing along the mortar normal alone would pair points that never meet
 /// and read the closing of the gap as tangential slip.
+#[allow(clippy::too_many_arguments)]
 fn for_each_mortar_point(
     side: &MortarSide,
     lm: &Multipliers,
     other: &OtherSide,
     reach: f64,
     accept: impl Fn(Point2<f64>, Point2<f64>, Point2<f64>, Point2<f64>) -> bool,
+    rows: Option<&[bool]>,
     mut f: impl FnMut(&MortarPoint),
 ) {
     let (segs, index) = other.indexed_segments();
@@ -431,6 +434,16 @@ fn for_each_mortar_point(
             let (a, b) = (side.points[va], side.points[vb]);
             let d = b - a;
             let len = d.norm();
+            // Only the segments some asked-for row's hat covers: the multiplier nodes around
+            // the hats' parameter at both ends of the segment (its points take theirs from
+            // `arc[k] + tau len`, between the two).
+            if let Some(rows) = rows {
+                let [(a0, _), (a1, _)] = ch.hats(ch.arc[k]);
+                let [(b0, _), (b1, _)] = ch.hats(ch.arc[k] + len);
+                if ![a0, a1, b0, b1].iter().any(|&l| rows[ch.first_lm + l]) {
+                    continue;
+                }
+            }
             let r = reach.max(1e-6 * len);
             index.query(
                 Point2::new(a.x.min(b.x) - r, a.y.min(b.y) - r),
@@ -493,7 +506,7 @@ pub fn tying_rows(side: &MortarSide, lm: &Multipliers, other: &OtherSide) -> Vec
         let d = b - a;
         nrm_dist(a, d, pa).max(nrm_dist(a, d, pb)) <= 1e-6 * d.norm()
     };
-    for_each_mortar_point(side, lm, other, 0.0, on_segment, |p| {
+    for_each_mortar_point(side, lm, other, 0.0, on_segment, None, |p| {
         other.shape_at(p.other, p.xo, p.sigma, &mut shape);
         let nm = [1.0 - p.tau, p.tau];
         for (l, phi) in p.hats {
@@ -544,7 +557,7 @@ pub fn weighted_gaps(side: &MortarSide, lm: &Multipliers, other: &OtherSide, max
     let facing = |pa: Point2<f64>, pb: Point2<f64>, a: Point2<f64>, b: Point2<f64>| {
         right_normal(pa, pb).dot(&right_normal(a, b)) < 0.0
     };
-    for_each_mortar_point(side, lm, other, max_gap, facing, |p| {
+    for_each_mortar_point(side, lm, other, max_gap, facing, None, |p| {
         let gap = (p.xo - p.xm).dot(&p.n);
         if gap.abs() > max_gap {
             return;
@@ -598,14 +611,21 @@ pub struct PairedPoint {
 }
 
 /// The integration points [`weighted_gaps`] integrates over (same pairing, same filter), so
-/// that `sum wt * Phi_l` over them is the row's `phi`.
-pub fn paired_points(side: &MortarSide, lm: &Multipliers, other: &OtherSide, max_gap: f64) -> Vec<PairedPoint> {
+/// that `sum wt * Phi_l` over them is the row's `phi`. `rows`: only on the segments where a row
+/// with `rows[l]` has its hat (those rows' points all, in the same order; `None`: every row).
+pub fn paired_points(
+    side: &MortarSide,
+    lm: &Multipliers,
+    other: &OtherSide,
+    max_gap: f64,
+    rows: Option<&[bool]>,
+) -> Vec<PairedPoint> {
     let facing = |pa: Point2<f64>, pb: Point2<f64>, a: Point2<f64>, b: Point2<f64>| {
         right_normal(pa, pb).dot(&right_normal(a, b)) < 0.0
     };
     let mut v = Vec::new();
     let n = side.points.len();
-    for_each_mortar_point(side, lm, other, max_gap, facing, |p| {
+    for_each_mortar_point(side, lm, other, max_gap, facing, rows, |p| {
         if (p.xo - p.xm).dot(&p.n).abs() > max_gap {
             return;
         }

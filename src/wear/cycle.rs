@@ -310,7 +310,7 @@ fn implicit_correction(
     let mut surfaces = Vec::with_capacity(scene.model.surfaces.len());
     for (b, ws) in scene.model.surfaces.iter().enumerate() {
         let x = pairing_position(scene.contact, ws, scene.coords, u, u);
-        let coupling = wear_coupling(scene.contact, &scene.hosts, ws, &scene.surfaces[ws.surface], &x)?;
+        let coupling = wear_coupling(scene.contact, &scene.hosts, ws, &scene.surfaces[ws.surface], &x, None)?;
         let c = &scene.contact.pairs[ws.contact];
         let nv = measures[b].len();
         let mut g = DMatrix::zeros(na, nv);

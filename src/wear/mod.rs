@@ -185,6 +185,7 @@ pub fn wear_coupling(
     ws: &WearingSurface,
     surface: &FreeSurface,
     x: &dyn Fn(usize) -> Point2<f64>,
+    rows: Option<&[bool]>,
 ) -> Option<WearCoupling> {
     let c = &set.pairs[ws.contact];
     let n_lm = c.multipliers.num_nodes;
@@ -198,7 +199,7 @@ pub fn wear_coupling(
     }
     // Paired where the surfaces meet (the wear lands on the material that is under the point
     // then), weighted by the reference length (small strain).
-    let mut points = crate::contact::paired_points(hosts, c, x);
+    let mut points = crate::contact::paired_points(hosts, c, x, rows);
     let ns = c.side.points.len();
     for p in points.iter_mut() {
         let reference = (c.side.points[p.vb % ns] - c.side.points[p.va % ns]).norm();
@@ -266,7 +267,10 @@ pub fn step_wear(
     if out.row_work.iter().all(|&w| w == 0.0) {
         return out;
     }
-    let Some(coupling) = wear_coupling(set, hosts, ws, surface, x) else {
+    // Only the rows that did work: the coupling of the others is not needed (a row's `phi`
+    // and entries come from the segments its hat covers, all of them visited).
+    let working: Vec<bool> = out.row_work.iter().map(|&w| w != 0.0).collect();
+    let Some(coupling) = wear_coupling(set, hosts, ws, surface, x, Some(&working)) else {
         out.row_work.iter_mut().for_each(|w| *w = 0.0);
         return out;
     };
