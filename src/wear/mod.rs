@@ -267,9 +267,11 @@ pub fn step_wear(
     if out.row_work.iter().all(|&w| w == 0.0) {
         return out;
     }
-    // Only the rows that did work: the coupling of the others is not needed (a row's `phi`
-    // and entries come from the segments its hat covers, all of them visited).
-    let working: Vec<bool> = out.row_work.iter().map(|&w| w != 0.0).collect();
+    // Only the rows that did work, and their neighbours for margin: the coupling of the
+    // others is not needed (a row's `phi` and entries come from the segments its hat covers,
+    // all of them visited).
+    let did_work = |l: usize| out.row_work.get(l).is_some_and(|&w| w != 0.0);
+    let working: Vec<bool> = (0..n_lm).map(|l| did_work(l) || did_work(l + 1) || (l > 0 && did_work(l - 1))).collect();
     let Some(coupling) = wear_coupling(set, hosts, ws, surface, x, Some(&working)) else {
         out.row_work.iter_mut().for_each(|w| *w = 0.0);
         return out;
