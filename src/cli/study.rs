@@ -376,6 +376,13 @@ pub(super) fn run_all(cases: &[(PathBuf, String)], parallel: usize, exe: &Path) 
     let skipped = cases.len() - todo.len();
     let started = todo.len();
     todo.reverse();
+    // Runs ended, out of those to run (drawn on a terminal only).
+    let bar = indicatif::ProgressBar::new(started as u64);
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "{spinner} [{elapsed_precise}] {bar:40} run {pos}/{len} (eta {eta}) {msg}",
+    ) {
+        bar.set_style(style);
+    }
     let mut running: Vec<(usize, std::process::Child, Instant)> = Vec::new();
     while !todo.is_empty() || !running.is_empty() {
         while running.len() < parallel {
@@ -408,11 +415,14 @@ pub(super) fn run_all(cases: &[(PathBuf, String)], parallel: usize, exe: &Path) 
             let (i, _, t0) = running.swap_remove(k);
             let dir = cases[i].0.parent().unwrap_or(Path::new(".")).to_path_buf();
             write_figures(&dir, status, t0.elapsed().as_secs_f64())?;
+            bar.set_message(format!("run {i} {}", if status.success() { "done" } else { "failed" }));
+            bar.inc(1);
         }
         if !running.is_empty() {
             std::thread::sleep(Duration::from_millis(20));
         }
     }
+    bar.finish_and_clear();
     Ok((started, skipped))
 }
 
