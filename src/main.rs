@@ -700,9 +700,15 @@ fn bench_hertz(repeat: usize) -> Result<(), String> {
     Ok(())
 }
 
-fn study_sweep(file: &std::path::Path, parallel: Option<usize>) -> Result<(), String> {
+/// Runs at once (default: the cores) and the `mortex` binary each study run starts.
+fn study_processes(parallel: Option<usize>) -> Result<(usize, PathBuf), String> {
     let parallel = parallel.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let exe = std::env::current_exe().map_err(|e| format!("the mortex binary: {e}"))?;
+    Ok((parallel, exe))
+}
+
+fn study_sweep(file: &std::path::Path, parallel: Option<usize>) -> Result<(), String> {
+    let (parallel, exe) = study_processes(parallel)?;
     let s = cli::study::sweep(file, parallel, &exe).map_err(|e| e.to_string())?;
     println!(
         "{}: {} runs: {} run now, {} done before, {} failed -> {} (+ sweep.md)",
@@ -720,8 +726,7 @@ fn study_sweep(file: &std::path::Path, parallel: Option<usize>) -> Result<(), St
 }
 
 fn study_convergence(file: &std::path::Path, parallel: Option<usize>) -> Result<(), String> {
-    let parallel = parallel.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let exe = std::env::current_exe().map_err(|e| format!("the mortex binary: {e}"))?;
+    let (parallel, exe) = study_processes(parallel)?;
     let s = cli::convergence::convergence(file, parallel, &exe).map_err(|e| e.to_string())?;
     println!("{}: {} runs: {} run now, {} done before", file.display(), s.runs, s.ran, s.skipped);
     // The finest observed order of each knob and figure.
@@ -746,8 +751,7 @@ fn study_convergence(file: &std::path::Path, parallel: Option<usize>) -> Result<
 }
 
 fn study_pareto(file: &std::path::Path, parallel: Option<usize>) -> Result<(), String> {
-    let parallel = parallel.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let exe = std::env::current_exe().map_err(|e| format!("the mortex binary: {e}"))?;
+    let (parallel, exe) = study_processes(parallel)?;
     let s = cli::pareto::pareto(file, parallel, &exe).map_err(|e| e.to_string())?;
     println!("{}: {} runs: {} run now, {} done before", file.display(), s.runs, s.ran, s.skipped);
     if let Some(w) = s.reference_wall_s {

@@ -279,6 +279,11 @@ fn latin_hypercube(
     Ok((0..n).map(|r| columns.iter().map(|c| c[r].clone()).collect()).collect())
 }
 
+/// A TOML number (float or integer) as f64.
+pub(super) fn toml_number(v: &toml::Value) -> Option<f64> {
+    v.as_float().or_else(|| v.as_integer().map(|n| n as f64))
+}
+
 /// Whether the case's value at `key` is an integer (an integer may replace it, a float not).
 fn key_is_integer(base: &toml::Table, key: &str) -> bool {
     set_key(&mut base.clone(), key, toml::Value::Integer(0)).is_ok()
@@ -526,7 +531,7 @@ pub(super) fn write_table(
 /// the figures.
 fn chart(out: &Path, vary: &[Vary], runs: &[Vec<toml::Value>], columns: &[String], figures: &[Vec<(String, String)>]) {
     use mortex::io::plot::{write_xy_png, Series};
-    let number = |v: &toml::Value| v.as_float().or_else(|| v.as_integer().map(|n| n as f64));
+    let number = toml_number;
     let depths: Vec<&String> = columns.iter().filter(|c| c.ends_with("max_depth")).collect();
     if depths.is_empty() {
         return;
