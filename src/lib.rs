@@ -34,7 +34,7 @@ pub mod assembly;
 pub mod case;
 pub mod contact;
 pub mod cut;
-pub mod discretisation;
+pub mod moving;
 pub mod driver;
 pub mod fem;
 pub mod io;

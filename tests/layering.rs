@@ -25,7 +25,7 @@ const LAYERS: &[&[&str]] = &[
     &["fem"],
     &["assembly", "surface"],
     &["cut"],
-    &["discretisation", "mortar"],
+    &["moving", "mortar"],
     &["contact"],
     &["wear"],
     &["state"],

@@ -17,7 +17,7 @@
 mod common;
 use mortex::analysis::StaticAnalysis;
 use mortex::cut::{loop_moments, CellCut};
-use mortex::discretisation::SurfaceMotion;
+use mortex::moving::SurfaceMotion;
 use mortex::driver::{run, RunOptions};
 use mortex::fem::element::MappedElement;
 use mortex::fem::kernel::Formulation;

@@ -965,7 +965,7 @@ fn add_free_cuts(
         if let Some(m) = &c.motion {
             let curve = curves.id(cx, &m.curve, k("motion.curve"))?;
             let motion = match (m.translation, m.offset) {
-                (Some(d), None) => crate::discretisation::SurfaceMotion::Translation {
+                (Some(d), None) => crate::moving::SurfaceMotion::Translation {
                     direction: Vector2::new(
                         cx.finite(&k("motion.translation"), d[0])?,
                         cx.finite(&k("motion.translation"), d[1])?,
@@ -975,7 +975,7 @@ fn add_free_cuts(
                 (None, Some(d)) => {
                     // Offsets are along the normal into the kept material; the model keeps the
                     // material on the left of its polyline.
-                    crate::discretisation::SurfaceMotion::NormalOffset {
+                    crate::moving::SurfaceMotion::NormalOffset {
                         distance: cx.finite(&k("motion.offset"), d)?,
                         curve,
                     }

@@ -215,7 +215,7 @@ pub fn run_output_bench(
 /// host, moving one cell down; returns (cells, band cells, cut cells, seconds per move: embed,
 /// re-cut, refit, ghost penalty, DOF map, averaged over `moves` moves).
 pub fn time_recut(n: usize, moves: usize) -> Result<(usize, usize, usize, f64), String> {
-    use mortex::discretisation::SurfaceMotion;
+    use mortex::moving::SurfaceMotion;
     use nalgebra::{Point2, Vector2};
     let hyp = PlaneHypothesis::PlaneStrain;
     let mut b = ModelBuilder::new(hyp);

@@ -17,7 +17,7 @@
 //!   weights by moment fitting ([`fit_weights`], Lawson-Hanson NNLS on the monomials up to
 //!   degree 2, falling back to degree 1 and 0), points left outside the material get weight
 //!   zero; bodies without history take the exact sub-triangulation rule in the cell's slots
-//!   ([`band_exact_rule`]). See `crate::discretisation`.
+//!   ([`band_exact_rule`]). See `crate::moving`.
 //! * Small cut fractions: a node whose support keeps less than [`SMALL_FRACTION`] of its area
 //!   has its DOFs switched off (held at their value) by the model; void cells get no points.
 

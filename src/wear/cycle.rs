@@ -18,7 +18,7 @@ use super::{
     JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel, PRESSURE_PREDICTION_TOLERANCE,
 };
 use crate::contact::ContactSet;
-use crate::discretisation::FreeSurface;
+use crate::moving::FreeSurface;
 use crate::mesh::Mesh2;
 use nalgebra::{DMatrix, Point2};
 

@@ -51,7 +51,7 @@ mod cycle;
 pub use cycle::{accumulate_step_wear, apply_cycle_wear, GapSensitivity, WearError, WearScene, WearState};
 
 use crate::contact::{ContactSet, PairedSide};
-use crate::discretisation::FreeSurface;
+use crate::moving::FreeSurface;
 use crate::mesh::Mesh2;
 use crate::solver::dense::DenseLu;
 use nalgebra::{DMatrix, DVector, Point2, Vector2};
