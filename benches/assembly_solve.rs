@@ -21,9 +21,9 @@ fn benches(c: &mut Criterion) {
     let mut g = c.benchmark_group(format!("block_{n}x{n}"));
     g.sample_size(10);
     g.bench_function("sparsity_pattern", |b| {
-        b.iter(|| black_box(SparsityPattern::new(model.num_nodes(), el, &model.dofs)))
+        b.iter(|| black_box(SparsityPattern::new(model.num_nodes(), el, &model.initial().dofs)))
     });
-    let pattern = SparsityPattern::new(model.num_nodes(), el, &model.dofs);
+    let pattern = SparsityPattern::new(model.num_nodes(), el, &model.initial().dofs);
     g.bench_function("symbolic_cholesky", |b| {
         b.iter(|| black_box(SparseSolver::new(&pattern.symbolic, LinearSolverKind::Cholesky).ok()))
     });
@@ -33,15 +33,15 @@ fn benches(c: &mut Criterion) {
     };
     let mut asm = Assembler::new(pattern, el);
     let mut values = vec![0.0; asm.pattern.nnz()];
-    let mut f = vec![0.0; model.dofs.num_dofs];
+    let mut f = vec![0.0; model.num_dofs()];
     let mut stress = vec![Stress4::zeros(); el.num_points()];
     let mut hist: Vec<PlasticState> = vec![];
-    let u = vec![0.0; model.dofs.num_dofs];
+    let u = vec![0.0; model.num_dofs()];
     let input = AssemblyInput {
         coords: &model.coords,
         elements: el,
         materials: &model.materials,
-        rules: &model.rules,
+        rules: &model.initial().rules,
         u: &u,
         state_old: &[],
     };
@@ -62,7 +62,7 @@ fn benches(c: &mut Criterion) {
         });
     }
     g.bench_function("numeric_cholesky", |b| b.iter(|| solver.factor(&values).is_ok()));
-    let rhs: Vec<f64> = model.dofs.free.iter().map(|&d| model.f_ext[d]).collect();
+    let rhs: Vec<f64> = model.initial().dofs.free.iter().map(|&d| model.f_ext[d]).collect();
     g.bench_function("solve", |b| {
         b.iter(|| {
             let mut x = rhs.clone();
@@ -82,7 +82,7 @@ fn benches(c: &mut Criterion) {
     }
     let top = &model.bodies[0].mesh.node_sets["top"];
     let rows: Vec<Vec<(usize, f64)>> =
-        top.windows(2).map(|w| w.iter().map(|&n| (model.dofs.eq[2 * n + 1], 0.5)).collect()).collect();
+        top.windows(2).map(|w| w.iter().map(|&n| (model.initial().dofs.eq[2 * n + 1], 0.5)).collect()).collect();
     // faer factors small matrices simplicially; forward substitution needs supernodes.
     if solver.congruence(&rows, 0).is_some() {
         g.bench_function(format!("interface_operator_forward_substitution_{}_rows", rows.len()), |b| {
@@ -93,7 +93,7 @@ fn benches(c: &mut Criterion) {
     }
     g.bench_function(format!("interface_operator_column_solves_{}_rows", rows.len()), |b| {
         b.iter(|| {
-            let nf = model.dofs.num_free;
+            let nf = model.initial().dofs.num_free;
             let mut x = vec![0.0; nf * rows.len()];
             for (j, row) in rows.iter().enumerate() {
                 for &(e, c) in row {

@@ -46,7 +46,7 @@ fn benches(c: &mut Criterion) {
     let mut reuse = StaticAnalysis::new(&model).ok().and_then(|a| a.into_reuse());
     g.bench_function("reused_structure", |b| {
         b.iter(|| {
-            let a = match StaticAnalysis::with_reuse(&model, reuse.take()) {
+            let a = match StaticAnalysis::with_reuse(&model, model.initial(), reuse.take()) {
                 Ok(a) => a,
                 Err(e) => panic!("setup: {e}"),
             };

@@ -10,7 +10,7 @@
 
 use crate::assembly::{Assembler, AssemblyInput, AssemblyOutput, SparsityPattern, CONSTRAINED};
 use crate::fem::material::{PlasticState, Stress4};
-use crate::model::Model;
+use crate::model::{Discretisation, Model};
 use crate::solver::dense::DenseLu;
 use crate::solver::linear::{LinearSolverError, SparseSolver};
 use crate::solver::newton::NewtonError;
@@ -180,6 +180,8 @@ pub enum AnalysisError {
 
 pub struct StaticAnalysis<'m> {
     model: &'m Model,
+    /// The discretisation of the moment (surfaces, cuts, contact rows) the analysis solves on.
+    disc: &'m Discretisation,
     assembler: Assembler,
     solver: SparseSolver,
     values: Vec<f64>,
@@ -211,13 +213,13 @@ pub struct StaticAnalysis<'m> {
 /// Small sliding pairs from the reference geometry: a converged state whose nodes in contact
 /// slid further from their partners than the whole contact is wide has left the model's range.
 fn check_small_sliding(
-    m: &Model,
+    disc: &Discretisation,
     u: &[f64],
     status: &[FrictionStatus],
     step: usize,
     t: f64,
 ) -> Result<(), AnalysisError> {
-    match slide_from_pairing(&m.contact, u, status) {
+    match slide_from_pairing(&disc.contact, u, status) {
         Some((slide, width)) if slide > width => {
             Err(AnalysisError::SlidingBeyondPairing { step, time: t, slide, width })
         }
@@ -229,9 +231,9 @@ fn check_small_sliding(
 const MAX_REFINEMENTS: usize = 3;
 
 /// `C^T lambda` over all DOFs.
-fn constraint_forces(m: &Model, mult: &[f64], out: &mut [f64]) {
+fn constraint_forces(m: &Model, disc: &Discretisation, mult: &[f64], out: &mut [f64]) {
     out.iter_mut().for_each(|v| *v = 0.0);
-    for (row, l) in m.multiplier_rows().zip(mult) {
+    for (row, l) in disc.multiplier_rows(m).zip(mult) {
         for &(d, c) in row {
             out[d] += c * l;
         }
@@ -247,14 +249,24 @@ impl<'m> StaticAnalysis<'m> {
     /// between linear elastic bodies is solved by interface condensation, anything else by the
     /// monolithic saddle-point Newton.
     pub fn new(model: &'m Model) -> Result<Self, AnalysisError> {
-        Self::with_condensation(model, condensed::applies(model))
+        Self::on(model, model.initial())
+    }
+
+    /// As [`Self::new`], on a discretisation of the model other than the one it was built with
+    /// (moved or worn surfaces, re-paired contact).
+    pub fn on(model: &'m Model, disc: &'m Discretisation) -> Result<Self, AnalysisError> {
+        Self::with_condensation(model, disc, condensed::applies(model, disc))
     }
 
     /// As [`Self::new`] for the next model of a run (moved surfaces, re-paired contact): the
     /// condensed solver's pattern and symbolic factorisation of the previous model are reused
     /// when its structure is the same (see [`SolverReuse`]).
-    pub fn with_reuse(model: &'m Model, reuse: Option<SolverReuse>) -> Result<Self, AnalysisError> {
-        Self::for_pairings(model, reuse, false)
+    pub fn with_reuse(
+        model: &'m Model,
+        disc: &'m Discretisation,
+        reuse: Option<SolverReuse>,
+    ) -> Result<Self, AnalysisError> {
+        Self::for_pairings(model, disc, reuse, false)
     }
 
     /// As [`Self::with_reuse`]; `surface_compliance`: the bulk will serve many pairings of a
@@ -264,13 +276,14 @@ impl<'m> StaticAnalysis<'m> {
     /// but differ in round-off, and a restart must make the same choice.
     pub fn for_pairings(
         model: &'m Model,
+        disc: &'m Discretisation,
         reuse: Option<SolverReuse>,
         surface_compliance: bool,
     ) -> Result<Self, AnalysisError> {
-        if condensed::applies(model) {
-            Self::condensed(model, reuse, surface_compliance)
+        if condensed::applies(model, disc) {
+            Self::condensed(model, disc, reuse, surface_compliance)
         } else {
-            Self::with_condensation(model, false)
+            Self::with_condensation(model, disc, false)
         }
     }
 
@@ -287,10 +300,16 @@ impl<'m> StaticAnalysis<'m> {
         self.reused
     }
 
-    fn condensed(model: &'m Model, reuse: Option<SolverReuse>, compliance: bool) -> Result<Self, AnalysisError> {
-        let (assembler, solver, values, cd, key, reused) = condensed::setup(model, true, reuse, compliance)?;
+    fn condensed(
+        model: &'m Model,
+        disc: &'m Discretisation,
+        reuse: Option<SolverReuse>,
+        compliance: bool,
+    ) -> Result<Self, AnalysisError> {
+        let (assembler, solver, values, cd, key, reused) = condensed::setup(model, disc, true, reuse, compliance)?;
         Ok(StaticAnalysis {
             model,
+            disc,
             assembler,
             solver,
             values,
@@ -299,7 +318,7 @@ impl<'m> StaticAnalysis<'m> {
             parallel: true,
             trial_history: vec![PlasticState::default(); model.elements.num_states()],
             trial_stress: vec![Stress4::zeros(); model.elements.num_points()],
-            trial_f_int: vec![0.0; model.dofs.num_dofs],
+            trial_f_int: vec![0.0; disc.dofs.num_dofs],
             condensed: Some(cd),
             last_active: 0,
             last_gross_sliding: None,
@@ -311,13 +330,17 @@ impl<'m> StaticAnalysis<'m> {
 
     /// As [`Self::new`], choosing condensation (`true`: only valid where it applies) or the
     /// monolithic saddle-point solve.
-    pub fn with_condensation(model: &'m Model, condense: bool) -> Result<Self, AnalysisError> {
-        if condense && condensed::applies(model) {
-            return Self::condensed(model, None, false);
+    pub fn with_condensation(
+        model: &'m Model,
+        disc: &'m Discretisation,
+        condense: bool,
+    ) -> Result<Self, AnalysisError> {
+        if condense && condensed::applies(model, disc) {
+            return Self::condensed(model, disc, None, false);
         }
         // Constraint rows are scaled by `alpha ~ E / |C|` in the matrix so that both blocks of the
         // saddle point have the same magnitude: the LU factorisation then keeps its accuracy.
-        let all_rows: Vec<&Vec<(usize, f64)>> = model.multiplier_rows().collect();
+        let all_rows: Vec<&Vec<(usize, f64)>> = disc.multiplier_rows(model).collect();
         let n_coef = all_rows.iter().map(|r| r.len()).sum::<usize>().max(1);
         let mean_coef = all_rows.iter().flat_map(|r| r.iter()).map(|(_, c)| c.abs()).sum::<f64>() / n_coef as f64;
         let e_max = model.materials.iter().map(|m| m.elastic().young).fold(0.0, f64::max);
@@ -327,22 +350,23 @@ impl<'m> StaticAnalysis<'m> {
         let pattern = SparsityPattern::with_constraints(
             model.num_nodes(),
             &model.elements,
-            &model.dofs,
+            &disc.dofs,
             &scaled,
-            &model.penalty,
+            &disc.penalty,
             model.constraints.len(),
-            &friction_couplings(&model.contact),
+            &friction_couplings(&disc.contact),
         );
         let solver = SparseSolver::new(&pattern.symbolic, model.linear_solver)?;
         let nnz = pattern.nnz();
         tracing::info!(
-            dofs = model.dofs.num_dofs,
-            free = model.dofs.num_free,
+            dofs = disc.dofs.num_dofs,
+            free = disc.dofs.num_free,
             nnz,
             "sparsity pattern and symbolic factorisation ready"
         );
         Ok(StaticAnalysis {
             model,
+            disc,
             assembler: Assembler::new(pattern, &model.elements),
             solver,
             values: vec![0.0; nnz],
@@ -351,7 +375,7 @@ impl<'m> StaticAnalysis<'m> {
             parallel: true,
             trial_history: vec![PlasticState::default(); model.elements.num_states()],
             trial_stress: vec![Stress4::zeros(); model.elements.num_points()],
-            trial_f_int: vec![0.0; model.dofs.num_dofs],
+            trial_f_int: vec![0.0; disc.dofs.num_dofs],
             condensed: None,
             last_active: 0,
             last_gross_sliding: None,
@@ -370,7 +394,7 @@ impl<'m> StaticAnalysis<'m> {
     /// interface log so the condensed operator is the one the interrupted run had (same rows,
     /// same order, same arithmetic: the continuation is bit for bit the uninterrupted run).
     pub fn resume(&mut self, state: &SimState) -> Result<(), AnalysisError> {
-        let m = self.model;
+        let (m, disc) = (self.model, self.disc);
         let Some(mut cd) = self.condensed.take() else {
             return Ok(());
         };
@@ -380,7 +404,7 @@ impl<'m> StaticAnalysis<'m> {
                 result = Err(AnalysisError::ResumeLog { batch: k });
                 break;
             }
-            if let Err(e) = cd.grow(m, &self.solver, batch, 0.0) {
+            if let Err(e) = cd.grow(m, disc, &self.solver, batch, 0.0) {
                 result = Err(e.into());
                 break;
             }
@@ -397,18 +421,20 @@ impl<'m> StaticAnalysis<'m> {
 
     /// The unloaded, virgin state of `m` (no solver set up).
     pub fn initial_state_of(m: &Model) -> SimState {
+        // The state's layout is the model's: every discretisation of it has these sizes.
+        let friction_rows = m.initial().contact.friction_rows.len();
         SimState {
             step: 0,
             time: m.load_path.points[0].0,
             load_factor: m.load_path.factor(m.load_path.points[0].0),
-            u: vec![0.0; m.dofs.num_dofs],
+            u: vec![0.0; m.num_dofs()],
             history: vec![PlasticState::default(); m.elements.num_states()],
             stress: vec![Stress4::zeros(); m.elements.num_points()],
-            f_int: vec![0.0; m.dofs.num_dofs],
+            f_int: vec![0.0; m.num_dofs()],
             multipliers: vec![0.0; m.num_multipliers()],
-            friction_status: vec![0; m.contact.friction_rows.len()],
-            slip_increment: vec![0.0; m.contact.friction_rows.len()],
-            accumulated_slip: vec![0.0; m.contact.friction_rows.len()],
+            friction_status: vec![0; friction_rows],
+            slip_increment: vec![0.0; friction_rows],
+            accumulated_slip: vec![0.0; friction_rows],
             dissipation: 0.0,
             interface_log: vec![],
             wear: m.initial_wear_state(),
@@ -492,39 +518,39 @@ impl<'m> StaticAnalysis<'m> {
         if self.condensed.is_some() {
             return self.newton_condensed(state, step, t);
         }
-        let m = self.model;
+        let (m, disc) = (self.model, self.disc);
         let p = m.newton;
         let mut u = state.u.clone();
         for (d, v) in m.prescribed_at(t) {
             u[d] = v;
         }
-        let mut f_ext = vec![0.0; m.dofs.num_dofs];
+        let mut f_ext = vec![0.0; disc.dofs.num_dofs];
         m.external_force(t, &mut f_ext);
         let linear = m.is_linear();
-        let nf = m.dofs.num_free;
-        let nm = m.constraints.len() + m.contact.rows.len() + m.contact.friction_rows.len();
+        let nf = disc.dofs.num_free;
+        let nm = m.constraints.len() + disc.contact.rows.len() + disc.contact.friction_rows.len();
         let mut mu = state.multipliers.clone();
-        let mut sets = ContactSets::new(m.contact.rows.len(), m.contact.friction_rows.len());
+        let mut sets = ContactSets::new(disc.contact.rows.len(), disc.contact.friction_rows.len());
         let mut r = vec![0.0; nf + nm];
-        let mut ct_mu = vec![0.0; m.dofs.num_dofs];
+        let mut ct_mu = vec![0.0; disc.dofs.num_dofs];
         let mut first_res = f64::NAN;
         let mut res = f64::INFINITY;
         let mut step_scale = 0.0f64;
         for it in 0..=p.max_iterations {
             let need_tangent = !linear || !self.factored;
             // 1. Active set: gaps and slips at u, semi-smooth update of the contact sets.
-            let set_changed = sets.update(&m.contact, &u, &state.u, &mu, it == 0);
+            let set_changed = sets.update(&disc.contact, &u, &state.u, &mu, it == 0);
             self.last_active = sets.active.iter().filter(|&&a| a).count();
             sets.log(step, it, set_changed);
             // 2. Bulk: internal force (and tangent) at u.
             self.assemble_trial(&u, &state.history, need_tangent);
             // 3. Constraint rows by their laws, their forces C^T mu, and their tangent entries.
-            let laws = row_laws(&m.contact, &sets.active, &sets.status);
+            let laws = row_laws(&disc.contact, &sets.active, &sets.status);
             let (g_scale, slip_res) = self.constraint_residual(&u, &mu, &sets, &laws, &mut r[nf..], &mut ct_mu);
-            if need_tangent && !m.contact.rows.is_empty() {
+            if need_tangent && !disc.contact.rows.is_empty() {
                 self.scatter_contact_tangent(&laws);
             }
-            for (i, &g) in m.dofs.free.iter().enumerate() {
+            for (i, &g) in disc.dofs.free.iter().enumerate() {
                 r[i] = f_ext[g] - self.trial_f_int[g] - ct_mu[g];
             }
             // 4. Norms: forces, gaps, free multipliers, each against its own scale.
@@ -542,7 +568,7 @@ impl<'m> StaticAnalysis<'m> {
                 return Ok(StepOutcome::NotConverged { iterations: it, residual: res });
             }
             if !set_changed && (res <= p.rtol || norms.all_zero()) {
-                check_small_sliding(m, &u, &sets.status, step, t)?;
+                check_small_sliding(disc, &u, &sets.status, step, t)?;
                 self.commit(state, u, mu, t, &sets.status, &sets.slip);
                 return Ok(StepOutcome::Converged { iterations: it, residual: res });
             }
@@ -565,14 +591,14 @@ impl<'m> StaticAnalysis<'m> {
                 }
             }
             self.solver.solve(&mut r).map_err(|source| NewtonError::Linear { step, iteration: it, source })?;
-            for (i, &g) in m.dofs.free.iter().enumerate() {
+            for (i, &g) in disc.dofs.free.iter().enumerate() {
                 u[g] += r[i];
             }
             for k in 0..nm {
                 mu[k] += self.alpha * r[nf + k];
             }
             // The open-node equation lambda = 0 is linear: its Newton step is exact.
-            zero_open_multipliers(&m.contact, &mut mu, &sets.active, &sets.status);
+            zero_open_multipliers(&disc.contact, &mut mu, &sets.active, &sets.status);
         }
         self.last_gross_sliding = gross_sliding(&sets.status);
         Ok(StepOutcome::NotConverged { iterations: p.max_iterations, residual: res })
@@ -592,8 +618,8 @@ impl<'m> StaticAnalysis<'m> {
         r: &mut [f64],
         ct_mu: &mut [f64],
     ) -> (f64, f64) {
-        let m = self.model;
-        let (nt, nc) = (m.constraints.len(), m.contact.rows.len());
+        let (m, disc) = (self.model, self.disc);
+        let (nt, nc) = (m.constraints.len(), disc.contact.rows.len());
         ct_mu.iter_mut().for_each(|v| *v = 0.0);
         let mut g_scale = 0.0;
         for (k, row) in m.constraints.iter().enumerate() {
@@ -608,14 +634,14 @@ impl<'m> StaticAnalysis<'m> {
         }
         let mut slip_res = 0.0f64;
         for i in nt..r.len() {
-            let row = if i < nt + nc { &m.contact.rows[i - nt] } else { &m.contact.friction_rows[i - nt - nc] };
+            let row = if i < nt + nc { &disc.contact.rows[i - nt] } else { &disc.contact.friction_rows[i - nt - nc] };
             for &(d, c) in row {
                 ct_mu[d] += c * mu[i];
             }
             r[i] = match laws[i] {
                 RowLaw::Constraint => {
                     let (value, offset) = if i < nt + nc {
-                        (sets.gaps[i - nt], m.contact.g0[i - nt].abs())
+                        (sets.gaps[i - nt], disc.contact.g0[i - nt].abs())
                     } else {
                         (sets.slip[i - nt - nc], 0.0)
                     };
@@ -637,8 +663,8 @@ impl<'m> StaticAnalysis<'m> {
     /// The contact rows' entries of the tangent for the current laws: `C` and `C^T` where a row
     /// is a constraint, the identity where it is free, `-coef` coupling a slip row to its normal.
     fn scatter_contact_tangent(&mut self, laws: &[RowLaw]) {
-        let m = self.model;
-        let (nt, nc) = (m.constraints.len(), m.contact.rows.len());
+        let (m, disc) = (self.model, self.disc);
+        let (nt, nc) = (m.constraints.len(), disc.contact.rows.len());
         let pat = &self.assembler.pattern;
         for &(row, p1, p2, coef) in &pat.constraint_scatter {
             if row >= nt {
@@ -675,9 +701,9 @@ impl<'m> StaticAnalysis<'m> {
         slip_res: f64,
         step_scale: &mut f64,
     ) -> ResidualNorms {
-        let m = self.model;
-        let nf = m.dofs.num_free;
-        let (nt, nc, nfr) = (m.constraints.len(), m.contact.rows.len(), m.contact.friction_rows.len());
+        let (m, disc) = (self.model, self.disc);
+        let nf = disc.dofs.num_free;
+        let (nt, nc, nfr) = (m.constraints.len(), disc.contact.rows.len(), disc.contact.friction_rows.len());
         let f_ext_norm = norm(f_ext);
         // Force scale: never below what this step has seen (a contact that opens can leave a
         // body unloaded, where the current forces are all round-off).
@@ -692,7 +718,7 @@ impl<'m> StaticAnalysis<'m> {
         let gn = gap_rows.map(|k| r[nf + k] * r[nf + k]).sum::<f64>().sqrt() / self.alpha;
         // Multiplier scale: the largest contact multiplier or the force scale spread over the
         // paired contact length.
-        let contact_len: f64 = m.contact.phi.iter().sum();
+        let contact_len: f64 = disc.contact.phi.iter().sum();
         let mu_ref = mu[nt..].iter().fold(0.0f64, |a, v| a.max(v.abs())).max(if contact_len > 0.0 {
             scale / contact_len
         } else {
@@ -720,8 +746,8 @@ impl<'m> StaticAnalysis<'m> {
         status: &[FrictionStatus],
         slip: &[f64],
     ) {
-        let m = self.model;
-        let first_t = m.constraints.len() + m.contact.rows.len();
+        let (m, disc) = (self.model, self.disc);
+        let first_t = m.constraints.len() + disc.contact.rows.len();
         for (j, st) in status.iter().enumerate() {
             state.friction_status[j] = match st {
                 FrictionStatus::Open => 0,
@@ -754,13 +780,13 @@ impl<'m> StaticAnalysis<'m> {
     /// history into the trial buffers, the tangent into `values` when asked; the constant
     /// penalty stiffness (ghost penalty) adds its force to the internal force.
     fn assemble_trial(&mut self, u: &[f64], history: &[PlasticState], with_tangent: bool) {
-        let m = self.model;
+        let (m, disc) = (self.model, self.disc);
         self.assembler.assemble(
             &AssemblyInput {
                 coords: &m.coords,
                 elements: &m.elements,
                 materials: &m.materials,
-                rules: &m.rules,
+                rules: &disc.rules,
                 u,
                 state_old: history,
             },
@@ -772,7 +798,7 @@ impl<'m> StaticAnalysis<'m> {
             },
             self.parallel,
         );
-        for &(i, j, v) in &m.penalty {
+        for &(i, j, v) in &disc.penalty {
             self.trial_f_int[i] += v * u[j];
         }
     }
@@ -803,14 +829,14 @@ impl<'m> StaticAnalysis<'m> {
         step: usize,
         t: f64,
     ) -> Result<StepOutcome, AnalysisError> {
-        let m = self.model;
+        let (m, disc) = (self.model, self.disc);
         let p = m.newton;
-        let (nc, nfr) = (m.contact.rows.len(), m.contact.friction_rows.len());
+        let (nc, nfr) = (disc.contact.rows.len(), disc.contact.friction_rows.len());
         let mut u = state.u.clone();
         for (d, v) in m.prescribed_at(t) {
             u[d] = v;
         }
-        let mut f_ext = vec![0.0; m.dofs.num_dofs];
+        let mut f_ext = vec![0.0; disc.dofs.num_dofs];
         m.external_force(t, &mut f_ext);
         let mut lam0 = state.multipliers.clone();
         let mut iterations = 0;
@@ -821,8 +847,8 @@ impl<'m> StaticAnalysis<'m> {
         for pass in 0..MAX_REFINEMENTS {
             // r_u = f - f_int(u0) - C^T lambda0 on the free equations, z = K_rho^{-1} r_u.
             self.internal_force(&u, &history);
-            let mut ct = vec![0.0; m.dofs.num_dofs];
-            constraint_forces(m, &lam0, &mut ct);
+            let mut ct = vec![0.0; disc.dofs.num_dofs];
+            constraint_forces(m, disc, &lam0, &mut ct);
             // Force scale of the step: what the start of the step has seen too (a contact that opens
             // leaves the bodies unloaded, where the final forces are all round-off).
             let scale0 = norm(&f_ext).max(norm(&self.trial_f_int)).max(norm(&ct));
@@ -831,15 +857,15 @@ impl<'m> StaticAnalysis<'m> {
                 .equations
                 .free
                 .iter()
-                .map(|&g| if m.dofs.eq[g] == CONSTRAINED { 0.0 } else { f_ext[g] - self.trial_f_int[g] - ct[g] })
+                .map(|&g| if disc.dofs.eq[g] == CONSTRAINED { 0.0 } else { f_ext[g] - self.trial_f_int[g] - ct[g] })
                 .collect();
             self.solver.solve(&mut z).map_err(|source| NewtonError::Linear { step, iteration: 0, source })?;
             let start = InterfaceStart {
                 slip0: (0..nfr)
-                    .map(|j| m.contact.friction_rows[j].iter().map(|&(d, c)| c * (u[d] - state.u[d])).sum())
+                    .map(|j| disc.contact.friction_rows[j].iter().map(|&(d, c)| c * (u[d] - state.u[d])).sum())
                     .collect(),
                 // Weighted gaps minus g0 of every contact row at the start of the step.
-                w_start: m.contact.rows.iter().map(|r| r.iter().map(|&(d, c)| c * u[d]).sum()).collect(),
+                w_start: disc.contact.rows.iter().map(|r| r.iter().map(|&(d, c)| c * u[d]).sum()).collect(),
                 u_start: u.clone(),
             };
             let mut sets = ContactSets::new(nc, nfr);
@@ -866,7 +892,7 @@ impl<'m> StaticAnalysis<'m> {
                 })?;
                 u.clone_from(&start.u_start);
                 for (i, &g) in cd.equations.free.iter().enumerate() {
-                    if m.dofs.eq[g] != CONSTRAINED {
+                    if disc.dofs.eq[g] != CONSTRAINED {
                         u[g] += z[i] + y[i];
                     }
                 }
@@ -879,16 +905,16 @@ impl<'m> StaticAnalysis<'m> {
                 }
             };
             // Exact zeros where the law says so (open nodes).
-            zero_open_multipliers(&m.contact, &mut mu, &sets.active, &sets.status);
+            zero_open_multipliers(&disc.contact, &mut mu, &sets.active, &sets.status);
             // Check: the equilibrium residual of the recovered state.
             self.internal_force(&u, &history);
-            constraint_forces(m, &mu, &mut ct);
-            let r: Vec<f64> = m.dofs.free.iter().map(|&g| f_ext[g] - self.trial_f_int[g] - ct[g]).collect();
+            constraint_forces(m, disc, &mu, &mut ct);
+            let r: Vec<f64> = disc.dofs.free.iter().map(|&g| f_ext[g] - self.trial_f_int[g] - ct[g]).collect();
             let scale = scale0.max(norm(&self.trial_f_int)).max(norm(&ct));
             let res = if scale > 0.0 { norm(&r) / scale } else { norm(&r) };
             tracing::debug!(step, t, iterations, residual = res, "condensed step");
             if res.is_finite() && res <= p.rtol {
-                check_small_sliding(m, &u, &sets.status, step, t)?;
+                check_small_sliding(disc, &u, &sets.status, step, t)?;
                 self.commit(state, u, mu, t, &sets.status, &sets.slip);
                 self.last_sets = Some((sets.active, sets.status));
                 return Ok(StepOutcome::Converged { iterations, residual: res });
@@ -921,10 +947,10 @@ impl<'m> StaticAnalysis<'m> {
         step: usize,
         t: f64,
     ) -> Result<InterfaceSolve, AnalysisError> {
-        let m = self.model;
+        let (m, disc) = (self.model, self.disc);
         let p = m.newton;
-        let (nt, nc, nfr) = (m.constraints.len(), m.contact.rows.len(), m.contact.friction_rows.len());
-        let all: Vec<&Vec<(usize, f64)>> = m.multiplier_rows().collect();
+        let (nt, nc, nfr) = (m.constraints.len(), disc.contact.rows.len(), disc.contact.friction_rows.len());
+        let all: Vec<&Vec<(usize, f64)>> = disc.multiplier_rows(m).collect();
         let nl = cd.live.len();
         let cz: Vec<f64> = cd.rows_free.iter().map(|r| r.iter().map(|&(e, c)| c * z[e]).sum()).collect();
         // Row values at u0: w0 = C u0; the law's targets per live row.
@@ -945,7 +971,7 @@ impl<'m> StaticAnalysis<'m> {
         };
         for it in 0..=p.max_iterations {
             for k in 0..nc {
-                sets.gaps[k] = m.contact.g0[k] + cd.live_of[nt + k].map_or(start.w_start[k], |a| w0[a] + dw[a]);
+                sets.gaps[k] = disc.contact.g0[k] + cd.live_of[nt + k].map_or(start.w_start[k], |a| w0[a] + dw[a]);
             }
             for j in 0..nfr {
                 sets.slip[j] = start.slip0[j] + cd.live_of[nt + nc + j].map_or(0.0, |a| dw[a]);
@@ -953,7 +979,7 @@ impl<'m> StaticAnalysis<'m> {
             for (a, i) in cd.model_rows() {
                 mult[i] = lam0[i] + dlam[a];
             }
-            update_sets(&m.contact, &mult, &sets.gaps, &sets.slip, it == 0, &mut sets.active, &mut sets.status);
+            update_sets(&disc.contact, &mult, &sets.gaps, &sets.slip, it == 0, &mut sets.active, &mut sets.status);
             self.last_active = sets.active.iter().filter(|&&a| a).count();
             // Rows outside the set stay open (checked after the solve).
             for k in (0..nc).filter(|&k| cd.live_of[nt + k].is_none()) {
@@ -972,8 +998,8 @@ impl<'m> StaticAnalysis<'m> {
             }
             prev = Some((sets.active.clone(), sets.status.clone()));
             iterations += 1;
-            let row_law = row_laws(&m.contact, &sets.active, &sets.status);
-            let laws = cd.laws(m, &row_law, &w0, lam0, &start.slip0);
+            let row_law = row_laws(&disc.contact, &sets.active, &sets.status);
+            let laws = cd.laws(m, disc, &row_law, &w0, lam0, &start.slip0);
             let a_mat = cd.law_matrix(&laws);
             let rhs = cd.law_rhs(&laws, &cz);
             let Some(x) = DenseLu::new(a_mat).and_then(|lu| lu.solve(&rhs)) else {
@@ -1011,21 +1037,22 @@ impl<'m> StaticAnalysis<'m> {
         t: f64,
         iterations: usize,
     ) -> Result<bool, AnalysisError> {
-        let m = self.model;
-        let (nt, nc) = (m.constraints.len(), m.contact.rows.len());
-        let gaps_u: Vec<f64> =
-            (0..nc).map(|k| m.contact.g0[k] + m.contact.rows[k].iter().map(|&(d, c)| c * u[d]).sum::<f64>()).collect();
-        let penetrates = (0..nc).any(|k| cd.live_of[nt + k].is_none() && m.contact.phi[k] > 0.0 && gaps_u[k] < 0.0);
+        let (m, disc) = (self.model, self.disc);
+        let (nt, nc) = (m.constraints.len(), disc.contact.rows.len());
+        let gaps_u: Vec<f64> = (0..nc)
+            .map(|k| disc.contact.g0[k] + disc.contact.rows[k].iter().map(|&(d, c)| c * u[d]).sum::<f64>())
+            .collect();
+        let penetrates = (0..nc).any(|k| cd.live_of[nt + k].is_none() && disc.contact.phi[k] > 0.0 && gaps_u[k] < 0.0);
         if !penetrates {
             return Ok(false);
         }
-        let add: Vec<usize> = condensed::near_rows(m, &gaps_u, condensed::CANDIDATE_MARGIN, 0.0)
+        let add: Vec<usize> = condensed::near_rows(disc, &gaps_u, condensed::CANDIDATE_MARGIN, 0.0)
             .into_iter()
             .filter(|&k| cd.live_of[nt + k].is_none())
             .collect();
         tracing::debug!(step, t, added = add.len(), "condensed set grows");
-        let batch = condensed::with_friction(m, &add);
-        cd.grow(m, &self.solver, &batch, 0.0).map_err(|source| NewtonError::Linear {
+        let batch = condensed::with_friction(m, disc, &add);
+        cd.grow(m, disc, &self.solver, &batch, 0.0).map_err(|source| NewtonError::Linear {
             step,
             iteration: iterations,
             source,
@@ -1038,11 +1065,11 @@ impl<'m> StaticAnalysis<'m> {
     /// interface condensation or before a step converged.
     pub fn gap_sensitivity(&self) -> Option<GapSensitivity> {
         let (active, status) = self.last_sets.as_ref()?;
-        self.condensed.as_ref()?.gap_sensitivity(self.model, active, status)
+        self.condensed.as_ref()?.gap_sensitivity(self.model, self.disc, active, status)
     }
 
     /// Reactions at constrained DOFs of the current state, zero elsewhere.
     pub fn reactions(&self, state: &SimState) -> Vec<f64> {
-        self.model.reactions(state)
+        self.disc.reactions(self.model, state)
     }
 }

@@ -17,7 +17,7 @@
 //! any checkpoint needs nothing else.
 
 use crate::analysis::{AnalysisError, StaticAnalysis, StepReport};
-use crate::model::Model;
+use crate::model::{Discretisation, Model};
 use crate::state::SimState;
 use crate::wear::{accumulate_step_wear, apply_cycle_wear, JumpScheme};
 
@@ -64,11 +64,12 @@ impl RunTimings {
 }
 
 /// Runs every remaining output step of `model` from `state` (a fresh initial state or a
-/// checkpoint), calling `observer` with each converged step, its state and the model of the
-/// step (current surfaces, pairing and DOF map). An observer error stops the run.
+/// checkpoint), calling `observer` with each converged step, its state, the model and the
+/// step's discretisation (current surfaces, pairing and DOF map). An observer error stops the
+/// run.
 pub fn run<F>(model: &Model, state: &mut SimState, options: RunOptions, observer: F) -> Result<(), AnalysisError>
 where
-    F: FnMut(&StepReport, &SimState, &Model) -> Result<(), String>,
+    F: FnMut(&StepReport, &SimState, &Model, &Discretisation) -> Result<(), String>,
 {
     run_timed(model, state, options, observer).map(|_| ())
 }
@@ -81,7 +82,7 @@ pub fn run_timed<F>(
     mut observer: F,
 ) -> Result<RunTimings, AnalysisError>
 where
-    F: FnMut(&StepReport, &SimState, &Model) -> Result<(), String>,
+    F: FnMut(&StepReport, &SimState, &Model, &Discretisation) -> Result<(), String>,
 {
     if !model.wear.is_empty() {
         return run_wear(model, state, options, observer);
@@ -90,22 +91,24 @@ where
         let mut analysis = StaticAnalysis::new(model)?;
         analysis.set_parallel(options.parallel);
         analysis.resume(state)?;
-        return analysis.run(state, |r, s| observer(r, s, model)).map(|_| RunTimings::default());
+        return analysis.run(state, |r, s| observer(r, s, model, model.initial())).map(|_| RunTimings::default());
     }
-    let mut current = model.clone();
+    let mut current = model.initial().clone();
     let mut reuse = None;
     let first = state.step;
     for (k, &t) in model.times.iter().enumerate().skip(first) {
         let step = k + 1;
-        if current.has_moving_surfaces() {
-            let recut = current.place_surfaces(t).map_err(|source| AnalysisError::Surface { step, time: t, source })?;
+        if model.has_moving_surfaces() {
+            let recut =
+                current.place_surfaces(model, t).map_err(|source| AnalysisError::Surface { step, time: t, source })?;
             tracing::debug!(step, moved = recut.moved, cut_by_degree = ?recut.cut_cells_by_degree, held = recut.held_dofs, "surfaces re-cut");
         }
-        if current.has_finite_sliding() {
+        if model.has_finite_sliding() {
             // Without moving surfaces every step has the bulk the first one set up.
-            let at_rest = !current.has_moving_surfaces();
+            let at_rest = !model.has_moving_surfaces();
             let (same_bulk, mut timings) = (at_rest && k > first, RunTimings::default());
             solve_paired_step(
+                model,
                 &current,
                 state,
                 &mut reuse,
@@ -116,17 +119,17 @@ where
                 t,
                 options,
                 &mut timings,
-                |m, _, s, r, _| observer(&r, s, m).map_err(|msg| AnalysisError::Observer { step, msg }),
+                |d, _, s, r, _| observer(&r, s, model, d).map_err(|msg| AnalysisError::Observer { step, msg }),
             )?;
             continue;
         }
-        let mut analysis = StaticAnalysis::with_reuse(&current, reuse.take())?;
+        let mut analysis = StaticAnalysis::with_reuse(model, &current, reuse.take())?;
         analysis.set_parallel(options.parallel);
         let report = analysis.advance_to(state, step, t)?;
         reuse = analysis.into_reuse();
         // The interface log of a per-step operator means nothing to the next step.
         state.interface_log.clear();
-        observer(&report, state, &current).map_err(|msg| AnalysisError::Observer { step, msg })?;
+        observer(&report, state, model, &current).map_err(|msg| AnalysisError::Observer { step, msg })?;
     }
     Ok(RunTimings::default())
 }
@@ -154,13 +157,14 @@ fn run_wear<F>(
     observer: F,
 ) -> Result<RunTimings, AnalysisError>
 where
-    F: FnMut(&StepReport, &SimState, &Model) -> Result<(), String>,
+    F: FnMut(&StepReport, &SimState, &Model, &Discretisation) -> Result<(), String>,
 {
     let Some(cycle) = model.cycle else {
         let (surface, msg) = (model.wear.surfaces[0].name.clone(), "wear needs a cyclic load ([steps] cycle)".into());
         return Err(crate::wear::WearError { cycle: 0, surface, msg }.into());
     };
-    let mut run = WearRun { current: model.clone(), reuse: None, options, timings: RunTimings::default(), observer };
+    let current = model.initial().clone();
+    let mut run = WearRun { model, current, reuse: None, options, timings: RunTimings::default(), observer };
     run.place_surfaces(state)?;
     let ramp_steps = model.times.len() - cycle.count * cycle.increments;
     if state.step < ramp_steps {
@@ -174,25 +178,27 @@ where
     Ok(run.timings)
 }
 
-/// A wear run in progress: the model of the current surface positions, the solver structure
-/// handed from one position to the next, where the time went, and the observer.
-struct WearRun<F> {
-    current: Model,
+/// A wear run in progress: the model, the discretisation of the current surface positions, the
+/// solver structure handed from one position to the next, where the time went, and the
+/// observer.
+struct WearRun<'m, F> {
+    model: &'m Model,
+    current: Discretisation,
     reuse: Option<crate::analysis::SolverReuse>,
     options: RunOptions,
     timings: RunTimings,
     observer: F,
 }
 
-impl<F> WearRun<F>
+impl<F> WearRun<'_, F>
 where
-    F: FnMut(&StepReport, &SimState, &Model) -> Result<(), String>,
+    F: FnMut(&StepReport, &SimState, &Model, &Discretisation) -> Result<(), String>,
 {
     /// The worn surfaces where the state has them, re-cut and re-paired (small sliding: in the
     /// reference geometry, with the pairing reach extended by the wear depth allowed).
     fn place_surfaces(&mut self, state: &SimState) -> Result<(), AnalysisError> {
         let t0 = std::time::Instant::now();
-        self.current.place_worn_surfaces(&state.wear).map_err(|source| AnalysisError::Surface {
+        self.current.place_worn_surfaces(self.model, &state.wear).map_err(|source| AnalysisError::Surface {
             step: state.step,
             time: state.time,
             source,
@@ -204,21 +210,21 @@ where
     /// The steps before the cycle window, as any run; their wear (sliding under the rising
     /// load) is applied once, at the ramp's end.
     fn ramp(&mut self, state: &mut SimState, ramp_steps: usize, count: u64) -> Result<(), AnalysisError> {
-        let m = &self.current;
-        let mut analysis = StaticAnalysis::with_reuse(m, self.reuse.take())?;
+        let (m, disc) = (self.model, &self.current);
+        let mut analysis = StaticAnalysis::with_reuse(m, disc, self.reuse.take())?;
         analysis.set_parallel(self.options.parallel);
         analysis.resume(state)?;
         self.timings.count_setup(&analysis);
         for k in state.step..ramp_steps {
             let u_prev = state.u.clone();
             let report = analysis.advance_to(state, k + 1, m.times[k])?;
-            let scene = m.wear_scene();
+            let scene = disc.wear_scene(m);
             accumulate_step_wear(&scene, &mut state.wear, (&u_prev, &state.u), (None, &state.multipliers));
             if k + 1 == ramp_steps {
                 apply_cycle_wear(&scene, &mut state.wear, &state.u, &state.multipliers, count, false, None)?;
                 state.interface_log.clear();
             }
-            (self.observer)(&report, state, m).map_err(|msg| AnalysisError::Observer { step: k + 1, msg })?;
+            (self.observer)(&report, state, m, disc).map_err(|msg| AnalysisError::Observer { step: k + 1, msg })?;
         }
         self.reuse = analysis.into_reuse();
         Ok(())
@@ -230,8 +236,9 @@ where
         let n = state.wear.cycle;
         let step_time = |i: usize| cycle.start + cycle.period * (n as f64 + (i + 1) as f64 / cycle.increments as f64);
         let first = state.wear.increment;
-        let Self { current, reuse, options, timings, observer } = self;
-        if current.has_finite_sliding() {
+        let Self { model, current, reuse, options, timings, observer } = self;
+        let model: &Model = model;
+        if model.has_finite_sliding() {
             state.wear.pairing_guess.resize(cycle.increments, vec![]);
             for i in first..cycle.increments {
                 let step = state.step + 1;
@@ -242,6 +249,7 @@ where
                 let guess = std::mem::take(&mut state.wear.pairing_guess[i]);
                 let guess = (guess.len() == state.u.len()).then_some(guess);
                 solve_paired_step(
+                    model,
                     current,
                     state,
                     reuse,
@@ -252,12 +260,22 @@ where
                     step_time(i),
                     *options,
                     &mut solve_timings,
-                    |m, analysis, state, report, start| {
+                    |disc, analysis, state, report, start| {
                         state.wear.pairing_guess[i].clone_from(&state.u);
                         let start = (start.u.as_slice(), start.multipliers.as_slice());
-                        let report =
-                            integrate_step_wear(m, analysis, state, start, report, i, n, cycle.increments, timings)?;
-                        observer(&report, state, m).map_err(|msg| AnalysisError::Observer { step: report.step, msg })
+                        let report = integrate_step_wear(
+                            (model, disc),
+                            analysis,
+                            state,
+                            start,
+                            report,
+                            i,
+                            n,
+                            cycle.increments,
+                            timings,
+                        )?;
+                        observer(&report, state, model, disc)
+                            .map_err(|msg| AnalysisError::Observer { step: report.step, msg })
                     },
                 )?;
                 timings.add(&solve_timings);
@@ -265,7 +283,7 @@ where
             return Ok(());
         }
         let t0 = std::time::Instant::now();
-        let mut analysis = StaticAnalysis::with_reuse(current, reuse.take())?;
+        let mut analysis = StaticAnalysis::with_reuse(model, current, reuse.take())?;
         analysis.set_parallel(options.parallel);
         analysis.resume(state)?;
         timings.setup += t0.elapsed().as_secs_f64();
@@ -276,12 +294,22 @@ where
             let report = analysis.advance_to(state, state.step + 1, step_time(i))?;
             timings.solve += t1.elapsed().as_secs_f64();
             let start = (u_prev.as_slice(), lambda_prev.as_slice());
-            let report =
-                integrate_step_wear(current, &analysis, state, start, report, i, n, cycle.increments, timings)?;
+            let report = integrate_step_wear(
+                (model, current),
+                &analysis,
+                state,
+                start,
+                report,
+                i,
+                n,
+                cycle.increments,
+                timings,
+            )?;
             if i + 1 == cycle.increments {
                 state.interface_log.clear();
             }
-            observer(&report, state, current).map_err(|msg| AnalysisError::Observer { step: report.step, msg })?;
+            observer(&report, state, model, current)
+                .map_err(|msg| AnalysisError::Observer { step: report.step, msg })?;
         }
         *reuse = analysis.into_reuse();
         Ok(())
@@ -293,7 +321,7 @@ where
 /// and multipliers `start`), and at the cycle's last increment the cycle's wear applied with
 /// its jump.
 fn integrate_step_wear(
-    m: &Model,
+    (m, disc): (&Model, &Discretisation),
     analysis: &StaticAnalysis,
     state: &mut SimState,
     start: (&[f64], &[f64]),
@@ -306,7 +334,7 @@ fn integrate_step_wear(
     let t1 = std::time::Instant::now();
     report.cycle = n as usize + 1;
     report.increment = i + 1;
-    let scene = m.wear_scene();
+    let scene = disc.wear_scene(m);
     accumulate_step_wear(&scene, &mut state.wear, (start.0, &state.u), (Some(start.1), &state.multipliers));
     state.wear.increment = i + 1;
     if i + 1 == increments {
@@ -362,11 +390,12 @@ const PAIRING_CONTRACTION_FLOOR: f64 = 0.1;
 /// re-pairings only the contact rows change: `K_rho` keeps its factorisation. `same_bulk`: the
 /// structure handed in `reuse` was set up on `current`'s bulk; `surface_compliance`: see
 /// [`StaticAnalysis::for_pairings`] (on for runs whose surfaces stay where they are, where one
-/// bulk serves every step). `then` gets the step's model,
+/// bulk serves every step). `then` gets the step's discretisation (`current` re-paired),
 /// its analysis, the converged state and the report; its result is returned.
 #[allow(clippy::too_many_arguments)]
 fn solve_paired_step<R>(
-    current: &Model,
+    model: &Model,
+    current: &Discretisation,
     state: &mut SimState,
     reuse: &mut Option<crate::analysis::SolverReuse>,
     same_bulk: bool,
@@ -376,19 +405,19 @@ fn solve_paired_step<R>(
     t: f64,
     options: RunOptions,
     timings: &mut RunTimings,
-    then: impl FnOnce(&Model, &StaticAnalysis, &mut SimState, StepReport, &SimState) -> Result<R, AnalysisError>,
+    then: impl FnOnce(&Discretisation, &StaticAnalysis, &mut SimState, StepReport, &SimState) -> Result<R, AnalysisError>,
 ) -> Result<R, AnalysisError> {
     let start = state.clone();
     let mut u_pair = guess.map_or_else(|| state.u.clone(), <[f64]>::to_vec);
     let mut last_pressure: Option<Vec<f64>> = None;
     let (mut change, mut last_change, mut estimate) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
     let mut iterations = 0;
-    let mut prepared: Option<Model> = None;
+    let mut prepared: Option<Discretisation> = None;
     for pairing in 1..=MAX_PAIRINGS {
         let t0 = std::time::Instant::now();
-        let model = prepared.take().unwrap_or_else(|| current.repaired_at(&u_pair, &start.u));
+        let paired = prepared.take().unwrap_or_else(|| current.repaired_at(model, &u_pair, &start.u));
         let handed = reuse.take().map(|r| if same_bulk || pairing > 1 { r.with_same_bulk() } else { r });
-        let mut analysis = StaticAnalysis::for_pairings(&model, handed, surface_compliance)?;
+        let mut analysis = StaticAnalysis::for_pairings(model, &paired, handed, surface_compliance)?;
         analysis.set_parallel(options.parallel);
         timings.setup += t0.elapsed().as_secs_f64();
         timings.count_setup(&analysis);
@@ -400,7 +429,8 @@ fn solve_paired_step<R>(
         timings.solve += t1.elapsed().as_secs_f64();
         iterations += report.iterations;
         let nt = model.constraints.len();
-        let pressure: Vec<f64> = (0..model.contact.rows.len()).map(|k| (-state.multipliers[nt + k]).max(0.0)).collect();
+        let pressure: Vec<f64> =
+            (0..paired.contact.rows.len()).map(|k| (-state.multipliers[nt + k]).max(0.0)).collect();
         if let Some(last) = &last_pressure {
             let p_max = pressure.iter().fold(0.0_f64, |a, &b| a.max(b)).max(f64::MIN_POSITIVE);
             change = pressure.iter().zip(last).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / p_max;
@@ -421,8 +451,8 @@ fn solve_paired_step<R>(
         // needs it anyway) and its pressure change estimated from the interface stiffness; a
         // change below the tolerance settles the step without a second solve.
         if pairing == 1 && guess.is_some() {
-            let next = current.repaired_at(&state.u, &start.u);
-            if let Some(linear) = linear_pairing_change(&model, &next, &analysis, state) {
+            let next = current.repaired_at(model, &state.u, &start.u);
+            if let Some(linear) = linear_pairing_change(model, (&paired, &next), &analysis, state) {
                 change = linear;
                 let floor = PAIRING_CONTRACTION_FLOOR;
                 estimate = LINEAR_PAIRING_SAFETY * linear * floor / (1.0 - floor);
@@ -430,14 +460,14 @@ fn solve_paired_step<R>(
             prepared = Some(next);
         }
         tracing::debug!(step, pairing, change, estimate, "finite sliding: step solved in its pairing");
-        let at_rest = pairing == 1 && guess.is_none() && !state_slid(&model, state, &start.u);
+        let at_rest = pairing == 1 && guess.is_none() && !state_slid(&paired, state, &start.u);
         if estimate <= PAIRING_TOLERANCE || (pairing > 1 && change == 0.0) || at_rest {
-            if let Err(e) = check_on_counter_surface(current, &model, state, step, t) {
+            if let Err(e) = check_on_counter_surface(model, (current, &paired), state, step, t) {
                 *state = start;
                 return Err(e);
             }
             report.iterations = iterations;
-            let out = then(&model, &analysis, state, report, &start);
+            let out = then(&paired, &analysis, state, report, &start);
             *reuse = analysis.into_reuse();
             // The interface log of a per-step operator means nothing to the next step.
             state.interface_log.clear();
@@ -454,26 +484,33 @@ fn solve_paired_step<R>(
 /// The pressure change that re-pairing a converged finite-sliding step would cause, relative
 /// to the largest pressure, linearised: the weighted gaps of the active rows at the solution
 /// in the pairing `next` (formed at the solution) against those in the step's pairing
-/// `model`, times the interface stiffness of the converged state. `None` without the
+/// `paired`, times the interface stiffness of the converged state. `None` without the
 /// stiffness (no interface condensation) or when a row open in `model` would penetrate in
 /// `next` (the contact set would change: only a solve tells).
-fn linear_pairing_change(model: &Model, next: &Model, analysis: &StaticAnalysis, state: &SimState) -> Option<f64> {
+fn linear_pairing_change(
+    model: &Model,
+    (paired, next): (&Discretisation, &Discretisation),
+    analysis: &StaticAnalysis,
+    state: &SimState,
+) -> Option<f64> {
     let sens = analysis.gap_sensitivity()?;
-    let gap =
-        |m: &Model, k: usize| m.contact.g0[k] + m.contact.rows[k].iter().map(|&(d, c)| c * state.u[d]).sum::<f64>();
-    let mut in_contact = vec![false; model.contact.rows.len()];
+    let gap = |d: &Discretisation, k: usize| {
+        d.contact.g0[k] + d.contact.rows[k].iter().map(|&(dof, c)| c * state.u[dof]).sum::<f64>()
+    };
+    let mut in_contact = vec![false; paired.contact.rows.len()];
     for &k in &sens.rows {
         in_contact[k] = true;
     }
     let penetrates =
-        (0..model.contact.rows.len()).any(|k| !in_contact[k] && next.contact.phi[k] > 0.0 && gap(next, k) < 0.0);
+        (0..paired.contact.rows.len()).any(|k| !in_contact[k] && next.contact.phi[k] > 0.0 && gap(next, k) < 0.0);
     if penetrates {
         return None;
     }
-    let dg = nalgebra::DVector::from_iterator(sens.rows.len(), sens.rows.iter().map(|&k| gap(next, k) - gap(model, k)));
+    let dg =
+        nalgebra::DVector::from_iterator(sens.rows.len(), sens.rows.iter().map(|&k| gap(next, k) - gap(paired, k)));
     let dlambda = &sens.dlambda_dgap * dg;
     let nt = model.constraints.len();
-    let p_max = (0..model.contact.rows.len()).map(|k| -state.multipliers[nt + k]).fold(0.0_f64, f64::max);
+    let p_max = (0..paired.contact.rows.len()).map(|k| -state.multipliers[nt + k]).fold(0.0_f64, f64::max);
     (p_max > 0.0).then(|| dlambda.iter().fold(0.0_f64, |a, d| a.max(d.abs())) / p_max)
 }
 
@@ -484,16 +521,16 @@ const END_OF_SURFACE_SHARE: f64 = 0.9;
 
 /// A converged finite-sliding step whose contact reached the end of the counter-surface: a node
 /// carrying pressure is paired over less of its support (`int Phi` of the step's pairing in
-/// `paired`) than in the reference pairing of `base`. The body then rests on the other's last
+/// `paired`) than in the pairing `base` the step started from. The body then rests on the other's last
 /// corner, which no stroke of a fretting or sliding-wear test means: a typed error.
 fn check_on_counter_surface(
-    base: &Model,
-    paired: &Model,
+    model: &Model,
+    (base, paired): (&Discretisation, &Discretisation),
     state: &SimState,
     step: usize,
     t: f64,
 ) -> Result<(), AnalysisError> {
-    let nt = paired.constraints.len();
+    let nt = model.constraints.len();
     for c in paired.contact.pairs.iter().filter(|c| c.sliding == crate::contact::Sliding::Finite) {
         let rows = c.first_row..c.first_row + c.multipliers.num_nodes;
         let p_max = rows.clone().map(|k| -state.multipliers[nt + k]).fold(0.0_f64, f64::max);
@@ -514,6 +551,6 @@ fn check_on_counter_surface(
 
 /// Whether a converged step moved the paired surfaces at all from the start state (a step at
 /// rest, as the ramp of a held stroke, keeps its pairing: no re-pairing needed).
-fn state_slid(m: &Model, state: &SimState, u_start: &[f64]) -> bool {
-    m.contact.rows.iter().flatten().any(|&(d, _)| state.u[d] != u_start[d])
+fn state_slid(paired: &Discretisation, state: &SimState, u_start: &[f64]) -> bool {
+    paired.contact.rows.iter().flatten().any(|&(d, _)| state.u[d] != u_start[d])
 }

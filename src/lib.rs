@@ -14,12 +14,14 @@
 //! * [`assembly`], [`surface`]: DOF map, sparsity pattern and parallel assembly; virtual
 //!   polylines embedded in their host mesh.
 //! * [`cut`]: cut cells and their quadrature (partial integration, moment fitting).
-//! * [`discretisation`], [`mortar`]: moving virtual surfaces on fixed points; multiplier
+//! * [`moving`], [`mortar`]: moving virtual surfaces on fixed points; multiplier
 //!   spaces and mortar integrals (tying and contact rows).
 //! * [`contact`]: contact law (normal and Coulomb), pairs, per-node contact field.
 //! * [`wear`]: wear laws, swept wear along the stroke, rate filter, cycle jump.
 //! * [`state`]: [`state::SimState`], the one mutable struct (what a checkpoint holds).
-//! * [`model`]: [`model::Model`], the immutable problem data, and its builder.
+//! * [`model`]: [`model::Model`], the immutable problem data, and its builder;
+//!   [`model::Discretisation`], the run-time geometry derived from it (surfaces, cuts, DOF
+//!   map, contact rows), which the driver owns and re-derives as surfaces move or wear.
 //! * [`analysis`]: the load-stepping contact solve (Newton, interface condensation).
 //! * [`driver`]: runs a case: load steps, or the wear loop around the contact solve.
 //! * [`post`], [`io`], [`case`]: derived fields; HDF5/XDMF output, checkpoints, plots; case
@@ -34,13 +36,13 @@ pub mod assembly;
 pub mod case;
 pub mod contact;
 pub mod cut;
-pub mod moving;
 pub mod driver;
 pub mod fem;
 pub mod io;
 pub mod mesh;
 pub mod model;
 pub mod mortar;
+pub mod moving;
 pub mod post;
 pub mod scenes;
 pub mod solver;

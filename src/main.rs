@@ -209,14 +209,18 @@ fn bench_wear(path: PathBuf, at: &[u64]) -> Result<(), String> {
     writer.set_fields_every(c.fields_every);
     let mut state = mortex::analysis::StaticAnalysis::initial_state_of(model);
     let mut output = 0.0;
-    let timings =
-        mortex::driver::run_timed(model, &mut state, mortex::driver::RunOptions { parallel: !c.serial }, |r, s, m| {
+    let timings = mortex::driver::run_timed(
+        model,
+        &mut state,
+        mortex::driver::RunOptions { parallel: !c.serial },
+        |r, s, m, d| {
             let t0 = std::time::Instant::now();
-            writer.write_step(m, r, s).map_err(|e| e.to_string())?;
+            writer.write_step(m, d, r, s).map_err(|e| e.to_string())?;
             output += t0.elapsed().as_secs_f64();
             Ok(())
-        })
-        .map_err(|e| e.to_string())?;
+        },
+    )
+    .map_err(|e| e.to_string())?;
     let t0 = std::time::Instant::now();
     let file = writer.finish(true).map_err(|e| e.to_string())?;
     output += t0.elapsed().as_secs_f64();
@@ -225,7 +229,11 @@ fn bench_wear(path: PathBuf, at: &[u64]) -> Result<(), String> {
     let table = mortex::io::wear_table(&file, model, at).map_err(|e| e.to_string())?;
     println!(
         "{}: {} cycles, {} computed, {} steps, {} DOFs",
-        c.name, state.wear.cycle, state.wear.computed_cycles, state.step, model.dofs.num_dofs
+        c.name,
+        state.wear.cycle,
+        state.wear.computed_cycles,
+        state.step,
+        model.num_dofs()
     );
     println!("{table}");
     let rest = wall - timings.setup - timings.solve - timings.wear - output;
@@ -350,7 +358,8 @@ fn check(path: PathBuf) -> Result<(), String> {
             t.multipliers.chains.len()
         );
     }
-    for (b, cut) in m.cuts.iter().enumerate() {
+    let disc = m.initial();
+    for (b, cut) in disc.cuts.iter().enumerate() {
         if let Some(c) = cut {
             let n_cut = c.cells.iter().filter(|x| matches!(x, mortex::cut::CellCut::Cut { .. })).count();
             let n_void = c.cells.iter().filter(|x| matches!(x, mortex::cut::CellCut::Void)).count();
@@ -359,7 +368,7 @@ fn check(path: PathBuf) -> Result<(), String> {
                 m.bodies[b].name,
                 n_cut,
                 n_void,
-                m.held[b].len(),
+                disc.held[b].len(),
                 match &m.bands[b] {
                     Some(band) =>
                         format!(", a band of {} cells with fixed points for its moving surface", band.cells.len()),
@@ -368,7 +377,7 @@ fn check(path: PathBuf) -> Result<(), String> {
             );
         }
     }
-    println!("  DOFs: {} total, {} free, {} prescribed", m.dofs.num_dofs, m.dofs.num_free, m.prescribed.len());
+    println!("  DOFs: {} total, {} free, {} prescribed", m.num_dofs(), disc.dofs.num_free, m.prescribed.len());
     println!("  integration points: {} ({} with history)", m.elements.num_points(), m.elements.num_states());
     println!(
         "  steps: to t = {}, {}; {}",
@@ -386,10 +395,10 @@ fn check(path: PathBuf) -> Result<(), String> {
             if cy.start > m.load_path.points[0].0 { cy.ramp_increments } else { 0 }
         );
     }
-    for s in m.surfaces.iter().filter(|s| s.motion.is_some()) {
+    for s in disc.surfaces.iter().filter(|s| s.motion.is_some()) {
         println!("  moving surface '{}' in body '{}': {:?}", s.name, m.bodies[s.body].name, s.motion);
     }
-    for ci in &m.contact.pairs {
+    for ci in &disc.contact.pairs {
         println!(
             "  contact '{}': mortar '{}', {:?} multipliers ({} nodes), mu = {}, {:?} sliding (case key \
              contacts.sliding; default: finite for a wearing pair whose stroke exceeds half its element)",
@@ -443,10 +452,11 @@ fn run(
     let res = {
         let observer = |r: &mortex::analysis::StepReport,
                         s: &mortex::state::SimState,
-                        step_model: &mortex::model::Model|
+                        step_model: &mortex::model::Model,
+                        disc: &mortex::model::Discretisation|
          -> Result<(), String> {
             total_its += r.iterations;
-            writer.write_step(step_model, r, s).map_err(|e| e.to_string())?;
+            writer.write_step(step_model, disc, r, s).map_err(|e| e.to_string())?;
             let cycle = if step_model.cycle.is_some() {
                 format!("cycle {} inc {}, ", r.cycle, r.increment)
             } else {

@@ -4,7 +4,7 @@
 
 use crate::fem::element::{MappedElement, ShapeEval};
 use crate::fem::material::{von_mises, Stress4};
-use crate::model::Model;
+use crate::model::{Discretisation, Model};
 use crate::state::SimState;
 use nalgebra::Point2;
 
@@ -19,7 +19,7 @@ pub struct NodalFields {
     pub cell_eqps: Vec<f64>,
 }
 
-pub fn nodal_fields(model: &Model, state: &SimState) -> NodalFields {
+pub fn nodal_fields(model: &Model, disc: &Discretisation, state: &SimState) -> NodalFields {
     let n = model.num_nodes();
     let el = &model.elements;
     let mut wsum = vec![0.0; n];
@@ -36,7 +36,7 @@ pub fn nodal_fields(model: &Model, state: &SimState) -> NodalFields {
             c[k] = model.coords[el.nodes[e][k]];
         }
         let mapped = MappedElement::new(kind, c);
-        let rule = &model.rules[el.rule[e]];
+        let rule = &disc.rules[el.rule[e]];
         let stateful = el.state_offset[e + 1] > el.state_offset[e];
         let mut vol = 0.0;
         for (q, (xi, w)) in rule.points.iter().zip(&rule.weights).enumerate() {
@@ -94,8 +94,8 @@ pub struct ContactNode {
 }
 
 /// The multiplier nodes of contact pair `pair`, sorted by their x coordinate.
-pub fn contact_profile(model: &Model, state: &SimState, pair: usize) -> Vec<ContactNode> {
-    let mut v: Vec<ContactNode> = crate::contact::contact_field(&model.contact, &state.contact_unknowns(), pair)
+pub fn contact_profile(disc: &Discretisation, state: &SimState, pair: usize) -> Vec<ContactNode> {
+    let mut v: Vec<ContactNode> = crate::contact::contact_field(&disc.contact, &state.contact_unknowns(), pair)
         .iter()
         .map(|n| ContactNode { x: n.reference, pressure: n.pressure, shear: n.shear, status: n.status.code() })
         .collect();

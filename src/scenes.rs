@@ -151,13 +151,13 @@ pub fn run_hertz(h_core: f64, virtual_top: bool) -> Result<HertzRun, String> {
     let a = (4.0 * 100.0 * 10.0 / (std::f64::consts::PI * e_star)).sqrt();
     let p0 = 2.0 * 100.0 / (std::f64::consts::PI * a);
     let prof: Vec<(f64, f64)> =
-        crate::post::contact_profile(&model, &state, 0).iter().map(|n| (n.x.x, n.pressure)).collect();
+        crate::post::contact_profile(model.initial(), &state, 0).iter().map(|n| (n.x.x, n.pressure)).collect();
     let peak = prof.iter().map(|p| p.1).fold(0.0, f64::max);
     let load: f64 = prof.windows(2).map(|w| 0.5 * (w[0].1 + w[1].1) * (w[1].0 - w[0].0)).sum();
     let a_fit = 2.0 * load / (std::f64::consts::PI * peak);
     let exact = |x: f64| if x.abs() < a { p0 * (1.0 - x * x / (a * a)).sqrt() } else { 0.0 };
     Ok(HertzRun {
-        dofs: model.dofs.num_dofs,
+        dofs: model.num_dofs(),
         seconds,
         iterations,
         p0_error: peak / p0 - 1.0,

@@ -7,7 +7,7 @@ use mortex::assembly::{Assembler, AssemblyInput, AssemblyOutput, SparsityPattern
 use mortex::fem::kernel::{element_kernel, ElementInput, ElementOutput, Formulation};
 use mortex::fem::material::{Elastic, J2Plastic, Material, PlaneHypothesis, PlasticState, Stress4};
 use mortex::mesh::{generate, CellKind};
-use mortex::model::{Model, ModelBuilder};
+use mortex::model::{Discretisation, Model, ModelBuilder};
 use nalgebra::Point2;
 
 /// Two bodies (Quad4 plastic, Tri3 elastic), random displacements so plastic points yield.
@@ -35,14 +35,19 @@ fn mixed_model() -> (Model, Vec<f64>) {
     b.fix(bt, "bottom_left", 0, 0.0).unwrap();
     let model = common::build_one_step(b);
     let mut rng = Lcg(3);
-    let u: Vec<f64> = (0..model.dofs.num_dofs).map(|_| 5e-3 * rng.next()).collect();
+    let u: Vec<f64> = (0..model.num_dofs()).map(|_| 5e-3 * rng.next()).collect();
     (model, u)
 }
 
-fn assemble(model: &Model, u: &[f64], parallel: bool) -> (Vec<f64>, Vec<f64>, Vec<PlasticState>, Assembler) {
-    let pattern = SparsityPattern::new(model.num_nodes(), &model.elements, &model.dofs);
+fn assemble(
+    model: &Model,
+    disc: &Discretisation,
+    u: &[f64],
+    parallel: bool,
+) -> (Vec<f64>, Vec<f64>, Vec<PlasticState>, Assembler) {
+    let pattern = SparsityPattern::new(model.num_nodes(), &model.elements, &disc.dofs);
     let mut asm = Assembler::new(pattern, &model.elements);
-    let (values, f, new) = assemble_with(&mut asm, model, u, parallel);
+    let (values, f, new) = assemble_with(&mut asm, model, disc, u, parallel);
     (values, f, new, asm)
 }
 
@@ -50,11 +55,12 @@ fn assemble(model: &Model, u: &[f64], parallel: bool) -> (Vec<f64>, Vec<f64>, Ve
 fn assemble_with(
     asm: &mut Assembler,
     model: &Model,
+    disc: &Discretisation,
     u: &[f64],
     parallel: bool,
 ) -> (Vec<f64>, Vec<f64>, Vec<PlasticState>) {
     let mut values = vec![0.0; asm.pattern.nnz()];
-    let mut f = vec![0.0; model.dofs.num_dofs];
+    let mut f = vec![0.0; model.num_dofs()];
     let mut stress = vec![Stress4::zeros(); model.elements.num_points()];
     let old = vec![PlasticState::default(); model.elements.num_states()];
     let mut new = old.clone();
@@ -63,7 +69,7 @@ fn assemble_with(
             coords: &model.coords,
             elements: &model.elements,
             materials: &model.materials,
-            rules: &model.rules,
+            rules: &disc.rules,
             u,
             state_old: &old,
         },
@@ -76,8 +82,8 @@ fn assemble_with(
 #[test]
 fn serial_and_parallel_assembly_are_bit_identical() {
     let (model, u) = mixed_model();
-    let (vs, fs, hs, _) = assemble(&model, &u, false);
-    let (vp, fp, hp, _) = assemble(&model, &u, true);
+    let (vs, fs, hs, _) = assemble(&model, model.initial(), &u, false);
+    let (vp, fp, hp, _) = assemble(&model, model.initial(), &u, true);
     assert!(hs.iter().any(|h| h.alpha > 0.0), "the random state must yield somewhere");
     assert_eq!(vs, vp);
     assert_eq!(fs, fp);
@@ -87,11 +93,11 @@ fn serial_and_parallel_assembly_are_bit_identical() {
 #[test]
 fn sparse_assembly_equals_dense_reference() {
     let (model, u) = mixed_model();
-    let (values, f, _, asm) = assemble(&model, &u, true);
-    let n = model.dofs.num_free;
+    let (values, f, _, asm) = assemble(&model, model.initial(), &u, true);
+    let n = model.initial().dofs.num_free;
     // Dense reference: K[eq_i][eq_j] += ke[i][j] straight from the kernel, no pattern.
     let mut dense = vec![0.0; n * n];
-    let mut fref = vec![0.0; model.dofs.num_dofs];
+    let mut fref = vec![0.0; model.num_dofs()];
     let el = &model.elements;
     let old = vec![PlasticState::default(); 4];
     for e in 0..el.len() {
@@ -113,7 +119,7 @@ fn sparse_assembly_equals_dense_reference() {
                 kind: el.kind[e],
                 coords,
                 u: ue,
-                rule: &model.rules[el.rule[e]],
+                rule: &model.initial().rules[el.rule[e]],
                 formulation: el.formulation[e],
                 material: &model.materials[el.material[e]],
                 thickness: 1.0,
@@ -132,7 +138,7 @@ fn sparse_assembly_equals_dense_reference() {
             fref[gi] += fe[i];
             for j in 0..2 * nn {
                 let gj = 2 * el.nodes[e][j / 2] + j % 2;
-                let (ri, cj) = (model.dofs.eq[gi], model.dofs.eq[gj]);
+                let (ri, cj) = (model.initial().dofs.eq[gi], model.initial().dofs.eq[gj]);
                 if ri != CONSTRAINED && cj != CONSTRAINED {
                     dense[ri * n + cj] += ke[i * 8 + j];
                 }
@@ -177,11 +183,11 @@ fn interface_operator_by_forward_substitution_equals_column_solves() {
     b.fix(body, "left", 0, 0.0).unwrap();
     b.fix(body, "left", 1, 0.0).unwrap();
     let model = common::build_one_step(b);
-    let u = vec![0.0; model.dofs.num_dofs];
-    let (values, _, _, asm) = assemble(&model, &u, true);
+    let u = vec![0.0; model.num_dofs()];
+    let (values, _, _, asm) = assemble(&model, model.initial(), &u, true);
     let mut solver = SparseSolver::new(&asm.pattern.symbolic, LinearSolverKind::Cholesky).unwrap();
     solver.factor(&values).unwrap();
-    let n = model.dofs.num_free;
+    let n = model.initial().dofs.num_free;
     let mut rng = Lcg(11);
     let rows: Vec<Vec<(usize, f64)>> = (0..60)
         .map(|_| (0..3).map(|_| (((rng.next() * 0.5 + 0.5) * n as f64) as usize % n, rng.next())).collect())
@@ -221,11 +227,12 @@ fn interface_operator_by_forward_substitution_equals_column_solves() {
 /// same assembler after the change gives bit for bit what a fresh one gives.
 #[test]
 fn assembler_geometry_follows_changed_rule_points() {
-    let (mut model, u) = mixed_model();
-    let (_, _, _, mut asm) = assemble(&model, &u, true);
+    let (model, u) = mixed_model();
+    let (_, _, _, mut asm) = assemble(&model, model.initial(), &u, true);
     let r = model.elements.rule[0];
-    model.rules[r].points[0][0] *= 0.5;
-    let reused = assemble_with(&mut asm, &model, &u, true);
-    let (values, f, new, _) = assemble(&model, &u, true);
+    let mut disc = model.initial().clone();
+    disc.rules[r].points[0][0] *= 0.5;
+    let reused = assemble_with(&mut asm, &model, &disc, &u, true);
+    let (values, f, new, _) = assemble(&model, &disc, &u, true);
     assert_eq!(reused, (values, f, new));
 }

@@ -63,7 +63,7 @@ fn run(virtual_lower: Option<f64>, upper_kind: CellKind, gap: f64) {
         let e = [st[0].abs(), (st[1] + P).abs(), st[3].abs()].into_iter().fold(0.0, f64::max);
         assert!(e < 1e-8 * P, "{virtual_lower:?} {upper_kind:?} gap {gap}: point {q}: stress {st:?}");
     }
-    let c = &model.contact.pairs[0];
+    let c = &model.initial().contact.pairs[0];
     let nt = model.constraints.len();
     for l in 0..c.multipliers.num_nodes {
         let pressure = -s.multipliers[nt + c.first_row + l];
@@ -119,7 +119,7 @@ fn contact_opens_and_closes_under_displacement_control() {
             let e = [st[0].abs(), (st[1] - sigma).abs(), st[3].abs()].into_iter().fold(0.0, f64::max);
             assert!(e < 1e-8 * e_plane * 1e-3, "delta {delta}: point {q}: stress {st:?} vs sigma_yy {sigma}");
         }
-        let c = &model.contact.pairs[0];
+        let c = &model.initial().contact.pairs[0];
         let nt = model.constraints.len();
         for l in 0..c.multipliers.num_nodes {
             let pressure = -s.multipliers[nt + c.first_row + l];

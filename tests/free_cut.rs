@@ -47,7 +47,7 @@ fn run(kind: CellKind, cut: &[Point2<f64>]) {
         assert!(e < 1e-8 * S0, "{kind:?}: point {q}: stress {st:?} vs {sigma:?}");
     }
     // Kept area: the host below the line y = 1 + (x + 1)/6 between x = 0 and 10.
-    let cut_mesh = model.cuts[0].as_ref().unwrap();
+    let cut_mesh = model.initial().cuts[0].as_ref().unwrap();
     let area: f64 = (0..model.bodies[0].mesh.num_cells())
         .map(|c| {
             cut_mesh.cell_fraction[c]

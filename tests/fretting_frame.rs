@@ -45,8 +45,8 @@ fn cycle_pressures(increments: usize, virtual_flat: bool) -> Vec<Vec<f64>> {
     let model = case.model;
     let mut state = StaticAnalysis::initial_state_of(&model);
     let mut out = vec![];
-    run(&model, &mut state, RunOptions::default(), |_, st, m| {
-        let f = mortex::contact::contact_field(&m.contact, &st.contact_unknowns(), 0);
+    run(&model, &mut state, RunOptions::default(), |_, st, _, d| {
+        let f = mortex::contact::contact_field(&d.contact, &st.contact_unknowns(), 0);
         out.push(f.iter().map(|n| n.pressure).collect());
         Ok(())
     })
@@ -110,7 +110,7 @@ fn finite_sliding_wear(cycles: usize, increments: usize) -> WearEnd {
         mortex::case::parse(&text, "mccoll", Path::new("wear_cases"), "mccoll").unwrap_or_else(|e| panic!("{e}"));
     let model = case.model;
     let mut state = StaticAnalysis::initial_state_of(&model);
-    run(&model, &mut state, RunOptions::default(), |_, _, _| Ok(())).unwrap_or_else(|e| panic!("{e}"));
+    run(&model, &mut state, RunOptions::default(), |_, _, _, _| Ok(())).unwrap_or_else(|e| panic!("{e}"));
     let k = model.wear.surfaces.iter().map(|w| w.coefficient).collect();
     let w = state.wear;
     (w.depth[0].clone(), w.depth[1].clone(), w.worn_area, w.work, k)

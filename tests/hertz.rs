@@ -81,7 +81,7 @@ fn hertz_on(gx: &[f64], gy: &[f64], rs: &[f64], ts: &[f64], virtual_top: bool) -
         )
         .unwrap();
     let s = solve(&model);
-    let c = &model.contact.pairs[0];
+    let c = &model.initial().contact.pairs[0];
     let nt0 = model.constraints.len();
     let pts: Vec<(f64, f64)> = (0..c.multipliers.num_nodes)
         .map(|l| (c.multipliers.points[l].x, -s.multipliers[nt0 + c.first_row + l]))
@@ -118,12 +118,12 @@ fn hertz_on(gx: &[f64], gy: &[f64], rs: &[f64], ts: &[f64], virtual_top: bool) -
     }
     eprintln!(
         "Hertz {nx}x{ny} / {nr}x{nt} (virtual block surface: {virtual_top}): {} DOFs, p0 {p0:.2} ({:.3}%), a {a_fit:.5} ({:.3}%), load {total:.3}, pressure L2 {:.3}%",
-        model.dofs.num_dofs,
+        model.num_dofs(),
         100.0 * (p0 / p0_exact - 1.0),
         100.0 * (a_fit / a_exact - 1.0),
         100.0 * (num / den).sqrt()
     );
-    HertzResult { p0: p0 / p0_exact - 1.0, a: a_fit / a_exact - 1.0, l2: (num / den).sqrt(), dofs: model.dofs.num_dofs }
+    HertzResult { p0: p0 / p0_exact - 1.0, a: a_fit / a_exact - 1.0, l2: (num / den).sqrt(), dofs: model.num_dofs() }
 }
 
 /// Peak pressure and half-width against Hertz (target tolerances: 1% and 2%). The pressure L2
@@ -224,14 +224,14 @@ fn density_deviation(
     let e_star = E / (2.0 * (1.0 - NU * NU));
     let a = (4.0 * LOAD * R / (std::f64::consts::PI * e_star)).sqrt();
     let p0 = 2.0 * LOAD / (std::f64::consts::PI * a);
-    let prof = mortex::post::contact_profile(&model, &s, 0);
+    let prof = mortex::post::contact_profile(model.initial(), &s, 0);
     let dev = prof
         .iter()
         .filter(|n| n.x.x.abs() <= frac * a)
         .map(|n| (n.pressure - p0 * (1.0 - n.x.x * n.x.x / (a * a)).max(0.0).sqrt()).abs())
         .fold(0.0, f64::max)
         / p0;
-    (dev, model.contact.pairs[0].multipliers.num_nodes)
+    (dev, model.initial().contact.pairs[0].multipliers.num_nodes)
 }
 
 /// curved-surface density contrast: a finely meshed cylinder (8x finer than the
@@ -289,9 +289,9 @@ fn hertz_cylinder_refinement_table() {
         let model = mortex::scenes::hertz_model_with(h, refine, 0.5, false, space).expect("model");
         let s = solve(&model);
         let prof: Vec<(f64, f64)> =
-            mortex::post::contact_profile(&model, &s, 0).iter().map(|n| (n.x.x, n.pressure)).collect();
+            mortex::post::contact_profile(model.initial(), &s, 0).iter().map(|n| (n.x.x, n.pressure)).collect();
         let l2 = mortex::post::relative_l2_error(&prof, exact, -2.0 * a, 2.0 * a);
-        eprintln!("h {h} refine {refine} {space:?}: {} dofs, L2 {:.3}%", model.dofs.num_dofs, 100.0 * l2);
+        eprintln!("h {h} refine {refine} {space:?}: {} dofs, L2 {:.3}%", model.num_dofs(), 100.0 * l2);
     }
 }
 
@@ -308,7 +308,7 @@ fn dissimilar(h: f64, refine: f64, space: MultiplierSpace) -> (f64, f64) {
     let a = (4.0 * 100.0 * 10.0 / (std::f64::consts::PI * e_star)).sqrt();
     let p0 = 2.0 * 100.0 / (std::f64::consts::PI * a);
     let prof: Vec<(f64, f64)> =
-        mortex::post::contact_profile(&model, &s, 0).iter().map(|n| (n.x.x, n.pressure)).collect();
+        mortex::post::contact_profile(model.initial(), &s, 0).iter().map(|n| (n.x.x, n.pressure)).collect();
     let peak = prof.iter().map(|p| p.1).fold(0.0, f64::max);
     let exact = |x: f64| if x.abs() < a { p0 * (1.0 - x * x / (a * a)).sqrt() } else { 0.0 };
     (peak / p0 - 1.0, mortex::post::relative_l2_error(&prof, exact, -2.0 * a, 2.0 * a))

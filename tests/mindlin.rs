@@ -72,15 +72,15 @@ fn cattaneo_mindlin(n_fine: usize, core: f64, virtual_lower: bool, ratio: f64) -
     let c_num = stick_half_width(&v);
     let q_l2 = l2_error(&q, |x| cm_exact(x, a, c, p0), -a, a);
     if std::env::var("CM_PHI").is_ok() {
-        let ci = &model.contact.pairs[0];
+        let ci = &model.initial().contact.pairs[0];
         for l in 0..ci.multipliers.num_nodes {
             let x = ci.multipliers.points[l].x;
             if x > 0.055 && x < 0.08 {
                 let k = ci.first_row + l;
                 eprintln!(
                     "x {x:.5} phi {:.3e} g0/phi {:.3e}",
-                    model.contact.phi[k],
-                    model.contact.g0[k] / model.contact.phi[k].max(1e-30)
+                    model.initial().contact.phi[k],
+                    model.initial().contact.g0[k] / model.initial().contact.phi[k].max(1e-30)
                 );
             }
         }
@@ -113,14 +113,15 @@ fn cattaneo_mindlin(n_fine: usize, core: f64, virtual_lower: bool, ratio: f64) -
     }
     eprintln!(
         "Cattaneo-Mindlin n = {n_fine}, virtual {virtual_lower}, Q/(mu P) = {ratio}: {} DOFs, c {c_num:.5} vs {c:.5} ({:+.2}%), shear L2 {:.2}%",
-        model.dofs.num_dofs,
+        model.num_dofs(),
         100.0 * (c_num / c - 1.0),
         100.0 * q_l2
     );
     // x-force of the contact multipliers on the upper body: sum_i lambda_i (C^T)_i over its x DOFs.
     let first_upper_dof = 2 * model.bodies[1].node_offset;
     let resultant = model
-        .multiplier_rows()
+        .initial()
+        .multiplier_rows(&model)
         .zip(&s.multipliers)
         .map(|(row, l)| {
             l * row.iter().filter(|(d, _)| *d >= first_upper_dof && d % 2 == 0).map(|(_, c)| c).sum::<f64>()
@@ -232,7 +233,7 @@ fn condensed_and_monolithic_solves_agree() {
         let mut model = scene.build();
         model.newton.rtol = 1e-11;
         let run = |condense: bool| {
-            let mut a = StaticAnalysis::with_condensation(&model, condense).expect("setup");
+            let mut a = StaticAnalysis::with_condensation(&model, model.initial(), condense).expect("setup");
             let mut s = a.initial_state();
             let mut out = Vec::new();
             a.run(&mut s, |_, st| {
@@ -367,7 +368,7 @@ fn tangential_load_beyond_mu_p_is_a_clear_error() {
     };
     let model = scene.build();
     for condense in [true, false] {
-        let mut a = StaticAnalysis::with_condensation(&model, condense).expect("setup");
+        let mut a = StaticAnalysis::with_condensation(&model, model.initial(), condense).expect("setup");
         let mut s = a.initial_state();
         let err = a.run(&mut s, |_, _| Ok(())).expect_err("gross sliding must fail");
         let msg = err.to_string();

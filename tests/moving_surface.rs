@@ -17,13 +17,13 @@
 mod common;
 use mortex::analysis::StaticAnalysis;
 use mortex::cut::{loop_moments, CellCut};
-use mortex::moving::SurfaceMotion;
 use mortex::driver::{run, RunOptions};
 use mortex::fem::element::MappedElement;
 use mortex::fem::kernel::Formulation;
 use mortex::fem::material::{Elastic, J2Plastic, Material, PlaneHypothesis};
 use mortex::mesh::{generate, CellKind};
-use mortex::model::{ContactOther, ContactParams, LoadPath, Model, ModelBuilder, Sliding};
+use mortex::model::{ContactOther, ContactParams, Discretisation, LoadPath, Model, ModelBuilder, Sliding};
+use mortex::moving::SurfaceMotion;
 use mortex::solver::linear::LinearSolverKind;
 use mortex::solver::newton::NewtonParams;
 use nalgebra::{Matrix2, Point2, Vector2};
@@ -81,9 +81,9 @@ fn block_model(
 
 /// Area and first moments of every cut cell's fitted rule against the exact moments of its
 /// material (Green's theorem); returns the largest relative deviation.
-fn moment_error(m: &Model) -> f64 {
+fn moment_error(m: &Model, d: &Discretisation) -> f64 {
     let mesh = &m.bodies[0].mesh;
-    let cut = m.cuts[0].as_ref().unwrap();
+    let cut = d.cuts[0].as_ref().unwrap();
     let mut worst: f64 = 0.0;
     for c in 0..mesh.num_cells() {
         let CellCut::Cut { loops, .. } = &cut.cells[c] else { continue };
@@ -91,7 +91,7 @@ fn moment_error(m: &Model) -> f64 {
         let h = mortex::surface::cell_size(&poly);
         let origin = poly[0];
         let exact = loop_moments(loops, 1, origin, h);
-        let rule = &m.rules[m.elements.rule[c]];
+        let rule = &d.rules[m.elements.rule[c]];
         let mapped = MappedElement::new(mesh.cells[c].kind, mesh.cell_coords(c));
         let mut got = [0.0; 3];
         for (xi, w) in rule.points.iter().zip(&rule.weights) {
@@ -109,11 +109,11 @@ fn moment_error(m: &Model) -> f64 {
     worst
 }
 
-fn check_uniform(m: &Model, s: &mortex::state::SimState, sigma: &Matrix2<f64>) -> f64 {
+fn check_uniform(m: &Model, d: &Discretisation, s: &mortex::state::SimState, sigma: &Matrix2<f64>) -> f64 {
     let el = &m.elements;
     let mut worst: f64 = 0.0;
     for e in 0..el.len() {
-        let w = &m.rules[el.rule[e]].weights;
+        let w = &d.rules[el.rule[e]].weights;
         for (q, &wq) in w.iter().enumerate() {
             if wq == 0.0 {
                 continue;
@@ -140,10 +140,10 @@ fn moving_surface_patch_test_quad4_and_tri3() {
         let mut steps = 0;
         let mut worst_stress: f64 = 0.0;
         let mut worst_moment: f64 = 0.0;
-        run(&model, &mut s, RunOptions::default(), |_, st, m| {
+        run(&model, &mut s, RunOptions::default(), |_, st, m, d| {
             assert_eq!((st.stress.len(), st.u.len()), (np, nd), "state layout changed");
-            worst_stress = worst_stress.max(check_uniform(m, st, &sigma));
-            worst_moment = worst_moment.max(moment_error(m));
+            worst_stress = worst_stress.max(check_uniform(m, d, st, &sigma));
+            worst_moment = worst_moment.max(moment_error(m, d));
             steps += 1;
             Ok(())
         })
@@ -190,14 +190,14 @@ fn sliver_node_under_the_ghost_penalty_stays_free() {
             LinearSolverKind::Cholesky,
         )
         .unwrap();
-    let fraction = model.cuts[0].as_ref().unwrap().node_fraction[sliver_node];
+    let fraction = model.initial().cuts[0].as_ref().unwrap().node_fraction[sliver_node];
     assert!(fraction > 0.0 && fraction < mortex::cut::SMALL_FRACTION, "support fraction {fraction:e}");
-    assert!(!model.held[0].contains(&(2 * sliver_node)), "the sliver node was switched off");
-    assert!(!model.held[0].is_empty(), "nodes with no material at all are still switched off");
+    assert!(!model.initial().held[0].contains(&(2 * sliver_node)), "the sliver node was switched off");
+    assert!(!model.initial().held[0].is_empty(), "nodes with no material at all are still switched off");
     let mut s = StaticAnalysis::initial_state_of(&model);
     let mut worst: f64 = 0.0;
-    run(&model, &mut s, RunOptions::default(), |_, st, m| {
-        worst = worst.max(check_uniform(m, st, &sigma));
+    run(&model, &mut s, RunOptions::default(), |_, st, m, d| {
+        worst = worst.max(check_uniform(m, d, st, &sigma));
         Ok(())
     })
     .unwrap();
@@ -262,7 +262,7 @@ fn moved_vs_built_there() {
             )
             .unwrap();
         let mut s = StaticAnalysis::initial_state_of(&model);
-        run(&model, &mut s, RunOptions::default(), |_, _, _| Ok(())).unwrap();
+        run(&model, &mut s, RunOptions::default(), |_, _, _, _| Ok(())).unwrap();
         (model, s.u)
     };
     const MIN_FRACTION: f64 = 0.5;
@@ -271,7 +271,7 @@ fn moved_vs_built_there() {
         for refine in [1, 2, 4] {
             let (_, u_moved) = solve(mat, refine, true);
             let (m_built, u_built) = solve(mat, refine, false);
-            let frac = &m_built.cuts[0].as_ref().unwrap().node_fraction;
+            let frac = &m_built.initial().cuts[0].as_ref().unwrap().node_fraction;
             let (mut du, mut umax) = (0.0f64, 0.0f64);
             for (n, &f) in frac.iter().enumerate() {
                 if f >= MIN_FRACTION {
@@ -327,7 +327,7 @@ fn j2_history_stays_on_its_points() {
     let mut max_eqps: f64 = 0.0;
     let mut zero_weight_points = 0;
     let mut band_points_changed = 0;
-    run(&model, &mut s, RunOptions::default(), |r, st, m| {
+    run(&model, &mut s, RunOptions::default(), |r, st, m, d| {
         assert_eq!((st.history.len(), st.stress.len(), st.u.len(), st.multipliers.len()), layout);
         max_eqps = max_eqps.max(st.history.iter().map(|h| h.alpha).fold(0.0, f64::max));
         if r.time >= 2.0 - 1e-12 {
@@ -351,7 +351,7 @@ fn j2_history_stays_on_its_points() {
             }
             let el = &m.elements;
             zero_weight_points = (0..el.len())
-                .flat_map(|e| m.rules[el.rule[e]].weights.iter().filter(|w| **w == 0.0).map(move |_| e))
+                .flat_map(|e| d.rules[el.rule[e]].weights.iter().filter(|w| **w == 0.0).map(move |_| e))
                 .count();
         }
         Ok(())
@@ -403,10 +403,10 @@ fn contact_patch_test_on_a_moving_surface() {
         let model = moving_contact_model(sliding, travel, steps);
         let mut s = StaticAnalysis::initial_state_of(&model);
         let mut count = 0;
-        run(&model, &mut s, RunOptions::default(), |r, st, m| {
+        run(&model, &mut s, RunOptions::default(), |r, st, m, d| {
             let el = &m.elements;
             for e in 0..el.len() {
-                for (q, &w) in m.rules[el.rule[e]].weights.iter().enumerate() {
+                for (q, &w) in d.rules[el.rule[e]].weights.iter().enumerate() {
                     if w == 0.0 {
                         continue;
                     }
@@ -415,7 +415,7 @@ fn contact_patch_test_on_a_moving_surface() {
                     assert!(d < 1e-8 * P, "{sliding:?} step {}: element {e} point {q}: stress {stq:?}", r.step);
                 }
             }
-            let c = &m.contact.pairs[0];
+            let c = &d.contact.pairs[0];
             let nt = m.constraints.len();
             // Finite sliding integrates on the deformed surfaces: its multiplier is a force per
             // deformed length, stretched by the lateral strain eps_xx = nu (1 + nu) p / E of
@@ -452,15 +452,15 @@ fn contact_patch_test_on_a_moving_surface() {
 fn reused_solver_structure_equals_a_fresh_set_up_bit_for_bit() {
     let steps = 8;
     let model = moving_contact_model(Sliding::Small, 1.0, steps);
-    let mut current = model.clone();
+    let mut current = model.initial().clone();
     let mut state = StaticAnalysis::initial_state_of(&model);
     let mut reuse = None;
     let mut dof_map_changes = 0;
     let mut previous_dofs: Option<Vec<usize>> = None;
     for (k, &t) in model.times.iter().enumerate() {
-        current.place_surfaces(t).unwrap();
+        current.place_surfaces(&model, t).unwrap();
         let mut fresh_state = state.clone();
-        let mut handed = StaticAnalysis::with_reuse(&current, reuse.take()).unwrap();
+        let mut handed = StaticAnalysis::with_reuse(&model, &current, reuse.take()).unwrap();
         handed.advance_to(&mut state, k + 1, t).unwrap();
         assert_eq!(handed.structure_reused(), k > 0, "step {}: every set-up after the first reuses", k + 1);
         if previous_dofs.as_ref().is_some_and(|p| p != &current.dofs.eq) {
@@ -468,7 +468,7 @@ fn reused_solver_structure_equals_a_fresh_set_up_bit_for_bit() {
         }
         previous_dofs = Some(current.dofs.eq.clone());
         reuse = handed.into_reuse();
-        let mut fresh = StaticAnalysis::new(&current).unwrap();
+        let mut fresh = StaticAnalysis::on(&model, &current).unwrap();
         assert!(!fresh.structure_reused());
         fresh.advance_to(&mut fresh_state, k + 1, t).unwrap();
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();

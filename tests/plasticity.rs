@@ -63,7 +63,7 @@ fn thick_cylinder_plastic_radius_matches_hill() {
         .unwrap();
     let mut an = mortex::analysis::StaticAnalysis::new(&model).unwrap();
     let mut s = an.initial_state();
-    let pts = model.point_coords();
+    let pts = model.initial().point_coords(&model);
     let mut checked = 0;
     an.run(&mut s, |rep, st| {
         let Some(k) = p_targets.iter().position(|&p| (p - rep.time).abs() < 1e-9) else {

@@ -30,7 +30,7 @@ fn run_all(model: &Model, path: &Path) -> Vec<SimState> {
     let mut w = ResultWriter::create(path, model, "restart-test").unwrap();
     let mut states = vec![];
     a.run(&mut s, |r, st| {
-        w.write_step(model, r, st).map_err(|e| e.to_string())?;
+        w.write_step(model, model.initial(), r, st).map_err(|e| e.to_string())?;
         states.push(st.clone());
         Ok(())
     })

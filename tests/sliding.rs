@@ -96,7 +96,7 @@ fn drag(virtual_lower: bool, increments: usize) -> f64 {
         let mut s = StaticAnalysis::new(&model).unwrap().initial_state();
         let mut checked = 0;
         let mut worst_q: f64 = 0.0;
-        mortex::driver::run(&model, &mut s, mortex::driver::RunOptions::default(), |r, st, paired| {
+        mortex::driver::run(&model, &mut s, mortex::driver::RunOptions::default(), |r, st, paired, disc| {
             // `paired`: the pairing this step was solved on (its own end configuration).
             if r.time <= 1.0 + 1e-9 {
                 return Ok(());
@@ -106,12 +106,12 @@ fn drag(virtual_lower: bool, increments: usize) -> f64 {
             let nt = paired.constraints.len();
             let first_upper = 2 * paired.bodies[1].node_offset;
             let mut force = [0.0; 2];
-            for (row, lam) in paired.multiplier_rows().zip(&st.multipliers).skip(nt) {
+            for (row, lam) in disc.multiplier_rows(paired).zip(&st.multipliers).skip(nt) {
                 for &(d, c) in row.iter().filter(|(d, _)| *d >= first_upper) {
                     force[d % 2] += lam * c;
                 }
             }
-            let reactions = model.reactions(st);
+            let reactions = disc.reactions(paired, st);
             if (force[1].abs() / P - 1.0).abs() > 1e-8
                 || (force[0].abs() / reactions[2 * master].abs() - 1.0).abs() > 1e-8
             {
@@ -130,7 +130,7 @@ fn drag(virtual_lower: bool, increments: usize) -> f64 {
             if (q / (MU * P) - 1.0).abs() > 1e-3 {
                 return Err(format!("t {}: tangential force {q} vs mu P {}", r.time, MU * P));
             }
-            let c = &model.contact.pairs[0];
+            let c = &model.initial().contact.pairs[0];
             let nt = model.constraints.len();
             let pressures: Vec<f64> =
                 (0..c.multipliers.num_nodes).map(|l| -st.multipliers[nt + c.first_row + l]).collect();
@@ -139,7 +139,7 @@ fn drag(virtual_lower: bool, increments: usize) -> f64 {
             }
             // Every node carrying pressure slips, with |lambda_t| = mu p (Coulomb, in the pairing
             // frame: exact to the Newton tolerance, 1e-9 of mu p0 here).
-            let nc = model.contact.rows.len();
+            let nc = model.initial().contact.rows.len();
             let p_max = pressures.iter().cloned().fold(0.0, f64::max);
             for (l, &p) in pressures.iter().enumerate() {
                 if p > 1e-6 * P {
@@ -167,7 +167,7 @@ fn drag(virtual_lower: bool, increments: usize) -> f64 {
         eprintln!("virtual {virtual_lower}: max |Q / (mu P) - 1| over the drag {worst_q:.2e}");
         // Final configuration re-paired: its deepest penetration (the pairing lag of the last
         // step, checked by the caller) and the block's footprint x in [2.5, 3.5].
-        let current = model.repaired(&s.u);
+        let current = model.initial().repaired(&model, &s.u);
         let mut deepest: f64 = 0.0;
         for k in 0..current.contact.rows.len() {
             let g = current.contact.g0[k] + current.contact.rows[k].iter().map(|&(d, c)| c * s.u[d]).sum::<f64>();
@@ -219,7 +219,7 @@ fn finite_sliding_resumes_bit_for_bit() {
     let (model, _) = drag_model(true, Sliding::Finite, 12);
     let mut s = StaticAnalysis::new(&model).unwrap().initial_state();
     let mut full = vec![];
-    mortex::driver::run(&model, &mut s, mortex::driver::RunOptions::default(), |_, st, _| {
+    mortex::driver::run(&model, &mut s, mortex::driver::RunOptions::default(), |_, st, _, _| {
         full.push(st.clone());
         Ok(())
     })
@@ -230,7 +230,7 @@ fn finite_sliding_resumes_bit_for_bit() {
     for k in [2, 7] {
         let mut resumed = full[k - 1].clone();
         let mut later = vec![];
-        mortex::driver::run(&model, &mut resumed, mortex::driver::RunOptions::default(), |_, st, _| {
+        mortex::driver::run(&model, &mut resumed, mortex::driver::RunOptions::default(), |_, st, _, _| {
             later.push(st.clone());
             Ok(())
         })
@@ -252,7 +252,7 @@ fn finite_sliding_monolithic_equals_condensed() {
     let run = |j2: bool| {
         let (model, _) = drag_model_with(true, Sliding::Finite, 12, j2);
         let mut s = StaticAnalysis::new(&model).unwrap().initial_state();
-        mortex::driver::run(&model, &mut s, mortex::driver::RunOptions::default(), |_, _, _| Ok(())).unwrap();
+        mortex::driver::run(&model, &mut s, mortex::driver::RunOptions::default(), |_, _, _, _| Ok(())).unwrap();
         s
     };
     let (c, m) = (run(false), run(true));

@@ -8,10 +8,16 @@ use std::path::Path;
 
 /// Every material point of the model carries `sigma_yy = -p` and no other in-plane stress, to
 /// 1e-8 p (the uniform state is exact; round-off stays far below that).
-fn assert_uniaxial_pressure(m: &mortex::model::Model, st: &mortex::state::SimState, p: f64, at: &str) {
+fn assert_uniaxial_pressure(
+    m: &mortex::model::Model,
+    d: &mortex::model::Discretisation,
+    st: &mortex::state::SimState,
+    p: f64,
+    at: &str,
+) {
     let el = &m.elements;
     for e in 0..el.len() {
-        for (q, &w) in m.rules[el.rule[e]].weights.iter().enumerate() {
+        for (q, &w) in d.rules[el.rule[e]].weights.iter().enumerate() {
             if w == 0.0 {
                 continue;
             }
@@ -55,17 +61,17 @@ fn uniform_wear_is_exact() {
         let mut model = case.model.clone();
         model.wear.jump = JumpPolicy::Fixed(jump);
         let host = 0;
-        let area0 = model.material_area(host);
+        let area0 = model.initial().material_area(&model, host);
         let mut state = StaticAnalysis::initial_state_of(&model);
         let (mut updates, mut checked_geometry) = (0, 0);
         let mut last_depth = 0.0;
-        run(&model, &mut state, RunOptions::default(), |r, st, m| {
-            assert_uniaxial_pressure(m, st, P, &format!("jump {jump} step {}", r.step));
+        run(&model, &mut state, RunOptions::default(), |r, st, m, d| {
+            assert_uniaxial_pressure(m, d, st, P, &format!("jump {jump} step {}", r.step));
             let w = &st.wear;
             let exact = K * P * S * w.cycle as f64;
             if r.increment == 1 && w.cycle > 0 {
                 // The step model has the surface where the last update put it.
-                let lost = area0 - m.material_area(host);
+                let lost = area0 - d.material_area(m, host);
                 assert!((lost - exact * WIDTH).abs() < 1e-10 * exact * WIDTH, "jump {jump}: area lost {lost}");
                 checked_geometry += 1;
             }
@@ -345,16 +351,16 @@ max_depth = 0.9
     let model = case.model;
     assert_eq!(model.wear.surfaces.len(), 2);
     assert!(model.wear.surfaces[1].on_mortar_side && !model.wear.surfaces[0].on_mortar_side);
-    let area0 = [model.material_area(0), model.material_area(1)];
+    let area0 = [model.initial().material_area(&model, 0), model.initial().material_area(&model, 1)];
     let mut state = StaticAnalysis::initial_state_of(&model);
     let mut updates = 0;
-    run(&model, &mut state, RunOptions::default(), |r, st, m| {
-        assert_uniaxial_pressure(m, st, P, &format!("step {}", r.step));
+    run(&model, &mut state, RunOptions::default(), |r, st, m, d| {
+        assert_uniaxial_pressure(m, d, st, P, &format!("step {}", r.step));
         let w = &st.wear;
         if r.increment == 1 && w.cycle > 0 {
             for b in 0..2 {
                 let exact = K[b] * P * S * w.cycle as f64 * 4.0;
-                let lost = area0[b] - m.material_area(b);
+                let lost = area0[b] - d.material_area(m, b);
                 assert!((lost - exact).abs() < 1e-10 * exact, "body {b}: area lost {lost} vs {exact}");
             }
         }
@@ -388,16 +394,16 @@ fn partial_slip_stick_zone_never_wears() {
         std::fs::read_to_string("wear_cases/partial_slip_wear.toml").unwrap().replace("cycles = 100000", "cycles = 40");
     let case = mortex::case::parse(&text, "partial_slip", Path::new("wear_cases"), "partial_slip").unwrap();
     let model = case.model;
-    let pair = &model.contact.pairs[0];
+    let pair = &model.initial().contact.pairs[0];
     let n_lm = pair.multipliers.num_nodes;
     let mut always_stick = vec![true; n_lm];
     let mut area_rates: Vec<f64> = vec![];
     let mut last_area = 0.0;
     let mut state = StaticAnalysis::initial_state_of(&model);
-    run(&model, &mut state, RunOptions::default(), |r, st, m| {
+    run(&model, &mut state, RunOptions::default(), |r, st, _, d| {
         if r.cycle >= 1 {
             for (l, s) in always_stick.iter_mut().enumerate() {
-                let j = m.contact.pairs[0].friction_row[l].unwrap();
+                let j = d.contact.pairs[0].friction_row[l].unwrap();
                 *s &= st.friction_status[j] == 1;
             }
         }
@@ -468,7 +474,7 @@ fn partial_slip_wear_rate_rises_then_decays() {
     let cycles = model.cycle.unwrap().count as u64;
     let mut history: Vec<(u64, f64)> = vec![(0, 0.0)];
     let mut state = StaticAnalysis::initial_state_of(&model);
-    run(&model, &mut state, RunOptions::default(), |r, st, _| {
+    run(&model, &mut state, RunOptions::default(), |r, st, _, _| {
         if r.cycle >= 1 && st.wear.increment == 0 && st.wear.cycle > history[history.len() - 1].0 {
             history.push((st.wear.cycle, st.wear.worn_area.iter().sum()));
         }
@@ -505,15 +511,15 @@ fn mccoll_wear_balance_through_jumps() {
     let case = mortex::case::parse(&text, "mccoll", Path::new("wear_cases"), "mccoll").unwrap();
     let model = case.model;
     let k: Vec<f64> = model.wear.surfaces.iter().map(|w| w.coefficient).collect();
-    let hosts: Vec<usize> = model.wear.surfaces.iter().map(|w| model.surfaces[w.surface].body).collect();
-    let area0: Vec<f64> = hosts.iter().map(|&b| model.material_area(b)).collect();
+    let hosts: Vec<usize> = model.wear.surfaces.iter().map(|w| model.initial().surfaces[w.surface].body).collect();
+    let area0: Vec<f64> = hosts.iter().map(|&b| model.initial().material_area(&model, b)).collect();
     let mut state = StaticAnalysis::initial_state_of(&model);
     let mut geometric: Vec<(u64, Vec<f64>)> = vec![];
     let mut balance_checks = 0;
-    run(&model, &mut state, RunOptions::default(), |r, st, m| {
+    run(&model, &mut state, RunOptions::default(), |r, st, m, d| {
         let w = &st.wear;
         if r.increment == 1 && w.cycle > 0 {
-            geometric.push((w.cycle, hosts.iter().zip(&area0).map(|(&b, a0)| a0 - m.material_area(b)).collect()));
+            geometric.push((w.cycle, hosts.iter().zip(&area0).map(|(&b, a0)| a0 - d.material_area(m, b)).collect()));
             for (i, lost) in geometric.last().unwrap().1.iter().enumerate() {
                 let v = &w.vertices[i];
                 let (mut worn_length, mut h) = (0.0, 0.0_f64);
@@ -575,9 +581,9 @@ fn worn_boundary_turned_virtual_matches_the_real_surface_before_wear() {
         let model = case.model;
         let mut state = StaticAnalysis::initial_state_of(&model);
         let mut out = None;
-        run(&model, &mut state, RunOptions::default(), |r, st, m| {
+        run(&model, &mut state, RunOptions::default(), |r, st, _, d| {
             if r.step == 1 {
-                let f = mortex::contact::contact_field(&m.contact, &st.contact_unknowns(), 0);
+                let f = mortex::contact::contact_field(&d.contact, &st.contact_unknowns(), 0);
                 let mut v: Vec<(f64, f64)> = f.iter().map(|n| (n.position.x, n.pressure)).collect();
                 v.sort_by(|p, q| p.0.total_cmp(&q.0));
                 out = Some(v);
@@ -622,7 +628,7 @@ fn energy_law_equals_archard_over_mu_in_gross_slip() {
     let finish = |t: &str| {
         let case = mortex::case::parse(t, "mccoll", Path::new("wear_cases"), "mccoll").unwrap();
         let mut state = StaticAnalysis::initial_state_of(&case.model);
-        run(&case.model, &mut state, RunOptions::default(), |_, _, _| Ok(())).unwrap();
+        run(&case.model, &mut state, RunOptions::default(), |_, _, _, _| Ok(())).unwrap();
         state.wear
     };
     let (a, e) = (finish(&base), finish(&energy));
@@ -665,11 +671,11 @@ fn plastic_history_stays_on_its_points_through_wear() {
     // Per stateful point: the history it had when the surface passed it.
     let mut passed: std::collections::HashMap<usize, Vec<u64>> = std::collections::HashMap::new();
     let (mut updates_checked, mut max_eqps) = (0, 0.0_f64);
-    run(&model, &mut state, RunOptions::default(), |r, st, m| {
+    run(&model, &mut state, RunOptions::default(), |r, st, m, d| {
         // Where the host's surface was for the step (the lowest vertex: points above it lie in
         // the worn-away material).
-        let y_surface = m.surfaces[m.wear.surfaces[0].surface].vertices.iter().fold(f64::INFINITY, |a, v| a.min(v.y));
-        let xs = m.point_coords();
+        let y_surface = d.surfaces[m.wear.surfaces[0].surface].vertices.iter().fold(f64::INFINITY, |a, v| a.min(v.y));
+        let xs = d.point_coords(m);
         let el = &m.elements;
         for e in 0..el.len() {
             let (s0, s1) = (el.state_offset[e], el.state_offset[e + 1]);
@@ -677,7 +683,7 @@ fn plastic_history_stays_on_its_points_through_wear() {
                 let (k, h) = (s0 + q, &st.history[s0 + q]);
                 max_eqps = max_eqps.max(h.alpha);
                 match passed.get(&k) {
-                    Some(b) => assert_eq!(b, &bits(h), "step {}: a point the surface passed changed its history: element {e} point {q} at {:?}, weight {}, surface {y_surface}", r.step, xs[el.point_offset[e] + q], m.rules[el.rule[e]].weights[q]),
+                    Some(b) => assert_eq!(b, &bits(h), "step {}: a point the surface passed changed its history: element {e} point {q} at {:?}, weight {}, surface {y_surface}", r.step, xs[el.point_offset[e] + q], d.rules[el.rule[e]].weights[q]),
                     None if xs[el.point_offset[e] + q].y > y_surface + 1e-12 => {
                         passed.insert(k, bits(h));
                     }
@@ -687,10 +693,10 @@ fn plastic_history_stays_on_its_points_through_wear() {
         }
         if r.increment == 4 && st.wear.increment == 0 {
             let before: Vec<u64> = st.history.iter().flat_map(bits).collect();
-            let mut next = m.clone();
-            next.place_worn_surfaces(&st.wear).unwrap();
+            let mut next = d.clone();
+            next.place_worn_surfaces(m, &st.wear).unwrap();
             let s2 = st.clone();
-            let mut analysis = StaticAnalysis::new(&next).unwrap();
+            let mut analysis = StaticAnalysis::on(m, &next).unwrap();
             analysis.resume(&s2).unwrap();
             let after: Vec<u64> = s2.history.iter().flat_map(bits).collect();
             assert!(before == after, "cycle {}: the wear update changed the history", st.wear.cycle);
@@ -803,15 +809,15 @@ scheme = "explicit"
     );
     let case = mortex::case::parse(&text, "thin_layer", Path::new("."), "thin_layer").unwrap();
     let model = case.model;
-    let pair = &model.contact.pairs[0];
+    let pair = &model.initial().contact.pairs[0];
     let rows: Vec<(usize, f64)> = (0..pair.multipliers.num_nodes)
         .filter(|&l| pair.multipliers.points[l].x.abs() < 0.5 * B)
-        .map(|l| (pair.first_row + l, model.contact.phi[pair.first_row + l]))
+        .map(|l| (pair.first_row + l, model.initial().contact.phi[pair.first_row + l]))
         .collect();
-    let nt = model.contact.first_multiplier;
+    let nt = model.initial().contact.first_multiplier;
     let mut deviation: Vec<(u64, f64)> = vec![];
     let mut state = StaticAnalysis::initial_state_of(&model);
-    run(&model, &mut state, RunOptions::default(), |r, st, _| {
+    run(&model, &mut state, RunOptions::default(), |r, st, _, _| {
         // The pressure of the cycle's last increment, before its wear is applied (the state's
         // cycle counter has moved on: that pressure belongs to the cycle before).
         if r.cycle >= 1 && st.wear.increment == 0 {

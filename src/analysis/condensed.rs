@@ -23,7 +23,7 @@
 use crate::assembly::{Assembler, AssemblyInput, AssemblyOutput, DofMap, SparsityPattern, CONSTRAINED};
 use crate::contact::{row_laws, FrictionStatus, RowLaw};
 use crate::fem::material::{PlasticState, Stress4};
-use crate::model::Model;
+use crate::model::{Discretisation, Model};
 use crate::solver::dense::DenseLu;
 use crate::solver::linear::{LinearSolverError, LinearSolverKind, SparseSolver};
 use crate::wear::GapSensitivity;
@@ -82,9 +82,9 @@ const MAX_COMPLIANCE: usize = 4000;
 
 impl Compliance {
     /// The equations of the compliance set of `m` (see [`Compliance`]).
-    fn equations_of(m: &Model, equations: &DofMap, grounds: &[Vec<(usize, f64)>]) -> Vec<usize> {
+    fn equations_of(m: &Model, disc: &Discretisation, equations: &DofMap, grounds: &[Vec<(usize, f64)>]) -> Vec<usize> {
         let mut nodes: Vec<usize> = Vec::new();
-        for c in &m.contact.pairs {
+        for c in &disc.contact.pairs {
             for &n in &c.side.nodes {
                 match &c.virtual_mortar {
                     Some(vm) if n >= vm.base => nodes.extend(vm.interpolation[n - vm.base].iter().map(|&(g, _)| g)),
@@ -106,7 +106,7 @@ impl Compliance {
             dofs.extend(row.iter().map(|&(d, _)| d));
         }
         let mut eqs: Vec<usize> =
-            dofs.into_iter().filter(|&d| m.dofs.eq[d] != CONSTRAINED).map(|d| equations.eq[d]).collect();
+            dofs.into_iter().filter(|&d| disc.dofs.eq[d] != CONSTRAINED).map(|d| equations.eq[d]).collect();
         eqs.sort_unstable();
         eqs.dedup();
         eqs
@@ -199,23 +199,23 @@ fn operator_columns(
 }
 
 /// Whether a model is solved by condensation: contact present and every body linear elastic.
-pub(super) fn applies(m: &Model) -> bool {
-    !m.contact.rows.is_empty() && m.materials.iter().all(|mat| !mat.has_state())
+pub(super) fn applies(m: &Model, disc: &Discretisation) -> bool {
+    !disc.contact.rows.is_empty() && m.materials.iter().all(|mat| !mat.has_state())
 }
 
 /// Paired contact rows (normal `k`) whose weighted gap `g / int Phi` is within `margin` times
 /// their own `int Phi` (about the local segment length) of the smallest: contact candidates.
-pub(super) fn near_rows(m: &Model, gaps: &[f64], margin: f64, g_min: f64) -> Vec<usize> {
-    (0..m.contact.rows.len())
-        .filter(|&k| m.contact.phi[k] > 0.0 && gaps[k] / m.contact.phi[k] <= g_min + margin * m.contact.phi[k])
+pub(super) fn near_rows(disc: &Discretisation, gaps: &[f64], margin: f64, g_min: f64) -> Vec<usize> {
+    (0..disc.contact.rows.len())
+        .filter(|&k| disc.contact.phi[k] > 0.0 && gaps[k] / disc.contact.phi[k] <= g_min + margin * disc.contact.phi[k])
         .collect()
 }
 
 /// Multipliers of normal rows `ks` and of their friction rows (model order).
-pub(super) fn with_friction(m: &Model, ks: &[usize]) -> Vec<usize> {
-    let (nt, nc) = (m.constraints.len(), m.contact.rows.len());
+pub(super) fn with_friction(m: &Model, disc: &Discretisation, ks: &[usize]) -> Vec<usize> {
+    let (nt, nc) = (m.constraints.len(), disc.contact.rows.len());
     let mut v: Vec<usize> = ks.iter().map(|&k| nt + k).collect();
-    v.extend(m.contact.friction_normal.iter().enumerate().filter(|(_, k)| ks.contains(k)).map(|(j, _)| nt + nc + j));
+    v.extend(disc.contact.friction_normal.iter().enumerate().filter(|(_, k)| ks.contains(k)).map(|(j, _)| nt + nc + j));
     v
 }
 
@@ -232,7 +232,7 @@ pub(super) const CANDIDATE_MARGIN: f64 = 0.5;
 /// `K_rho` only regularise it, the solution is that of `K` (exact, like `rho C^T C` on ties).
 /// Their couplings are node-local, so the pattern of `K_rho` does not depend on which contact
 /// rows are near (it did when contact rows were the regularisation).
-pub(super) fn ground_rows(m: &Model) -> Vec<Vec<(usize, f64)>> {
+pub(super) fn ground_rows(m: &Model, disc: &Discretisation) -> Vec<Vec<(usize, f64)>> {
     let nn = m.coords.len();
     let mut parent: Vec<usize> = (0..nn).collect();
     fn root(p: &mut [usize], mut a: usize) -> usize {
@@ -297,7 +297,7 @@ pub(super) fn ground_rows(m: &Model) -> Vec<Vec<(usize, f64)>> {
         if eig.min() > 1e-8 * eig.max().max(1.0) {
             continue;
         }
-        let free = |a: &usize| m.dofs.eq[2 * a] != CONSTRAINED && m.dofs.eq[2 * a + 1] != CONSTRAINED;
+        let free = |a: &usize| disc.dofs.eq[2 * a] != CONSTRAINED && disc.dofs.eq[2 * a + 1] != CONSTRAINED;
         let mut cand: Vec<usize> = nodes.iter().copied().filter(|a| free(a) && !in_band[*a]).collect();
         if cand.len() < 2 {
             cand = nodes.iter().copied().filter(free).collect();
@@ -329,8 +329,8 @@ pub(super) fn ground_rows(m: &Model) -> Vec<Vec<(usize, f64)>> {
 
 /// A row over global DOFs as a row over the equations of `K_rho` (without the model's
 /// constrained DOFs: prescribed and switched off).
-fn free_row(m: &Model, equations: &DofMap, row: &[(usize, f64)]) -> Vec<(usize, f64)> {
-    row.iter().filter(|&&(d, _)| m.dofs.eq[d] != CONSTRAINED).map(|&(d, c)| (equations.eq[d], c)).collect()
+fn free_row(disc: &Discretisation, equations: &DofMap, row: &[(usize, f64)]) -> Vec<(usize, f64)> {
+    row.iter().filter(|&&(d, _)| disc.dofs.eq[d] != CONSTRAINED).map(|&(d, c)| (equations.eq[d], c)).collect()
 }
 
 /// The equations of `K_rho`: all DOFs but the prescribed ones.
@@ -432,24 +432,25 @@ fn merged_pairs(sorted: &[(usize, usize)], mut extra: Vec<(usize, usize)>) -> Ve
 #[allow(clippy::type_complexity)]
 pub(super) fn setup(
     m: &Model,
+    disc: &Discretisation,
     parallel: bool,
     reuse: Option<SolverReuse>,
     surface_compliance: bool,
 ) -> Result<(Assembler, SparseSolver, Vec<f64>, Condensed, ReuseKey, bool), LinearSolverError> {
     let nt = m.constraints.len();
-    let all: Vec<&Vec<(usize, f64)>> = m.multiplier_rows().collect();
-    let g0: Vec<f64> = m.contact.g0.clone();
+    let all: Vec<&Vec<(usize, f64)>> = disc.multiplier_rows(m).collect();
+    let g0: Vec<f64> = disc.contact.g0.clone();
     let g_min = (0..g0.len())
-        .filter(|&k| m.contact.phi[k] > 0.0)
-        .map(|k| g0[k] / m.contact.phi[k])
+        .filter(|&k| disc.contact.phi[k] > 0.0)
+        .map(|k| g0[k] / disc.contact.phi[k])
         .fold(f64::INFINITY, f64::min);
     let e_max = m.materials.iter().map(|mat| mat.elastic().young).fold(0.0, f64::max);
-    let grounds = ground_rows(m);
+    let grounds = ground_rows(m, disc);
     let (regularisation, rho_tie, rho_ground) = regularisation(&all[..nt], &grounds, e_max);
     let pairs = merged_pairs(m.ghost_reach(), regularisation.iter().map(|&(i, j, _)| (i, j)).collect());
     let equations = solver_equations(m);
     let key = ReuseKey { eq: equations.eq.clone(), elements: m.elements.len(), pairs };
-    let mut penalty = m.penalty.clone();
+    let mut penalty = disc.penalty.clone();
     penalty.extend_from_slice(&regularisation);
     let t0 = std::time::Instant::now();
     let (assembler, solver, kept, reused) = bulk_structure(m, reuse, &key, &equations, &penalty)?;
@@ -460,7 +461,7 @@ pub(super) fn setup(
         Some(values) if values.len() == assembler.pattern.nnz() => (values, ts, ts),
         _ => {
             kept_compliance = None;
-            let values = factor_bulk(m, &mut assembler, &mut solver, &equations, e_max, parallel)?;
+            let values = factor_bulk(m, disc, &mut assembler, &mut solver, &equations, e_max, parallel)?;
             let (t1, t2) = (ts, t0.elapsed().as_secs_f64());
             (values, t1, t2)
         }
@@ -470,7 +471,7 @@ pub(super) fn setup(
     // bulk is). It costs about twenty substitutions of the operator (McColl scene: 0.25 s
     // against 11-70 ms), so a wear cycle of a few increments does without.
     let compliance = if surface_compliance && m.has_finite_sliding() {
-        let eqs = Compliance::equations_of(m, &equations, &grounds);
+        let eqs = Compliance::equations_of(m, disc, &equations, &grounds);
         match kept_compliance {
             Some(c) if c.eqs == eqs => Some(c),
             _ if eqs.len() <= MAX_COMPLIANCE => Some(Compliance::new(&solver, eqs, equations.num_free)?),
@@ -493,12 +494,12 @@ pub(super) fn setup(
     };
     for (g, row) in grounds.iter().enumerate() {
         cd.live.push(all.len() + g);
-        cd.rows_free.push(free_row(m, &cd.equations, row));
+        cd.rows_free.push(free_row(disc, &cd.equations, row));
         cd.rho.push(rho_ground);
     }
     let ties: Vec<usize> = (0..nt).collect();
-    cd.push(m, &ties, rho_tie);
-    cd.push(m, &with_friction(m, &near_rows(m, &g0, CANDIDATE_MARGIN, g_min)), 0.0);
+    cd.push(m, disc, &ties, rho_tie);
+    cd.push(m, disc, &with_friction(m, disc, &near_rows(disc, &g0, CANDIDATE_MARGIN, g_min)), 0.0);
     cd.extend_operator(&solver, 0)?;
     tracing::info!(
         set = cd.live.len(),
@@ -596,6 +597,7 @@ fn regularisation(
 /// DOFs decoupled) into the assembler's pattern and factors it numerically.
 fn factor_bulk(
     m: &Model,
+    disc: &Discretisation,
     assembler: &mut Assembler,
     solver: &mut SparseSolver,
     equations: &DofMap,
@@ -603,17 +605,17 @@ fn factor_bulk(
     parallel: bool,
 ) -> Result<Vec<f64>, LinearSolverError> {
     let mut values = vec![0.0; assembler.pattern.nnz()];
-    let u = vec![0.0; m.dofs.num_dofs];
+    let u = vec![0.0; disc.dofs.num_dofs];
     let history = vec![PlasticState::default(); m.elements.num_states()];
     let mut history_new = history.clone();
     let mut stress = vec![Stress4::zeros(); m.elements.num_points()];
-    let mut f_int = vec![0.0; m.dofs.num_dofs];
+    let mut f_int = vec![0.0; disc.dofs.num_dofs];
     assembler.assemble(
         &AssemblyInput {
             coords: &m.coords,
             elements: &m.elements,
             materials: &m.materials,
-            rules: &m.rules,
+            rules: &disc.rules,
             u: &u,
             state_old: &history,
         },
@@ -630,7 +632,7 @@ fn factor_bulk(
     // own DOF map, the held ones keep `du = 0`.
     {
         let (col_ptr, row_idx) = (assembler.pattern.symbolic.col_ptr(), assembler.pattern.symbolic.row_idx());
-        for &d in m.held.iter().flatten() {
+        for &d in disc.held.iter().flatten() {
             let e = equations.eq[d];
             for p in col_ptr[e]..col_ptr[e + 1] {
                 let r = row_idx[p];
@@ -658,8 +660,16 @@ pub(super) enum Law {
 impl Condensed {
     /// Per live row, its law for the sets `row_law`; `w0` the live rows' values at the start of
     /// the step, `lam0` the multipliers there, `slip0` the friction rows' slips so far.
-    pub fn laws(&self, m: &Model, row_law: &[RowLaw], w0: &[f64], lam0: &[f64], slip0: &[f64]) -> Vec<Law> {
-        let (nt, nc) = (m.constraints.len(), m.contact.rows.len());
+    pub fn laws(
+        &self,
+        m: &Model,
+        disc: &Discretisation,
+        row_law: &[RowLaw],
+        w0: &[f64],
+        lam0: &[f64],
+        slip0: &[f64],
+    ) -> Vec<Law> {
+        let (nt, nc) = (m.constraints.len(), disc.contact.rows.len());
         self.live
             .iter()
             .enumerate()
@@ -668,7 +678,7 @@ impl Condensed {
                 _ if i >= self.grounds => Law::Fixed(0.0),
                 // The row's value at the start of the step is known; its target is 0.
                 RowLaw::Constraint if i < nt => Law::Gap(-w0[a]),
-                RowLaw::Constraint if i < nt + nc => Law::Gap(-(m.contact.g0[i - nt] + w0[a])),
+                RowLaw::Constraint if i < nt + nc => Law::Gap(-(disc.contact.g0[i - nt] + w0[a])),
                 RowLaw::Constraint => Law::Gap(-slip0[i - nt - nc]),
                 RowLaw::Free => Law::Fixed(-lam0[i]),
                 RowLaw::Slip { normal, coef } => Law::Slip {
@@ -741,17 +751,23 @@ impl Condensed {
     /// The interface stiffness of a converged state with sets `active` / `status` (see
     /// [`GapSensitivity`]): one dense solve of the step's interface system per active normal
     /// row, the gap row's `dw_a = -dg_a` moved to the right-hand side.
-    pub fn gap_sensitivity(&self, m: &Model, active: &[bool], status: &[FrictionStatus]) -> Option<GapSensitivity> {
+    pub fn gap_sensitivity(
+        &self,
+        m: &Model,
+        disc: &Discretisation,
+        active: &[bool],
+        status: &[FrictionStatus],
+    ) -> Option<GapSensitivity> {
         let nt = m.constraints.len();
         let nl = self.live.len();
-        let row_law = row_laws(&m.contact, active, status);
+        let row_law = row_laws(&disc.contact, active, status);
         let zeros = vec![0.0; row_law.len().max(nl)];
         // Slipping rows keep their shear (the normal-only interface stiffness: symmetric
         // positive definite, so the implicit jump's operator has no negative mode; the
         // slip coupling is a second-order effect between like materials).
         let row_law: Vec<RowLaw> =
             row_law.into_iter().map(|r| if matches!(r, RowLaw::Slip { .. }) { RowLaw::Free } else { r }).collect();
-        let laws = self.laws(m, &row_law, &zeros[..nl], &zeros, &zeros);
+        let laws = self.laws(m, disc, &row_law, &zeros[..nl], &zeros, &zeros);
         let lu = DenseLu::new(self.law_matrix(&laws))?;
         let cols: Vec<usize> = (0..nl)
             .filter(|&a| {
@@ -776,20 +792,27 @@ impl Condensed {
     /// Adds multipliers `new` (model order, not yet in the set) with regularisation weight
     /// `rho` (non-zero only for rows whose `rho C^T C` is in the factored matrix): one solve
     /// with the factor per new row, `RHS_BLOCK` at a time.
-    pub fn grow(&mut self, m: &Model, solver: &SparseSolver, new: &[usize], rho: f64) -> Result<(), LinearSolverError> {
+    pub fn grow(
+        &mut self,
+        m: &Model,
+        disc: &Discretisation,
+        solver: &SparseSolver,
+        new: &[usize],
+        rho: f64,
+    ) -> Result<(), LinearSolverError> {
         let old = self.live.len();
-        self.push(m, new, rho);
+        self.push(m, disc, new, rho);
         self.extend_operator(solver, old)
     }
 
     /// Appends model multipliers `new` to the set (the operator not yet extended).
-    fn push(&mut self, m: &Model, new: &[usize], rho: f64) {
-        let all: Vec<&Vec<(usize, f64)>> = m.multiplier_rows().collect();
+    fn push(&mut self, m: &Model, disc: &Discretisation, new: &[usize], rho: f64) {
+        let all: Vec<&Vec<(usize, f64)>> = disc.multiplier_rows(m).collect();
         for &i in new {
             debug_assert!(self.live_of[i].is_none());
             self.live_of[i] = Some(self.live.len());
             self.live.push(i);
-            self.rows_free.push(free_row(m, &self.equations, all[i]));
+            self.rows_free.push(free_row(disc, &self.equations, all[i]));
             self.rho.push(rho);
         }
     }
@@ -873,7 +896,7 @@ mod tests {
     fn grounding_rows_on_the_bodies_contact_holds() -> TestResult<()> {
         for fix in [vec![], vec![("top_left", 0)], vec![("top", 0)]] {
             let (model, upper_nodes) = blocks(&fix)?;
-            let rows = ground_rows(&model);
+            let rows = ground_rows(&model, model.initial());
             assert_eq!(rows.len(), 3, "upper supports {fix:?}");
             let mut nodes: Vec<usize> = rows.iter().flatten().map(|&(d, _)| d / 2).collect();
             nodes.dedup();
@@ -885,7 +908,7 @@ mod tests {
         }
         // Rollers (u_y) along the upper block's top and a pin (u_x) at a corner: supported.
         let (model, _) = blocks(&[("top", 1), ("top_left", 0)])?;
-        assert!(ground_rows(&model).is_empty());
+        assert!(ground_rows(&model, model.initial()).is_empty());
         Ok(())
     }
 }

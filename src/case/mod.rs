@@ -975,10 +975,7 @@ fn add_free_cuts(
                 (None, Some(d)) => {
                     // Offsets are along the normal into the kept material; the model keeps the
                     // material on the left of its polyline.
-                    crate::moving::SurfaceMotion::NormalOffset {
-                        distance: cx.finite(&k("motion.offset"), d)?,
-                        curve,
-                    }
+                    crate::moving::SurfaceMotion::NormalOffset { distance: cx.finite(&k("motion.offset"), d)?, curve }
                 }
                 _ => return Err(cx.err(k("motion"), "give exactly one of translation, offset")),
             };

@@ -38,10 +38,10 @@ impl LinearSolveTimes {
 /// Times one linear solve of the `n x n` block, then a refill and a refactorisation.
 pub fn time_linear_solve(n: usize, parallel: bool) -> Result<LinearSolveTimes, LinearSolverError> {
     let model = block_model(n);
-    let mut t = LinearSolveTimes { dofs: model.dofs.num_dofs, ..Default::default() };
+    let mut t = LinearSolveTimes { dofs: model.num_dofs(), ..Default::default() };
     let el = &model.elements;
     let t0 = Instant::now();
-    let pattern = SparsityPattern::new(model.num_nodes(), el, &model.dofs);
+    let pattern = SparsityPattern::new(model.num_nodes(), el, &model.initial().dofs);
     t.pattern = t0.elapsed().as_secs_f64();
     t.nnz = pattern.nnz();
     let t0 = Instant::now();
@@ -49,17 +49,17 @@ pub fn time_linear_solve(n: usize, parallel: bool) -> Result<LinearSolveTimes, L
     t.symbolic = t0.elapsed().as_secs_f64();
     let mut asm = Assembler::new(pattern, el);
     let mut values = vec![0.0; asm.pattern.nnz()];
-    let mut f_int = vec![0.0; model.dofs.num_dofs];
+    let mut f_int = vec![0.0; model.num_dofs()];
     let mut stress = vec![Stress4::zeros(); el.num_points()];
     let mut hist: Vec<PlasticState> = vec![];
-    let u = vec![0.0; model.dofs.num_dofs];
+    let u = vec![0.0; model.num_dofs()];
     let mut assemble = |values: &mut [f64], f_int: &mut [f64]| {
         asm.assemble(
             &AssemblyInput {
                 coords: &model.coords,
                 elements: el,
                 materials: &model.materials,
-                rules: &model.rules,
+                rules: &model.initial().rules,
                 u: &u,
                 state_old: &[],
             },
@@ -73,7 +73,7 @@ pub fn time_linear_solve(n: usize, parallel: bool) -> Result<LinearSolveTimes, L
     let t0 = Instant::now();
     solver.factor(&values)?;
     t.numeric = t0.elapsed().as_secs_f64();
-    let rhs: Vec<f64> = model.dofs.free.iter().map(|&g| model.f_ext[g]).collect();
+    let rhs: Vec<f64> = model.initial().dofs.free.iter().map(|&g| model.f_ext[g]).collect();
     let mut x = rhs.clone();
     let t0 = Instant::now();
     solver.solve(&mut x)?;
@@ -189,9 +189,9 @@ pub fn run_output_bench(
     writer.set_checkpoint_every(checkpoint_every);
     let mut output = 0.0;
     let start = Instant::now();
-    mortex::driver::run(&model, &mut state, mortex::driver::RunOptions::default(), |r, s, m| {
+    mortex::driver::run(&model, &mut state, mortex::driver::RunOptions::default(), |r, s, m, d| {
         let t0 = Instant::now();
-        writer.write_step(m, r, s).map_err(|e| e.to_string())?;
+        writer.write_step(m, d, r, s).map_err(|e| e.to_string())?;
         output += t0.elapsed().as_secs_f64();
         Ok(())
     })
@@ -203,7 +203,7 @@ pub fn run_output_bench(
     let size = |p: &std::path::Path| std::fs::metadata(p).map(|m| m.len()).unwrap_or(0);
     let csv = std::path::PathBuf::from(format!("{}_contact.csv", file.with_extension("").display()));
     Ok(OutputRun {
-        dofs: model.dofs.num_dofs,
+        dofs: model.num_dofs(),
         solve: total - output,
         output,
         h5_bytes: size(&file),
@@ -231,7 +231,7 @@ pub fn time_recut(n: usize, moves: usize) -> Result<(usize, usize, usize, f64), 
         .map_err(|e| e.to_string())?;
     b.fix(body, "bottom", 0, 0.0).map_err(|e| e.to_string())?;
     b.fix(body, "bottom", 1, 0.0).map_err(|e| e.to_string())?;
-    let mut model = b
+    let model = b
         .build(
             LoadPath::new(vec![(0.0, 1.0), (1.0, 1.0)]).map_err(|e| e.to_string())?,
             vec![1.0],
@@ -240,10 +240,11 @@ pub fn time_recut(n: usize, moves: usize) -> Result<(usize, usize, usize, f64), 
         )
         .map_err(|e| e.to_string())?;
     let band = model.bands[body].as_ref().map_or(0, |b| b.cells.len());
+    let mut disc = model.initial().clone();
     let start = Instant::now();
     let mut cut = 0;
     for k in 1..=moves {
-        let r = model.place_surfaces(k as f64 / moves as f64).map_err(|e| e.to_string())?;
+        let r = disc.place_surfaces(&model, k as f64 / moves as f64).map_err(|e| e.to_string())?;
         cut = r.cut_cells_by_degree.iter().sum::<usize>() + r.unfitted_cells;
     }
     Ok((n * n, band, cut, start.elapsed().as_secs_f64() / moves as f64))

@@ -178,12 +178,8 @@ fn read_pairing_guess(g: &hdf5::Group, model: &Model) -> Result<Vec<Vec<f64>>, S
             let name = format!("pairing_guess_{j}");
             let u =
                 g.dataset(&name).and_then(|d| d.read_raw::<f64>()).map_err(|e| format!("wear dataset {name}: {e}"))?;
-            if !u.is_empty() && u.len() != model.dofs.num_dofs {
-                return Err(format!(
-                    "wear dataset {name} has {} values, the model {} DOFs",
-                    u.len(),
-                    model.dofs.num_dofs
-                ));
+            if !u.is_empty() && u.len() != model.num_dofs() {
+                return Err(format!("wear dataset {name} has {} values, the model {} DOFs", u.len(), model.num_dofs()));
             }
             Ok(u)
         })
@@ -233,11 +229,11 @@ fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, 
         return Err(format!("the checkpoint has wear sums for another number of surfaces than the model's {n}"));
     }
     let predicted = vec_f64("predicted")?;
-    if !predicted.is_empty() && predicted.len() != model.contact.rows.len() {
+    if !predicted.is_empty() && predicted.len() != model.initial().contact.rows.len() {
         return Err(format!(
             "wear dataset predicted has {} contact rows, the model {}",
             predicted.len(),
-            model.contact.rows.len()
+            model.initial().contact.rows.len()
         ));
     }
     let predicted_area_rate = vec_f64("predicted_area_rate")?;
@@ -407,12 +403,12 @@ pub fn read(path: &Path, step: Option<usize>, model: &Model) -> Result<SimState,
         read_wear(&c, model).map_err(read_err)?
     };
     let u = vec_f64("u")?;
-    size("u", u.len(), model.dofs.num_dofs)?;
+    size("u", u.len(), model.num_dofs())?;
     let f_int = vec_f64("f_int")?;
-    size("f_int", f_int.len(), model.dofs.num_dofs)?;
+    size("f_int", f_int.len(), model.num_dofs())?;
     let multipliers = vec_f64("multipliers")?;
     size("multipliers", multipliers.len(), model.num_multipliers())?;
-    let nfr = model.contact.friction_rows.len();
+    let nfr = model.initial().contact.friction_rows.len();
     let slip_increment = vec_f64("slip_increment")?;
     size("slip_increment", slip_increment.len(), nfr)?;
     let accumulated_slip = vec_f64("accumulated_slip")?;

@@ -61,7 +61,7 @@ pub mod checkpoint;
 pub mod plot;
 
 use crate::analysis::StepReport;
-use crate::model::Model;
+use crate::model::{Discretisation, Model};
 use crate::post::nodal_fields;
 use crate::state::SimState;
 use hdf5::types::VarLenUnicode;
@@ -139,7 +139,7 @@ impl WearSeries {
         let mut surfaces = vec![];
         let mut meta = vec![];
         for w in &model.wear.surfaces {
-            let surface = &model.surfaces[w.surface];
+            let surface = &model.initial().surfaces[w.surface];
             let v = surface.vertices.len();
             let sg = g.create_group(&w.name)?;
             // The polyline's segments (vertex pairs, in the order of `vertices`): ParaView's
@@ -168,7 +168,7 @@ impl WearSeries {
             ds.write_slice(&[v], s![k..k + 1])?;
         }
         for (i, (ds, ws)) in self.surfaces.iter().zip(&model.wear.surfaces).enumerate() {
-            let reversed = model.surfaces[ws.surface].reversed;
+            let reversed = model.initial().surfaces[ws.surface].reversed;
             let mut verts = w.vertices[i].clone();
             let mut depth = w.depth[i].clone();
             if reversed {
@@ -206,9 +206,9 @@ fn tensor6(s: &[f64; 4]) -> [f64; 6] {
 /// The contact pairs' multiplier nodes (with their polyline segments, friction coefficient and
 /// sliding model) and the ties' multiplier nodes and normals under `/mesh`.
 fn write_contact_and_tie_meshes(mesh: &hdf5::Group, model: &Model) -> hdf5::Result<()> {
-    if !model.contact.pairs.is_empty() {
+    if !model.initial().contact.pairs.is_empty() {
         let cg = mesh.create_group("contacts")?;
-        for c in &model.contact.pairs {
+        for c in &model.initial().contact.pairs {
             let m = &c.multipliers;
             let xy: Vec<f64> = m.points.iter().flat_map(|p| [p.x, p.y]).collect();
             let pg = cg.create_group(&c.name)?;
@@ -269,9 +269,9 @@ impl Series {
         }
         let mut contacts = vec![];
         let mut dissipation = None;
-        if !model.contact.pairs.is_empty() {
+        if !model.initial().contact.pairs.is_empty() {
             let cg = g.create_group("contacts")?;
-            for c in &model.contact.pairs {
+            for c in &model.initial().contact.pairs {
                 let l = c.multipliers.num_nodes.max(1);
                 let pg = cg.create_group(&c.name)?;
                 let f = |name: &str| pg.new_dataset::<f64>().chunk((SERIES_CHUNK, l)).shape((0.., l)).create(name);
@@ -287,9 +287,9 @@ impl Series {
             dissipation = Some(cg.new_dataset::<f64>().chunk(SERIES_CHUNK * 16).shape(0..).create("dissipation")?);
         }
         let mut surfaces = vec![];
-        if model.surfaces.iter().any(|s| s.motion.is_some()) {
+        if model.initial().surfaces.iter().any(|s| s.motion.is_some()) {
             let sg = g.create_group("surfaces")?;
-            for s in model.surfaces.iter().filter(|s| s.motion.is_some()) {
+            for s in model.initial().surfaces.iter().filter(|s| s.motion.is_some()) {
                 let v = s.vertices.len();
                 surfaces.push(
                     sg.create_group(&s.name)?
@@ -306,7 +306,7 @@ impl Series {
 
     fn append(
         &mut self,
-        model: &Model,
+        (model, disc): (&Model, &Discretisation),
         report: &StepReport,
         state: &SimState,
         fields: &[Vec<crate::contact::ContactNodeState>],
@@ -353,7 +353,7 @@ impl Series {
             d.resize(k + 1)?;
             d.write_slice(&[state.dissipation], s![k..k + 1])?;
         }
-        for (d, surf) in self.surfaces.iter().zip(model.surfaces.iter().filter(|s| s.motion.is_some())) {
+        for (d, surf) in self.surfaces.iter().zip(disc.surfaces.iter().filter(|s| s.motion.is_some())) {
             let v = surf.vertices.len();
             let xy: Vec<f64> = surf.user_vertices().iter().flat_map(|p| [p.x, p.y]).collect();
             d.resize((k + 1, v, 2))?;
@@ -427,7 +427,7 @@ impl ResultWriter {
         let partial_path = PathBuf::from(format!("{}.partial", path.display()));
         let xdmf_path = path.with_extension("xdmf");
         let file = hdf5::File::create(&partial_path).map_err(h5err(&partial_path, "creating the file"))?;
-        let contact_csv = if model.contact.pairs.is_empty() {
+        let contact_csv = if model.initial().contact.pairs.is_empty() {
             None
         } else {
             let stem = path.with_extension("");
@@ -451,6 +451,7 @@ impl ResultWriter {
             cut_bodies: vec![],
             moving_bodies: vec![],
             contact_meta: model
+                .initial()
                 .contact
                 .pairs
                 .iter()
@@ -480,7 +481,7 @@ impl ResultWriter {
             let mesh = file.create_group("mesh")?;
             w.write_bodies(&mesh, model)?;
             write_contact_and_tie_meshes(&mesh, model)?;
-            let pts = model.point_coords();
+            let pts = model.initial().point_coords(model);
             let xy: Vec<f64> = pts.iter().flat_map(|p| [p.x, p.y]).collect();
             put(&mesh, "points", &array2(pts.len(), 2, xy))?;
             file.create_group("steps")?;
@@ -516,7 +517,7 @@ impl ResultWriter {
             g.new_dataset_builder().with_data(&Array1::from(topo.clone())).create("topology")?;
             self.body_meta.push((b.name.clone(), n, b.mesh.num_cells(), topo.len()));
             let bi = model.bodies.iter().position(|x| x.name == b.name).unwrap_or(0);
-            if let Some(cut) = &model.cuts[bi] {
+            if let Some(cut) = &model.initial().cuts[bi] {
                 put(&g, "material_fraction", &Array1::from(cut.cell_fraction.clone()))?;
                 self.cut_bodies.push(b.name.clone());
                 if model.bands[bi].is_some() {
@@ -549,19 +550,25 @@ impl ResultWriter {
 
     /// Appends one converged step (and its checkpoint when the step is a multiple of the
     /// checkpoint interval).
-    pub fn write_step(&mut self, model: &Model, report: &StepReport, state: &SimState) -> Result<(), OutputError> {
+    pub fn write_step(
+        &mut self,
+        model: &Model,
+        disc: &Discretisation,
+        report: &StepReport,
+        state: &SimState,
+    ) -> Result<(), OutputError> {
         let Some(file) = self.file.as_ref() else {
             return Ok(());
         };
         let full = report.step % self.fields_every == 0 || report.step >= self.last_step || wear_run_ends(model, state);
         let checkpoint = self.checkpoint_every > 0 && report.step % self.checkpoint_every == 0;
-        let fields: Vec<Vec<crate::contact::ContactNodeState>> = (0..model.contact.pairs.len())
-            .map(|pair| crate::contact::contact_field(&model.contact, &state.contact_unknowns(), pair))
+        let fields: Vec<Vec<crate::contact::ContactNodeState>> = (0..disc.contact.pairs.len())
+            .map(|pair| crate::contact::contact_field(&disc.contact, &state.contact_unknowns(), pair))
             .collect();
         let series = &mut self.series;
         let moving_bodies = &self.moving_bodies;
         let res: hdf5::Result<()> = (|| {
-            series.append(model, report, state, &fields)?;
+            series.append((model, disc), report, state, &fields)?;
             // A step group only where there is a snapshot: full fields or a checkpoint.
             if !(full || checkpoint) {
                 return Ok(());
@@ -575,10 +582,10 @@ impl ResultWriter {
             write_attr(&g, "cycle", &(report.cycle as u64))?;
             write_attr(&g, "increment", &(report.increment as u64))?;
             if full {
-                Self::write_fields(&g, model, state, &model.reactions(state))?;
+                Self::write_fields(&g, model, disc, state, &disc.reactions(model, state))?;
             }
             for (bi, b) in model.bodies.iter().enumerate() {
-                if let (Some(cut), true) = (&model.cuts[bi], moving_bodies.contains(&b.name)) {
+                if let (Some(cut), true) = (&disc.cuts[bi], moving_bodies.contains(&b.name)) {
                     let bg = match g.group(&b.name) {
                         Ok(bg) => bg,
                         Err(_) => g.create_group(&b.name)?,
@@ -586,9 +593,9 @@ impl ResultWriter {
                     put(&bg, "material_fraction", &Array1::from(cut.cell_fraction.clone()))?;
                 }
             }
-            if model.surfaces.iter().any(|s| s.motion.is_some()) {
+            if disc.surfaces.iter().any(|s| s.motion.is_some()) {
                 let sg = g.create_group("surfaces")?;
-                for s in model.surfaces.iter().filter(|s| s.motion.is_some()) {
+                for s in disc.surfaces.iter().filter(|s| s.motion.is_some()) {
                     let xy: Vec<f64> = s.user_vertices().iter().flat_map(|p| [p.x, p.y]).collect();
                     sg.create_group(&s.name)?
                         .new_dataset_builder()
@@ -604,9 +611,9 @@ impl ResultWriter {
                     put(&tg.create_group(&t.name)?, "traction", &array2(nl, 2, tr))?;
                 }
             }
-            if !model.contact.pairs.is_empty() {
+            if !disc.contact.pairs.is_empty() {
                 let cg = g.create_group("contacts")?;
-                for (c, field) in model.contact.pairs.iter().zip(&fields) {
+                for (c, field) in disc.contact.pairs.iter().zip(&fields) {
                     let nl = field.len();
                     let col = |f: &dyn Fn(&crate::contact::ContactNodeState) -> f64| -> Array1<f64> {
                         field.iter().map(f).collect()
@@ -666,8 +673,14 @@ impl ResultWriter {
     }
 
     /// Nodal, cell and point fields of a step.
-    fn write_fields(g: &hdf5::Group, model: &Model, state: &SimState, reactions: &[f64]) -> hdf5::Result<()> {
-        let fields = nodal_fields(model, state);
+    fn write_fields(
+        g: &hdf5::Group,
+        model: &Model,
+        disc: &Discretisation,
+        state: &SimState,
+        reactions: &[f64],
+    ) -> hdf5::Result<()> {
+        let fields = nodal_fields(model, disc, state);
         for b in &model.bodies {
             let bg = g.create_group(&b.name)?;
             let (n0, n) = (b.node_offset, b.mesh.num_nodes());
@@ -693,7 +706,7 @@ impl ResultWriter {
         put(&pg, "stress", &array2(np, 4, s))?;
         if model.bands.iter().any(|b| b.is_some()) {
             // Cut band cells of bodies without history take exact rules: their points move.
-            let xy: Vec<f64> = model.point_coords().iter().flat_map(|p| [p.x, p.y]).collect();
+            let xy: Vec<f64> = disc.point_coords(model).iter().flat_map(|p| [p.x, p.y]).collect();
             put(&pg, "coordinates", &array2(np, 2, xy))?;
         }
         let el = &model.elements;
@@ -717,7 +730,7 @@ impl ResultWriter {
     ) -> Result<(), OutputError> {
         let Some((out, partial, _)) = self.contact_csv.as_mut() else { return Ok(()) };
         let mut rows = String::new();
-        for (c, field) in model.contact.pairs.iter().zip(fields) {
+        for (c, field) in model.initial().contact.pairs.iter().zip(fields) {
             for n in field {
                 let _ = writeln!(
                     rows,

@@ -1,7 +1,7 @@
 //! [`ModelBuilder::build`] in named phases.
 
-use super::*;
 use super::builder::ContactSpec;
+use super::*;
 
 /// The first segment of a closed tie boundary that lies along the host's outer boundary (an
 /// edge of a cell without a neighbour), with its end points: such an edge has host material on
@@ -130,6 +130,16 @@ impl ModelBuilder {
         let f_ext = f_ext_curves.remove(0);
         let linear_solver =
             if constraints.is_empty() && contact.rows.is_empty() { linear_solver } else { LinearSolverKind::Lu };
+        let initial = Discretisation {
+            rules: elements.rules,
+            dofs: dofs.map,
+            cuts: hosts.cuts,
+            held: dofs.held,
+            penalty: hosts.penalty_parts.iter().flatten().copied().collect(),
+            penalty_parts: hosts.penalty_parts,
+            contact,
+            surfaces,
+        };
         Ok(Model {
             hypothesis: self.hypothesis,
             bodies: self.bodies,
@@ -137,8 +147,6 @@ impl ModelBuilder {
             material_names: self.material_names,
             coords: elements.coords,
             elements: elements.table,
-            rules: elements.rules,
-            dofs: dofs.map,
             prescribed: dofs.prescribed.iter().map(|p| (p.0, p.1)).collect(),
             prescribed_curve: dofs.prescribed.iter().map(|p| p.2).collect(),
             f_ext,
@@ -150,18 +158,12 @@ impl ModelBuilder {
             linear_solver,
             constraints,
             ties,
-            cuts: hosts.cuts,
-            deactivated_dofs: dofs.held.iter().map(|h| h.len()).sum(),
-            penalty: hosts.penalty_parts.iter().flatten().copied().collect(),
-            contact,
-            surfaces,
             bands: hosts.bands,
-            penalty_parts: hosts.penalty_parts,
             ghost_penalty: self.ghost_penalty,
-            held: dofs.held,
             cycle: self.cycle,
             wear,
             ghost_reach_cache: Default::default(),
+            initial,
         })
     }
 
@@ -320,14 +322,13 @@ impl ModelBuilder {
                 continue;
             }
             let reach = SurfaceMotion::NormalOffset { distance: w.3, curve: 0 };
-            let cells =
-                crate::moving::band_cells(&body.mesh, adjacency, surf, &reach, (0.0, 1.0)).map_err(|e| {
-                    ModelError::Wear {
-                        surface: name.clone(),
-                        key: "max_depth",
-                        msg: format!("its band of fixed points, max_depth = {} deep: {e}", w.3),
-                    }
-                })?;
+            let cells = crate::moving::band_cells(&body.mesh, adjacency, surf, &reach, (0.0, 1.0)).map_err(|e| {
+                ModelError::Wear {
+                    surface: name.clone(),
+                    key: "max_depth",
+                    msg: format!("its band of fixed points, max_depth = {} deep: {e}", w.3),
+                }
+            })?;
             band_cells_b.extend(cells);
         }
         if band_cells_b.is_empty() {

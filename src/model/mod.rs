@@ -1,6 +1,15 @@
-//! `Model`: the immutable problem data of a static analysis (bodies, materials, element and
-//! rule tables, DOF map, prescribed displacements, unit external load, load path).
-//! Built once by [`ModelBuilder`]; the mutable part of a run lives in `SimState`.
+//! `Model`: the immutable problem data of a static analysis (bodies, materials, element
+//! table, prescribed displacements, unit external loads, load curves, ties, contact and wear
+//! declarations). Built once by [`ModelBuilder`] and never changed afterwards.
+//!
+//! Three kinds of data, three types:
+//! * [`Model`]: what the user declared, and what is fixed for the whole run (element and point
+//!   layout, multiplier layout, the bands of fixed points moving surfaces may visit);
+//! * [`Discretisation`]: where the free surfaces are now and what follows from it (cut states,
+//!   quadrature weights, ghost penalty, held DOFs and DOF map, contact rows). It is derived
+//!   from the model, the time and the wear state; the driver owns the one of the moment. The
+//!   model keeps the one its builder made ([`Model::initial`]);
+//! * `SimState`: the solution and its history, the one thing a checkpoint saves.
 //!
 //! Loading: every prescribed displacement and every external force is scaled by the factor of
 //! its load curve, a piecewise-linear function of pseudo-time: curve 0 is the model's load path
@@ -10,7 +19,6 @@
 use crate::assembly::{DofMap, ElementTable};
 pub use crate::contact::{ContactInfo, ContactSet, PairedSide, Sliding};
 use crate::cut::{cut_mesh, subtriangulation_rule, CellCut, CutMesh};
-use crate::moving::{band_cell_rule, held_dofs, Band, FreeSurface, RecutReport, SurfaceMotion};
 use crate::fem::element::ReferenceElement;
 use crate::fem::element::Seg2;
 use crate::fem::kernel::Formulation;
@@ -21,6 +29,7 @@ use crate::mortar::{
     build_multipliers, build_multipliers_local, other_side_spacing, tying_rows, ConstraintRow, MortarSide,
     MultiplierSpace, Multipliers, OtherSide,
 };
+use crate::moving::{band_cell_rule, held_dofs, Band, FreeSurface, RecutReport, SurfaceMotion};
 use crate::solver::linear::LinearSolverKind;
 use crate::solver::newton::NewtonParams;
 use crate::surface::{cell_polygon, cell_size, embed, BoxIndex, Embedding, SurfaceError, VirtualSurface};
@@ -79,10 +88,11 @@ pub struct Body {
 
 mod build;
 mod builder;
+mod discretisation;
 mod load;
-mod moving;
 
 pub use builder::ModelBuilder;
+pub use discretisation::Discretisation;
 pub use load::{Cycle, LoadPath};
 
 #[derive(Debug, Clone)]
@@ -94,8 +104,6 @@ pub struct Model {
     /// Reference coordinates of all nodes (bodies concatenated).
     pub coords: Vec<Point2<f64>>,
     pub elements: ElementTable,
-    pub rules: Vec<QuadratureRule>,
-    pub dofs: DofMap,
     /// `(global dof, value at unit load factor)`.
     pub prescribed: Vec<(usize, f64)>,
     /// Load curve of each prescribed DOF (0: `load_path`, `c >= 1`: `curves[c - 1]`).
@@ -113,23 +121,10 @@ pub struct Model {
     /// Linear constraints `sum coef u[dof] = 0` (mortar tying), one multiplier each.
     pub constraints: Vec<ConstraintRow>,
     pub ties: Vec<TieInfo>,
-    /// Cut state of each body's cells (`None`: not cut by any surface).
-    pub cuts: Vec<Option<CutMesh>>,
-    /// Host DOFs deactivated because their support has (almost) no material.
-    pub deactivated_dofs: usize,
-    /// Constant extra stiffness `(dof_i, dof_j, value)`: ghost penalty on cut bodies.
-    pub penalty: Vec<(usize, usize, f64)>,
-    /// Mortar contact: pairs, their weighted-gap and slip rows (multipliers after the ties).
-    pub contact: ContactSet,
-    /// Free virtual surfaces (cuts), where they are now.
-    pub surfaces: Vec<FreeSurface>,
     /// Per body: the band of fixed points of its moving surfaces (`None`: nothing moves in it).
     pub bands: Vec<Option<Band>>,
-    /// Ghost-penalty entries per body (`penalty` is their concatenation) and its factor.
-    pub penalty_parts: Vec<Vec<(usize, usize, f64)>>,
+    /// Factor of the ghost penalty (times `E h` per cut-cell face).
     pub ghost_penalty: f64,
-    /// Per body: DOFs switched off (no material in their support), held at their last value.
-    pub held: Vec<Vec<usize>>,
     /// The repeated window of the load history, if the case is cyclic.
     pub cycle: Option<Cycle>,
     /// Wearing surfaces and the cycle-jump policy (empty: no wear).
@@ -137,6 +132,8 @@ pub struct Model {
     /// [`Model::ghost_reach`], formed on first use and shared by the run's later models (moved
     /// surfaces and re-pairings change neither the bands nor the penalty of unbanded bodies).
     ghost_reach_cache: std::sync::Arc<std::sync::OnceLock<Vec<(usize, usize)>>>,
+    /// The discretisation the builder made: every surface where it starts, nothing worn.
+    initial: Discretisation,
 }
 
 /// The other surface of a contact pair.
@@ -158,7 +155,7 @@ pub struct ContactParams {
     /// traction oscillation of a mortar side finer than the other side's elements).
     pub multipliers: MultiplierSpace,
     /// Small sliding: mortar pairing once, from the reference geometry. Finite: every step
-    /// paired in its own end configuration (see [`Model::repaired_at`] and the driver).
+    /// paired in its own end configuration (see [`Discretisation::repaired_at`] and the driver).
     pub sliding: Sliding,
 }
 
@@ -189,33 +186,7 @@ pub struct TieInfo {
 impl Model {
     /// Whether any contact pair is re-paired every step (finite sliding).
     pub fn has_finite_sliding(&self) -> bool {
-        self.contact.pairs.iter().any(|c| c.sliding == Sliding::Finite)
-    }
-
-    /// This model with the finite-sliding contact pairs re-paired in the configuration
-    /// `x = X + u` (a virtual surface moves with its host: its pieces keep their host reference
-    /// coordinates), slips measured from `u` (see [`Model::repaired_at`]).
-    pub fn repaired(&self, u: &[f64]) -> Model {
-        self.repaired_at(u, u)
-    }
-
-    /// This model with the finite-sliding contact pairs re-paired in the configuration
-    /// `x = X + u_pair`: the mortar integrals, normals and tangents are recomputed on the
-    /// displaced surfaces, and the rows are shifted so that they stay linear in the total
-    /// displacement, `g(u') = g_x + C_x (u' - u_pair)`, i.e. `g0 = g_x - C_x u_pair`; slips of
-    /// the step are measured from the step's start, `friction_s0 = T_x u_start`. The driver
-    /// pairs a step in its own end configuration (a fixed point on `u_pair`, see
-    /// [`crate::driver`]). Multiplier nodes, their number and order do not change, so the state
-    /// carries over. Small-sliding pairs keep their reference rows.
-    pub fn repaired_at(&self, u_pair: &[f64], u_start: &[f64]) -> Model {
-        let mut m = self.clone();
-        let x = |n: usize| self.coords[n] + Vector2::new(u_pair[2 * n], u_pair[2 * n + 1]);
-        let hosts = self.hosts();
-        for (pair, c) in self.contact.pairs.iter().enumerate().filter(|(_, c)| c.sliding == Sliding::Finite) {
-            let rows = crate::contact::pair_rows(&hosts, c, &x);
-            crate::contact::install_rows(&mut m.contact, pair, rows, u_pair, u_start);
-        }
-        m
+        self.initial.contact.pairs.iter().any(|c| c.sliding == Sliding::Finite)
     }
 
     /// Each body's mesh and node offset (the hosts of virtual surfaces, for contact pairing).
@@ -225,48 +196,15 @@ impl Model {
 
     /// True when every material is linear: the stiffness is then factored once for the whole run.
     pub fn is_linear(&self) -> bool {
-        self.materials.iter().all(|m| !m.has_state()) && self.contact.rows.is_empty()
+        self.materials.iter().all(|m| !m.has_state()) && self.initial.contact.rows.is_empty()
     }
     pub fn num_nodes(&self) -> usize {
         self.coords.len()
     }
-    /// Physical coordinates of every integration point, in point order.
-    pub fn point_coords(&self) -> Vec<Point2<f64>> {
-        let el = &self.elements;
-        let mut out = Vec::with_capacity(el.num_points());
-        for e in 0..el.len() {
-            let mut c = [Point2::origin(); 4];
-            for a in 0..el.kind[e].num_nodes() {
-                c[a] = self.coords[el.nodes[e][a]];
-            }
-            let m = crate::fem::element::MappedElement::new(el.kind[e], c);
-            for xi in &self.rules[el.rule[e]].points {
-                out.push(m.map(*xi));
-            }
-        }
-        out
+    /// Number of DOFs, free and constrained (two per node).
+    pub fn num_dofs(&self) -> usize {
+        2 * self.coords.len()
     }
-    /// Reactions `f_int + C^T mu - lambda f_ext` at constrained DOFs of a state, zero elsewhere.
-    pub fn reactions(&self, state: &crate::state::SimState) -> Vec<f64> {
-        let mut r = state.f_int.clone();
-        let mut f = vec![0.0; r.len()];
-        self.external_force(state.time, &mut f);
-        for (v, f) in r.iter_mut().zip(&f) {
-            *v -= f;
-        }
-        for (k, row) in self.multiplier_rows().enumerate() {
-            for &(d, c) in row {
-                r[d] += c * state.multipliers[k];
-            }
-        }
-        for (d, v) in r.iter_mut().enumerate() {
-            if self.dofs.eq[d] != crate::assembly::CONSTRAINED {
-                *v = 0.0;
-            }
-        }
-        r
-    }
-
     /// `(cycle, increment)` of output step `step` (1-based); `(0, step)` for a non-cyclic case.
     pub fn step_label(&self, step: usize) -> (usize, usize) {
         match &self.cycle {
@@ -314,12 +252,10 @@ impl Model {
         self.curves.iter().map(|c| c.end_time()).fold(self.load_path.end_time(), f64::max)
     }
 
-    /// Every multiplier's row over the DOFs, in multiplier order: ties, contact normals, friction.
-    pub fn multiplier_rows(&self) -> impl Iterator<Item = &ConstraintRow> {
-        self.constraints.iter().chain(self.contact.rows.iter()).chain(self.contact.friction_rows.iter())
-    }
+    /// Number of multipliers (ties, contact normals, friction): fixed for the run.
     pub fn num_multipliers(&self) -> usize {
-        self.constraints.len() + self.contact.rows.len() + self.contact.friction_rows.len()
+        let c = &self.initial.contact;
+        self.constraints.len() + c.rows.len() + c.friction_rows.len()
     }
 
     /// Body index of a global element.

@@ -18,8 +18,8 @@ use super::{
     JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel, PRESSURE_PREDICTION_TOLERANCE,
 };
 use crate::contact::ContactSet;
-use crate::moving::FreeSurface;
 use crate::mesh::Mesh2;
+use crate::moving::FreeSurface;
 use nalgebra::{DMatrix, Point2};
 
 /// Everything a wear run carries from cycle to cycle: where the worn surfaces are, how much

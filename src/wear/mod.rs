@@ -51,8 +51,8 @@ mod cycle;
 pub use cycle::{accumulate_step_wear, apply_cycle_wear, GapSensitivity, WearError, WearScene, WearState};
 
 use crate::contact::{ContactSet, PairedSide};
-use crate::moving::FreeSurface;
 use crate::mesh::Mesh2;
+use crate::moving::FreeSurface;
 use crate::solver::dense::DenseLu;
 use nalgebra::{DMatrix, DVector, Point2, Vector2};
 

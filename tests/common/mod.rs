@@ -193,7 +193,10 @@ pub fn hertz_a_p0(p: f64) -> (f64, f64) {
 /// `(x, p, q, status)` at each multiplier node of contact 0, sorted by x (see
 /// `mortex::post::contact_profile`).
 pub fn contact_profile(model: &Model, s: &SimState) -> Vec<(f64, f64, f64, u8)> {
-    mortex::post::contact_profile(model, s, 0).iter().map(|n| (n.x.x, n.pressure, n.shear, n.status)).collect()
+    mortex::post::contact_profile(model.initial(), s, 0)
+        .iter()
+        .map(|n| (n.x.x, n.pressure, n.shear, n.status))
+        .collect()
 }
 
 #[allow(unused_imports)]

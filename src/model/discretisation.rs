@@ -1,0 +1,412 @@
+//! The run-time discretisation: where the free surfaces are now, and what follows from it.
+//!
+//! A [`Discretisation`] is derived from the [`Model`], the time (prescribed surface motions)
+//! and the wear state (worn surfaces); finite sliding re-pairs it every step. Moving a surface
+//! re-embeds it, re-cuts its host on the band's fixed points (see [`crate::moving`]), and
+//! rebuilds what the cut decides: quadrature weights of band cells, ghost penalty, switched-off
+//! nodes and the DOF map, and the contact rows of pairs with a side on the surface. The
+//! element table, the point layout and the multiplier layout belong to the model and never
+//! change, so `SimState` keeps its sizes for the whole run.
+
+use super::*;
+
+/// Where the free surfaces are now, and the cut, weights, DOF map and contact rows that follow.
+/// The driver owns the one of the moment; a checkpoint does not save it: a restart derives it
+/// again from the model and the checkpointed state (time and wear state).
+#[derive(Debug, Clone)]
+pub struct Discretisation {
+    /// Quadrature rule table (band cells: fixed points, weights of the current cut).
+    pub rules: Vec<QuadratureRule>,
+    /// Free and constrained DOFs: prescribed ones, and nodes switched off for lack of material.
+    pub dofs: DofMap,
+    /// Cut state of each body's cells (`None`: not cut by any surface).
+    pub cuts: Vec<Option<CutMesh>>,
+    /// Per body: DOFs switched off (no material in their support), held at their last value.
+    pub held: Vec<Vec<usize>>,
+    /// Ghost-penalty entries per body; `penalty` is their concatenation.
+    pub penalty_parts: Vec<Vec<(usize, usize, f64)>>,
+    /// Constant extra stiffness `(dof_i, dof_j, value)`: ghost penalty on cut bodies.
+    pub penalty: Vec<(usize, usize, f64)>,
+    /// Mortar contact: pairs, their weighted-gap and slip rows (multipliers after the ties).
+    pub contact: ContactSet,
+    /// Free virtual surfaces (cuts), where they are now.
+    pub surfaces: Vec<FreeSurface>,
+}
+
+impl Model {
+    /// The wear state before any wear: surfaces where the model put them, nothing worn.
+    pub fn initial_wear_state(&self) -> crate::state::WearState {
+        let n = self.wear.surfaces.len();
+        if n == 0 {
+            return crate::state::WearState::default();
+        }
+        let verts: Vec<Vec<[f64; 2]>> = self
+            .wear
+            .surfaces
+            .iter()
+            .map(|w| self.initial.surfaces[w.surface].vertices.iter().map(|p| [p.x, p.y]).collect())
+            .collect();
+        crate::state::WearState {
+            depth: verts.iter().map(|v| vec![0.0; v.len()]).collect(),
+            cycle_volume: verts.iter().map(|v| vec![0.0; v.len()]).collect(),
+            vertices: verts,
+            cycle_work: vec![0.0; n],
+            cycle_row_work: self
+                .wear
+                .surfaces
+                .iter()
+                .map(|w| vec![0.0; self.initial.contact.pairs[w.contact].multipliers.num_nodes])
+                .collect(),
+            cycle_row_slip: self
+                .wear
+                .surfaces
+                .iter()
+                .map(|w| vec![0.0; self.initial.contact.pairs[w.contact].multipliers.num_nodes])
+                .collect(),
+            worn_area: vec![0.0; n],
+            work: vec![0.0; n],
+            ..Default::default()
+        }
+    }
+
+    /// The discretisation the builder made: every surface where it starts, nothing worn. A
+    /// run derives its own from it ([`Discretisation::place_surfaces`],
+    /// [`Discretisation::place_worn_surfaces`], [`Discretisation::repaired_at`]).
+    pub fn initial(&self) -> &Discretisation {
+        &self.initial
+    }
+
+    /// Whether any surface of the model moves during the run.
+    pub fn has_moving_surfaces(&self) -> bool {
+        self.initial.surfaces.iter().any(|s| s.motion.is_some())
+    }
+
+    /// Every DOF pair `(i, j)` (both orders) the ghost penalty can couple during the run: on
+    /// a body with moving surfaces, the same component of the nodes of any two band cells (or
+    /// a band cell and its neighbour) across a shared face, whether or not the face is next to
+    /// a cut cell now; on other bodies the entries it has. A solver pattern holding these does
+    /// not change when the surfaces move (see `analysis::condensed`).
+    pub fn ghost_reach(&self) -> &[(usize, usize)] {
+        self.ghost_reach_cache.get_or_init(|| self.form_ghost_reach())
+    }
+
+    /// [`Model::ghost_reach`] formed from the bands (sorted, without repeats).
+    fn form_ghost_reach(&self) -> Vec<(usize, usize)> {
+        let mut v: Vec<(usize, usize)> = Vec::new();
+        for (b, body) in self.bodies.iter().enumerate() {
+            let Some(band) = &self.bands[b] else {
+                v.extend(self.initial.penalty_parts[b].iter().map(|&(i, j, _)| (i, j)));
+                continue;
+            };
+            if self.ghost_penalty <= 0.0 {
+                continue;
+            }
+            let cells = &body.mesh.cells;
+            for &c in &band.cells {
+                let own = cells[c].nodes();
+                for k in 0..own.len() {
+                    let Some(nb) = band.adjacency.neighbour(c, k) else { continue };
+                    let other = cells[nb].nodes();
+                    // Pairs inside one cell are element couplings already.
+                    for &p in own.iter().filter(|p| !other.contains(p)) {
+                        for &q in other.iter().filter(|q| !own.contains(q)) {
+                            let (gp, gq) = (p + body.node_offset, q + body.node_offset);
+                            for comp in 0..2 {
+                                v.push((2 * gp + comp, 2 * gq + comp));
+                                v.push((2 * gq + comp, 2 * gp + comp));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        v.sort_unstable();
+        v.dedup();
+        v
+    }
+}
+
+impl Discretisation {
+    /// Host DOFs switched off because their support has (almost) no material.
+    pub fn deactivated_dofs(&self) -> usize {
+        self.held.iter().map(|h| h.len()).sum()
+    }
+
+    /// Every multiplier's row over the DOFs, in multiplier order: the model's ties, contact
+    /// normals, friction.
+    pub fn multiplier_rows<'a>(&'a self, model: &'a Model) -> impl Iterator<Item = &'a ConstraintRow> {
+        model.constraints.iter().chain(self.contact.rows.iter()).chain(self.contact.friction_rows.iter())
+    }
+
+    /// Area of body `b`'s material (per unit thickness): its cells, times their material
+    /// fraction where the body is cut.
+    pub fn material_area(&self, model: &Model, b: usize) -> f64 {
+        let mesh = &model.bodies[b].mesh;
+        (0..mesh.num_cells())
+            .map(|c| {
+                let a = crate::surface::cell_size(&crate::surface::cell_polygon(mesh, c)).powi(2);
+                self.cuts[b].as_ref().map_or(a, |cm| a * cm.cell_fraction[c])
+            })
+            .sum()
+    }
+
+    /// Puts the wearing surfaces where `wear` has them (re-cut, re-paired).
+    pub fn place_worn_surfaces(
+        &mut self,
+        model: &Model,
+        wear: &crate::state::WearState,
+    ) -> Result<RecutReport, ModelError> {
+        let positions: Vec<(usize, Vec<Point2<f64>>)> = model
+            .wear
+            .surfaces
+            .iter()
+            .zip(&wear.vertices)
+            .map(|(w, v)| (w.surface, v.iter().map(|p| Point2::new(p[0], p[1])).collect()))
+            .collect();
+        self.move_surfaces(model, &positions)
+    }
+
+    /// Vertices of free surface `i` at time `t` (its reference vertices when it does not move).
+    pub fn surface_vertices_at(&self, model: &Model, i: usize, t: f64) -> Vec<Point2<f64>> {
+        let s = &self.surfaces[i];
+        match &s.motion {
+            // A motion is a process over the whole run: its curve is read at the absolute time,
+            // never wrapped into the load cycle.
+            Some(m) => m.place(&s.base, model.curve_factor_absolute(m.curve(), t)),
+            None => s.base.vertices.clone(),
+        }
+    }
+
+    /// What the wear update reads of this discretisation.
+    pub fn wear_scene<'a>(&'a self, model: &'a Model) -> crate::wear::WearScene<'a> {
+        crate::wear::WearScene {
+            contact: &self.contact,
+            hosts: model.hosts(),
+            surfaces: &self.surfaces,
+            coords: &model.coords,
+            model: &model.wear,
+            increments: model.cycle.map_or(0, |c| c.increments),
+        }
+    }
+
+    /// Moves every moving surface to its position at time `t` and re-cuts (see the module
+    /// documentation). The state layout does not change.
+    pub fn place_surfaces(&mut self, model: &Model, t: f64) -> Result<RecutReport, ModelError> {
+        let positions: Vec<(usize, Vec<Point2<f64>>)> = (0..self.surfaces.len())
+            .filter(|&i| self.surfaces[i].motion.is_some())
+            .map(|i| (i, self.surface_vertices_at(model, i, t)))
+            .collect();
+        self.move_surfaces(model, &positions)
+    }
+
+    /// Moves free surfaces to new vertex positions (`(surface index, vertices)`, same vertex
+    /// count) and re-cuts their hosts on the fixed band points.
+    pub fn move_surfaces(
+        &mut self,
+        model: &Model,
+        positions: &[(usize, Vec<Point2<f64>>)],
+    ) -> Result<RecutReport, ModelError> {
+        let mut report = RecutReport::default();
+        let mut bodies: Vec<usize> = Vec::new();
+        let mut moved: Vec<usize> = Vec::new();
+        for (i, v) in positions {
+            let s = &self.surfaces[*i];
+            let err = |msg: String| ModelError::MovingSurface { surface: s.name.clone(), msg };
+            if v.len() != s.base.vertices.len() {
+                return Err(err(format!(
+                    "a move gave {} vertices, the surface has {}",
+                    v.len(),
+                    s.base.vertices.len()
+                )));
+            }
+            if *v == s.vertices {
+                continue;
+            }
+            if model.bands[s.body].is_none() {
+                return Err(err("the surface was not declared moving: its host has no band of fixed points".into()));
+            }
+            if v.iter().any(|p| !p.x.is_finite() || !p.y.is_finite()) {
+                return Err(err("a move gave a non-finite vertex".into()));
+            }
+            let surf = VirtualSurface { vertices: v.clone(), closed: s.base.closed };
+            surf.validate().map_err(|e| err(e.to_string()))?;
+            let mesh = &model.bodies[s.body].mesh;
+            let Some(band) = model.bands[s.body].as_ref() else { continue };
+            let emb = embed(&surf, mesh, &band.index).map_err(|e| err(e.to_string()))?;
+            let body = s.body;
+            self.surfaces[*i].vertices = v.clone();
+            self.surfaces[*i].embedding = emb;
+            moved.push(*i);
+            if !bodies.contains(&body) {
+                bodies.push(body);
+            }
+        }
+        report.moved = moved.len();
+        for &b in &bodies {
+            self.recut_body(model, b, &mut report)?;
+        }
+        if !moved.is_empty() {
+            self.refresh_contact_rows(model, &moved);
+            self.penalty = self.penalty_parts.iter().flatten().copied().collect();
+            let mut constrained: Vec<usize> = model.prescribed.iter().map(|p| p.0).collect();
+            constrained.extend(self.held.iter().flatten().copied());
+            self.dofs = DofMap::new(model.num_nodes(), &constrained);
+            if self.dofs.num_free == 0 {
+                return Err(ModelError::NoFreeDofs);
+            }
+        }
+        report.held_dofs = self.held.iter().map(|h| h.len()).sum();
+        Ok(report)
+    }
+
+    /// Re-cuts body `b` with its current surfaces: cut state, band weights, ghost penalty and
+    /// switched-off nodes.
+    fn recut_body(&mut self, model: &Model, b: usize, report: &mut RecutReport) -> Result<(), ModelError> {
+        let Some(band) = model.bands[b].as_ref() else { return Ok(()) };
+        let body = &model.bodies[b];
+        let mut embs: Vec<&Embedding> = band.fixed_embeddings.iter().collect();
+        embs.extend(self.surfaces.iter().filter(|s| s.body == b).map(|s| &s.embedding));
+        let named = || self.surfaces.iter().filter(|s| s.body == b).map(|s| (&s.name, &s.embedding));
+        let cm = cut_mesh(&body.mesh, &band.adjacency, &embs).map_err(|e| ModelError::CutMesh {
+            body: body.name.clone(),
+            surface: surface_through(named(), &e),
+            msg: e.to_string(),
+        })?;
+        // Outside the band nothing may change: its cells have fixed rules.
+        if let Some(old) = &self.cuts[b] {
+            for c in 0..body.mesh.num_cells() {
+                if cm.cells[c] != old.cells[c] && band.cells.binary_search(&c).is_err() {
+                    // The surface now in the cell, else (it left the cell) the body's first.
+                    let surface = named()
+                        .find(|(_, emb)| emb.cell_pieces.iter().any(|p| p.cell == c))
+                        .or_else(|| named().next())
+                        .map_or_else(String::new, |(name, _)| name.clone());
+                    return Err(ModelError::MovingSurface {
+                        surface,
+                        msg: format!(
+                            "the surface reached host cell {c}, outside the band of fixed points prepared for its motion"
+                        ),
+                    });
+                }
+            }
+        }
+        for (&c, &r) in band.cells.iter().zip(&band.rules) {
+            let (rule, degree) = band_cell_rule(&body.mesh, c, &cm.cells[c], band.points);
+            if matches!(cm.cells[c], CellCut::Cut { .. }) {
+                match degree {
+                    Some(d) if d <= 2 => report.cut_cells_by_degree[d] += 1,
+                    _ => report.unfitted_cells += 1,
+                }
+            }
+            self.rules[r] = rule;
+        }
+        self.penalty_parts[b] = if model.ghost_penalty > 0.0 {
+            let young = model.materials[body.material].elastic().young;
+            crate::cut::ghost_penalty(&body.mesh, &band.adjacency, &cm, body.node_offset, young, model.ghost_penalty)
+        } else {
+            vec![]
+        };
+        self.held[b] = held_dofs(&cm, body.node_offset, &model.prescribed, &self.penalty_parts[b]);
+        self.cuts[b] = Some(cm);
+        Ok(())
+    }
+
+    /// Rebuilds the weighted-gap rows of contact pairs with a side on a moved surface (small
+    /// sliding: from the reference geometry; finite sliding re-pairs every step anyway). A
+    /// virtual mortar side keeps its multiplier layout; its geometry follows the vertices.
+    fn refresh_contact_rows(&mut self, model: &Model, moved: &[usize]) {
+        for pair in 0..self.contact.pairs.len() {
+            let other_moved = self.contact.pairs[pair].other_surface.filter(|si| moved.contains(si));
+            let mortar_moved =
+                self.contact.pairs[pair].virtual_mortar.as_ref().map(|v| v.surface).filter(|si| moved.contains(si));
+            if other_moved.is_none() && mortar_moved.is_none() {
+                continue;
+            }
+            if let Some(si) = other_moved {
+                let s = &self.surfaces[si];
+                self.contact.pairs[pair].other = PairedSide::Embedded { host: s.body, embedding: s.embedding.clone() };
+            }
+            if let Some(si) = mortar_moved {
+                let s = &self.surfaces[si];
+                let (mesh, off) = (&model.bodies[s.body].mesh, model.bodies[s.body].node_offset);
+                let interpolation =
+                    crate::contact::VirtualMortar::interpolation(mesh, off, &s.embedding, &s.vertices, s.base.closed);
+                let c = &mut self.contact.pairs[pair];
+                c.side.points = s.vertices.clone();
+                c.multipliers = c.multipliers.with_geometry(&c.side);
+                if let Some(vm) = c.virtual_mortar.as_mut() {
+                    vm.interpolation = interpolation;
+                }
+            }
+            let coords = &model.coords;
+            let rows = crate::contact::pair_rows(&model.hosts(), &self.contact.pairs[pair], &|n| coords[n]);
+            let zero = vec![0.0; model.num_dofs()];
+            crate::contact::install_rows(&mut self.contact, pair, rows, &zero, &zero);
+        }
+    }
+
+    /// This discretisation with the finite-sliding contact pairs re-paired in the configuration
+    /// `x = X + u` (a virtual surface moves with its host: its pieces keep their host reference
+    /// coordinates), slips measured from `u` (see [`Discretisation::repaired_at`]).
+    pub fn repaired(&self, model: &Model, u: &[f64]) -> Discretisation {
+        self.repaired_at(model, u, u)
+    }
+
+    /// This discretisation with the finite-sliding contact pairs re-paired in the configuration
+    /// `x = X + u_pair`: the mortar integrals, normals and tangents are recomputed on the
+    /// displaced surfaces, and the rows are shifted so that they stay linear in the total
+    /// displacement, `g(u') = g_x + C_x (u' - u_pair)`, i.e. `g0 = g_x - C_x u_pair`; slips of
+    /// the step are measured from the step's start, `friction_s0 = T_x u_start`. The driver
+    /// pairs a step in its own end configuration (a fixed point on `u_pair`, see
+    /// [`crate::driver`]). Multiplier nodes, their number and order do not change, so the state
+    /// carries over. Small-sliding pairs keep their reference rows.
+    pub fn repaired_at(&self, model: &Model, u_pair: &[f64], u_start: &[f64]) -> Discretisation {
+        let mut m = self.clone();
+        let x = |n: usize| model.coords[n] + Vector2::new(u_pair[2 * n], u_pair[2 * n + 1]);
+        let hosts = model.hosts();
+        for (pair, c) in self.contact.pairs.iter().enumerate().filter(|(_, c)| c.sliding == Sliding::Finite) {
+            let rows = crate::contact::pair_rows(&hosts, c, &x);
+            crate::contact::install_rows(&mut m.contact, pair, rows, u_pair, u_start);
+        }
+        m
+    }
+
+    /// Reactions `f_int + C^T mu - lambda f_ext` at constrained DOFs of a state, zero elsewhere.
+    pub fn reactions(&self, model: &Model, state: &crate::state::SimState) -> Vec<f64> {
+        let mut r = state.f_int.clone();
+        let mut f = vec![0.0; r.len()];
+        model.external_force(state.time, &mut f);
+        for (v, f) in r.iter_mut().zip(&f) {
+            *v -= f;
+        }
+        for (k, row) in self.multiplier_rows(model).enumerate() {
+            for &(d, c) in row {
+                r[d] += c * state.multipliers[k];
+            }
+        }
+        for (d, v) in r.iter_mut().enumerate() {
+            if self.dofs.eq[d] != crate::assembly::CONSTRAINED {
+                *v = 0.0;
+            }
+        }
+        r
+    }
+
+    /// Physical coordinates of every integration point, in point order (band cells of bodies
+    /// without history take the exact rule of their cut: their points move with the surface).
+    pub fn point_coords(&self, model: &Model) -> Vec<Point2<f64>> {
+        let el = &model.elements;
+        let mut out = Vec::with_capacity(el.num_points());
+        for e in 0..el.len() {
+            let mut c = [Point2::origin(); 4];
+            for a in 0..el.kind[e].num_nodes() {
+                c[a] = model.coords[el.nodes[e][a]];
+            }
+            let m = crate::fem::element::MappedElement::new(el.kind[e], c);
+            for xi in &self.rules[el.rule[e]].points {
+                out.push(m.map(*xi));
+            }
+        }
+        out
+    }
+}
