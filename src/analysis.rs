@@ -1065,7 +1065,14 @@ impl<'m> StaticAnalysis<'m> {
     /// interface condensation or before a step converged.
     pub fn gap_sensitivity(&self) -> Option<GapSensitivity> {
         let (active, status) = self.last_sets.as_ref()?;
-        self.condensed.as_ref()?.gap_sensitivity(self.model, self.disc, active, status)
+        self.condensed.as_ref()?.gap_sensitivity(self.model, self.disc, active, status, false)
+    }
+
+    /// [`Self::gap_sensitivity`] on the rows in contact and the open candidate rows around
+    /// them, each held at its gap (what a wear jump needs to let the contact set change).
+    pub fn gap_sensitivity_with_open_rows(&self) -> Option<GapSensitivity> {
+        let (active, status) = self.last_sets.as_ref()?;
+        self.condensed.as_ref()?.gap_sensitivity(self.model, self.disc, active, status, true)
     }
 
     /// Reactions at constrained DOFs of the current state, zero elsewhere.

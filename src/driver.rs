@@ -340,7 +340,7 @@ fn integrate_step_wear(
     if i + 1 == increments {
         let count = m.cycle.map_or(1, |c| c.count as u64);
         let sensitivity = match m.wear.scheme {
-            JumpScheme::Implicit => analysis.gap_sensitivity(),
+            JumpScheme::Implicit => analysis.gap_sensitivity_with_open_rows(),
             JumpScheme::Explicit => None,
         };
         apply_cycle_wear(&scene, &mut state.wear, &state.u, &state.multipliers, count, true, sensitivity.as_ref())?;

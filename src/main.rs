@@ -119,28 +119,52 @@ enum StudyCommand {
     /// sweep is started again; the table goes to `<output>/sweep.csv` and `sweep.md`.
     Sweep {
         file: PathBuf,
-        /// Runs at once (default: the cores).
-        #[arg(long)]
-        parallel: Option<usize>,
+        #[command(flatten)]
+        runs: StudyRuns,
     },
     /// Refine a case one knob at a time (a file: `case`, `output`, `[[knob]]` with `key`,
     /// `values` coarse to fine and `size`): errors against each knob's finest run, observed
     /// orders, table `<output>/convergence.csv` and `.md`, chart `convergence.png`.
     Convergence {
         file: PathBuf,
-        /// Runs at once (default: the cores).
-        #[arg(long)]
-        parallel: Option<usize>,
+        #[command(flatten)]
+        runs: StudyRuns,
     },
     /// Error against wall time over a grid of discretisations (a sweep file with
     /// `reference = [{ key, value }]`, the converged setting), with the Pareto front:
     /// `<output>/pareto.csv`, `.md` and `pareto.png`.
     Pareto {
         file: PathBuf,
-        /// Runs at once (default: the cores; 1 gives wall times free of each other's load).
-        #[arg(long)]
-        parallel: Option<usize>,
+        #[command(flatten)]
+        runs: StudyRuns,
     },
+    /// Gather a study whose runs ran elsewhere (a Slurm job array written by `--slurm`): its
+    /// table and chart, as the local study writes them; runs not done yet are an error.
+    Gather { file: PathBuf },
+    /// One task of a study's Slurm job array: run `index` of a `runs.txt` list.
+    #[command(hide = true)]
+    Task { runs: PathBuf, index: usize },
+}
+
+/// Where a study's runs go: local processes, or a Slurm job array.
+#[derive(clap::Args)]
+struct StudyRuns {
+    /// Runs at once on this machine (default: the cores; 1 gives wall times free of each
+    /// other's load).
+    #[arg(long, conflicts_with = "slurm")]
+    parallel: Option<usize>,
+    /// Instead: write one Slurm job array (a task per run not done yet) to
+    /// `<output>/slurm/array.sbatch` and submit it with `sbatch`; gather the results with
+    /// `mortex study gather <file>` when the tasks ended.
+    #[arg(long)]
+    slurm: bool,
+    /// With --slurm: write the job script without submitting it.
+    #[arg(long, requires = "slurm")]
+    no_submit: bool,
+    /// With --slurm: an extra `#SBATCH` option for the job script (repeatable), e.g.
+    /// `--sbatch=--partition=short --sbatch=--time=01:00:00`.
+    #[arg(long, requires = "slurm", allow_hyphen_values = true)]
+    sbatch: Vec<String>,
 }
 
 // mimalloc keeps freed pages for reuse: the large short-lived buffers of set-up (Delassus
@@ -163,9 +187,13 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run { case, output, quiet, restart, from_step } => run(case, output, quiet, restart, from_step),
         Command::Check { case } => check(case),
-        Command::Study { study: StudyCommand::Sweep { file, parallel } } => study_sweep(&file, parallel),
-        Command::Study { study: StudyCommand::Convergence { file, parallel } } => study_convergence(&file, parallel),
-        Command::Study { study: StudyCommand::Pareto { file, parallel } } => study_pareto(&file, parallel),
+        Command::Study { study: StudyCommand::Sweep { file, runs } } => study_sweep(&file, study_execution(runs)),
+        Command::Study { study: StudyCommand::Convergence { file, runs } } => {
+            study_convergence(&file, study_execution(runs))
+        }
+        Command::Study { study: StudyCommand::Pareto { file, runs } } => study_pareto(&file, study_execution(runs)),
+        Command::Study { study: StudyCommand::Gather { file } } => study_gather(&file),
+        Command::Study { study: StudyCommand::Task { runs, index } } => study_task(&runs, index),
         Command::Plot { result, wear: true, output, .. } => {
             let out = output.unwrap_or_else(|| {
                 let stem = result.file_stem().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
@@ -710,16 +738,68 @@ fn bench_hertz(repeat: usize) -> Result<(), String> {
     Ok(())
 }
 
-/// Runs at once (default: the cores) and the `mortex` binary each study run starts.
-fn study_processes(parallel: Option<usize>) -> Result<(usize, PathBuf), String> {
-    let parallel = parallel.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let exe = std::env::current_exe().map_err(|e| format!("the mortex binary: {e}"))?;
-    Ok((parallel, exe))
+/// The `mortex` binary each study run starts.
+fn study_exe() -> Result<PathBuf, String> {
+    std::env::current_exe().map_err(|e| format!("the mortex binary: {e}"))
 }
 
-fn study_sweep(file: &std::path::Path, parallel: Option<usize>) -> Result<(), String> {
-    let (parallel, exe) = study_processes(parallel)?;
-    let s = cli::study::sweep(file, parallel, &exe).map_err(|e| e.to_string())?;
+/// Where a study's runs go, from its command-line options (local: as many at once as cores).
+fn study_execution(runs: StudyRuns) -> cli::study::Execution {
+    if runs.slurm {
+        return cli::study::Execution::Slurm { submit: !runs.no_submit, sbatch: runs.sbatch };
+    }
+    let parallel = runs.parallel.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    cli::study::Execution::Local { parallel }
+}
+
+/// The study's runs handed to Slurm: what was written and submitted, and how to gather.
+fn report_submitted(file: &std::path::Path, job: &cli::study::SlurmJob) {
+    match (&job.job_id, job.tasks) {
+        (_, 0) => {
+            println!("{}: every run is done: gather with `mortex study gather {}`", file.display(), file.display())
+        }
+        (Some(id), n) => println!(
+            "{}: job array {id} submitted, {n} tasks ({}); when they ended: mortex study gather {}",
+            file.display(),
+            job.script.display(),
+            file.display()
+        ),
+        (None, n) => println!(
+            "{}: {n} tasks written to {} (not submitted: sbatch it); when they ended: mortex study gather {}",
+            file.display(),
+            job.script.display(),
+            file.display()
+        ),
+    }
+}
+
+/// `mortex study gather`: the study kind from its file (`[[knob]]`: convergence; `reference`:
+/// Pareto; else a sweep), gathered without running anything.
+fn study_gather(file: &std::path::Path) -> Result<(), String> {
+    let text = std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
+    let table: toml::Table = toml::from_str(&text).map_err(|e| format!("{}: {}", file.display(), e.message()))?;
+    let exec = cli::study::Execution::Gather;
+    if table.contains_key("knob") {
+        study_convergence(file, exec)
+    } else if table.contains_key("reference") {
+        study_pareto(file, exec)
+    } else {
+        study_sweep(file, exec)
+    }
+}
+
+fn study_task(runs: &std::path::Path, index: usize) -> Result<(), String> {
+    cli::study::task(runs, index, &study_exe()?).map_err(|e| e.to_string())
+}
+
+fn study_sweep(file: &std::path::Path, exec: cli::study::Execution) -> Result<(), String> {
+    let s = match cli::study::sweep(file, &exec, &study_exe()?).map_err(|e| e.to_string())? {
+        cli::study::Outcome::Gathered(s) => s,
+        cli::study::Outcome::Submitted(job) => {
+            report_submitted(file, &job);
+            return Ok(());
+        }
+    };
     println!(
         "{}: {} runs: {} run now, {} done before, {} failed -> {} (+ sweep.md)",
         file.display(),
@@ -735,9 +815,14 @@ fn study_sweep(file: &std::path::Path, parallel: Option<usize>) -> Result<(), St
     Ok(())
 }
 
-fn study_convergence(file: &std::path::Path, parallel: Option<usize>) -> Result<(), String> {
-    let (parallel, exe) = study_processes(parallel)?;
-    let s = cli::convergence::convergence(file, parallel, &exe).map_err(|e| e.to_string())?;
+fn study_convergence(file: &std::path::Path, exec: cli::study::Execution) -> Result<(), String> {
+    let s = match cli::convergence::convergence(file, &exec, &study_exe()?).map_err(|e| e.to_string())? {
+        cli::study::Outcome::Gathered(s) => s,
+        cli::study::Outcome::Submitted(job) => {
+            report_submitted(file, &job);
+            return Ok(());
+        }
+    };
     println!("{}: {} runs: {} run now, {} done before", file.display(), s.runs, s.ran, s.skipped);
     // The finest observed order of each knob and figure.
     let mut last: Vec<(&str, &str, f64)> = Vec::new();
@@ -760,9 +845,14 @@ fn study_convergence(file: &std::path::Path, parallel: Option<usize>) -> Result<
     Ok(())
 }
 
-fn study_pareto(file: &std::path::Path, parallel: Option<usize>) -> Result<(), String> {
-    let (parallel, exe) = study_processes(parallel)?;
-    let s = cli::pareto::pareto(file, parallel, &exe).map_err(|e| e.to_string())?;
+fn study_pareto(file: &std::path::Path, exec: cli::study::Execution) -> Result<(), String> {
+    let s = match cli::pareto::pareto(file, &exec, &study_exe()?).map_err(|e| e.to_string())? {
+        cli::study::Outcome::Gathered(s) => s,
+        cli::study::Outcome::Submitted(job) => {
+            report_submitted(file, &job);
+            return Ok(());
+        }
+    };
     println!("{}: {} runs: {} run now, {} done before", file.display(), s.runs, s.ran, s.skipped);
     if let Some(w) = s.reference_wall_s {
         println!("  reference: {w:.2} s");

@@ -2,7 +2,10 @@
 
 use mortex::analysis::StaticAnalysis;
 use mortex::driver::{run, RunOptions};
-use mortex::wear::{bounded_implicit_jump, implicit_pressure_change, JumpPolicy, JumpScheme, JumpSurface, RateFilter};
+use mortex::wear::{
+    bounded_implicit_jump, implicit_contact_change, implicit_pressure_change, JumpContact, JumpPolicy, JumpScheme,
+    JumpSurface, RateFilter,
+};
 use nalgebra::{DMatrix, DVector, Point2};
 use std::path::Path;
 
@@ -192,6 +195,72 @@ impl Winkler {
         }
         (self.pressure(&w), computed, worst)
     }
+}
+
+/// A unilateral Winkler foundation (the parabolic punch above, `p = kappa max(0, delta - g0 -
+/// w)`, load-controlled) worn in one implicit jump of `a = dN kappa k dS = 1`: the contact
+/// widens, rows open and close. The jump with a free contact set ([`implicit_contact_change`])
+/// is, for this linear foundation, the exact backward-Euler step of the unilateral problem,
+/// whose independent solution is a scalar root (`delta'` from the load, each node's end
+/// pressure `kappa max(0, delta' - g0 - w) / (1 + a)`): equal to 1e-9 (round-off of the
+/// 201-row dense solves). The jump with the set held misses it (checked to fail by > 1%).
+#[test]
+fn implicit_jump_lets_a_worn_contact_widen_exactly() {
+    const KAPPA: f64 = 100.0;
+    const K_DS: f64 = 1e-6;
+    const DN: u64 = 10_000; // a = dN kappa k dS = 1
+    let scene = Winkler::new(KAPPA, K_DS);
+    let n = scene.x.len();
+    // Unilateral pressure for a worn depth `w` and a scaled approach (`1 / (1 + a)` of the
+    // backward-Euler step), `delta` from the load by bisection.
+    let unilateral = |w: &[f64], scale: f64| -> Vec<f64> {
+        let p_of = |delta: f64| -> Vec<f64> {
+            (0..n).map(|i| scale * KAPPA * (delta - scene.g0[i] - w[i]).max(0.0)).collect()
+        };
+        let load = |delta: f64| p_of(delta).iter().zip(&scene.weight).map(|(p, q)| p * q).sum::<f64>();
+        let (mut lo, mut hi) = (0.0, 1.0);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if load(mid) < scene.load {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        p_of(0.5 * (lo + hi))
+    };
+    let w0 = vec![0.0; n];
+    let p0 = unilateral(&w0, 1.0);
+    let a = DN as f64 * KAPPA * K_DS;
+    let exact = unilateral(&w0, 1.0 / (1.0 + a));
+    let delta0 = scene.g0[n / 2] + p0[n / 2] / KAPPA;
+    let closed: Vec<bool> = p0.iter().map(|&p| p > 0.0).collect();
+    let gap: Vec<f64> =
+        (0..n).map(|i| if closed[i] { 0.0 } else { scene.weight[i] * (scene.g0[i] - delta0) }).collect();
+    let rate: Vec<f64> = p0.iter().map(|p| K_DS * p).collect();
+    let verts: Vec<Point2<f64>> = scene.x.iter().map(|&x| Point2::new(x, 0.0)).collect();
+    let filter = RateFilter::new(&verts, false, &scene.weight, &rate, 0.0);
+    let surface = JumpSurface {
+        coupling: DMatrix::from_diagonal(&DVector::from_column_slice(&scene.weight)),
+        phi: scene.weight.clone(),
+        measure: &scene.weight,
+        coefficient: K_DS,
+        work_per_pressure: scene.weight.clone(),
+        rate: &rate,
+        filter: &filter,
+    };
+    let stiffness = scene.stiffness();
+    let contact = JumpContact { pressure: p0.clone(), gap, closed: closed.clone() };
+    let dp = implicit_contact_change(&stiffness, std::slice::from_ref(&surface), DN, &contact).expect("sets settle");
+    let p_end: Vec<f64> = p0.iter().zip(&dp).map(|(p, d)| p + d).collect();
+    let in_contact = |p: &[f64]| p.iter().filter(|&&v| v > 1e-12).count();
+    eprintln!("contact rows: {} before, {} after (exact {})", in_contact(&p0), in_contact(&p_end), in_contact(&exact));
+    assert!(in_contact(&exact) > in_contact(&p0) + 10, "the jump must widen the contact");
+    let err = max_rel(&p_end, &exact);
+    assert!(err < 1e-9, "free contact set against exact backward Euler: {err:e}");
+    let held = implicit_pressure_change(&stiffness, std::slice::from_ref(&surface), DN).expect("regular");
+    let p_held: Vec<f64> = p0.iter().zip(&held).map(|(p, d)| p + d).collect();
+    assert!(max_rel(&p_held, &exact) > 1e-2, "the held set should miss the widening");
 }
 
 fn max_rel(a: &[f64], b: &[f64]) -> f64 {

@@ -749,17 +749,30 @@ impl Condensed {
     }
 
     /// The interface stiffness of a converged state with sets `active` / `status` (see
-    /// [`GapSensitivity`]): one dense solve of the step's interface system per active normal
-    /// row, the gap row's `dw_a = -dg_a` moved to the right-hand side.
+    /// [`GapSensitivity`]): one dense solve of the step's interface system per held normal
+    /// row, the gap row's `dw_a = -dg_a` moved to the right-hand side. Held rows: the active
+    /// ones, and with `open_rows` also every inactive candidate row of the interface set that
+    /// is paired (`int Phi > 0`), held at its gap.
     pub fn gap_sensitivity(
         &self,
         m: &Model,
         disc: &Discretisation,
         active: &[bool],
         status: &[FrictionStatus],
+        open_rows: bool,
     ) -> Option<GapSensitivity> {
         let nt = m.constraints.len();
         let nl = self.live.len();
+        let was_active = active;
+        let mut held = active.to_vec();
+        if open_rows {
+            for &i in &self.live {
+                if i >= nt && i < nt + held.len() && disc.contact.phi[i - nt] > 0.0 {
+                    held[i - nt] = true;
+                }
+            }
+        }
+        let active = &held[..];
         let row_law = row_laws(&disc.contact, active, status);
         let zeros = vec![0.0; row_law.len().max(nl)];
         // Slipping rows keep their shear (the normal-only interface stiffness: symmetric
@@ -786,7 +799,9 @@ impl Condensed {
                 out[(r, c)] = x[b];
             }
         }
-        Some(GapSensitivity { rows: cols.iter().map(|&a| self.live[a] - nt).collect(), dlambda_dgap: out })
+        let rows: Vec<usize> = cols.iter().map(|&a| self.live[a] - nt).collect();
+        let closed = rows.iter().map(|&k| was_active[k]).collect();
+        Some(GapSensitivity { rows, closed, dlambda_dgap: out })
     }
 
     /// Adds multipliers `new` (model order, not yet in the set) with regularisation weight

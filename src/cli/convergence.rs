@@ -16,7 +16,9 @@
 //! is `<output>/convergence.csv` and `.md`, the chart `convergence.png`. The observed order
 //! between two runs `a`, `b` is `ln(e_a / e_b) / ln(h_a / h_b)`.
 
-use super::study::{figures_path, read_figures, read_study, run_all, write_cases, StudyError};
+use super::study::{
+    execute, figures_path, read_figures, read_study, write_cases, Executed, Execution, Outcome, StudyError,
+};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -64,7 +66,7 @@ pub fn observed_order(e_a: f64, h_a: f64, e_b: f64, h_b: f64) -> Option<f64> {
 }
 
 /// Runs the convergence study in `file`, `parallel` runs at once.
-pub fn convergence(file: &Path, parallel: usize, exe: &Path) -> Result<ConvergenceSummary, StudyError> {
+pub fn convergence(file: &Path, exec: &Execution, exe: &Path) -> Result<Outcome<ConvergenceSummary>, StudyError> {
     let name = file.display().to_string();
     let input = |key: &str, msg: String| StudyError::Input { file: name.clone(), key: key.into(), msg };
     let (spec, base) = read_study(file, &input, |s: &ConvergenceFile| (s.case.clone(), s.output.clone()))?;
@@ -99,13 +101,16 @@ pub fn convergence(file: &Path, parallel: usize, exe: &Path) -> Result<Convergen
         runs.extend(k.values.iter().map(|v| vec![(k.key.clone(), v.clone())]));
     }
     let cases = write_cases(&base, &runs, &input)?;
-    let (ran, skipped) = run_all(&cases, parallel.max(1), exe)?;
+    let (ran, skipped) = match execute(&cases, exec, exe, &base.out, file)? {
+        Executed::Ran { ran, skipped } => (ran, skipped),
+        Executed::Submitted(job) => return Ok(Outcome::Submitted(job)),
+    };
     let figures: Vec<Vec<(String, String)>> =
         (0..runs.len()).map(|i| read_figures(&figures_path(&base.out, i)).unwrap_or_default()).collect();
     let rows = rows(&spec.knob, &sizes, &figures);
     let table = write_table(&base.out, &rows)?;
     chart(&base.out, &spec.knob, &rows);
-    Ok(ConvergenceSummary { runs: runs.len(), ran, skipped, rows, table })
+    Ok(Outcome::Gathered(ConvergenceSummary { runs: runs.len(), ran, skipped, rows, table }))
 }
 
 /// The table's rows: per knob, per figure (largest depth and worn area of each surface), per

@@ -18,7 +18,10 @@
 //! against the reference run's. Run 0 is the reference, runs 1.. the grid (folders and resume
 //! as a sweep); the table is `<output>/pareto.csv` and `.md`, the chart `pareto.png`.
 
-use super::study::{figures_path, grid, read_figures, read_study, run_all, write_cases, StudyError, SweepFile, Vary};
+use super::study::{
+    execute, figures_path, grid, read_figures, read_study, write_cases, Executed, Execution, Outcome, StudyError,
+    SweepFile, Vary,
+};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -66,7 +69,7 @@ pub fn pareto_front(points: &[(f64, f64)]) -> Vec<bool> {
 }
 
 /// Runs the Pareto study in `file`, `parallel` runs at once.
-pub fn pareto(file: &Path, parallel: usize, exe: &Path) -> Result<ParetoSummary, StudyError> {
+pub fn pareto(file: &Path, exec: &Execution, exe: &Path) -> Result<Outcome<ParetoSummary>, StudyError> {
     let name = file.display().to_string();
     let input = |key: &str, msg: String| StudyError::Input { file: name.clone(), key: key.into(), msg };
     let (spec, base) = read_study(file, &input, |s: &ParetoFile| (s.case.clone(), s.output.clone()))?;
@@ -80,7 +83,10 @@ pub fn pareto(file: &Path, parallel: usize, exe: &Path) -> Result<ParetoSummary,
         vec![spec.reference.iter().map(|s| (s.key.clone(), s.value.clone())).collect()];
     runs.extend(grid_runs.iter().map(|r| sweep.vary.iter().map(|v| v.key.clone()).zip(r.iter().cloned()).collect()));
     let cases = write_cases(&base, &runs, &input)?;
-    let (ran, skipped) = run_all(&cases, parallel.max(1), exe)?;
+    let (ran, skipped) = match execute(&cases, exec, exe, &base.out, file)? {
+        Executed::Ran { ran, skipped } => (ran, skipped),
+        Executed::Submitted(job) => return Ok(Outcome::Submitted(job)),
+    };
     let figures: Vec<Vec<(String, String)>> =
         (0..runs.len()).map(|i| read_figures(&figures_path(&base.out, i)).unwrap_or_default()).collect();
     let number =
@@ -114,7 +120,7 @@ pub fn pareto(file: &Path, parallel: usize, exe: &Path) -> Result<ParetoSummary,
     let table = write_table(&base.out, &points)?;
     chart(&base.out, &points);
     let reference_wall_s = number(&figures[0], "wall_s");
-    Ok(ParetoSummary { runs: runs.len(), ran, skipped, points, reference_wall_s, table })
+    Ok(Outcome::Gathered(ParetoSummary { runs: runs.len(), ran, skipped, points, reference_wall_s, table }))
 }
 
 fn write_table(out: &Path, points: &[Point]) -> Result<PathBuf, StudyError> {

@@ -21,6 +21,12 @@
 //! (its status, wall time and, per wearing surface, the largest depth and the worn area at the
 //! end). A sweep started again skips the runs that have `figures.csv`: a killed sweep resumes.
 //! The table of all runs is `<output>/sweep.csv` and `sweep.md`.
+//!
+//! Every study runs locally (a process per run, as many at once as asked) or on a Slurm
+//! cluster ([`Execution::Slurm`]): one job array, a task per run not done yet, each task
+//! `mortex study task <output>/slurm/runs.txt <index>`, which runs the case exactly as the local
+//! runner does and writes its `figures.csv`; `mortex study gather <study file>` then builds the
+//! table and chart once the tasks ended. Scaling past one machine is the scheduler's job.
 
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -139,7 +145,7 @@ pub(super) fn write_cases(
 }
 
 /// Runs the sweep in `file` with `parallel` runs at once, `exe` the `mortex` binary.
-pub fn sweep(file: &Path, parallel: usize, exe: &Path) -> Result<SweepSummary, StudyError> {
+pub fn sweep(file: &Path, exec: &Execution, exe: &Path) -> Result<Outcome<SweepSummary>, StudyError> {
     let name = file.display().to_string();
     let input = |key: &str, msg: String| StudyError::Input { file: name.clone(), key: key.into(), msg };
     let (spec, base) = read_study(file, &input, |s: &SweepFile| (s.case.clone(), s.output.clone()))?;
@@ -147,10 +153,13 @@ pub fn sweep(file: &Path, parallel: usize, exe: &Path) -> Result<SweepSummary, S
     let keyed: Vec<Vec<(String, toml::Value)>> =
         runs.iter().map(|r| spec.vary.iter().map(|v| v.key.clone()).zip(r.iter().cloned()).collect()).collect();
     let cases = write_cases(&base, &keyed, &input)?;
-    let (ran, skipped) = run_all(&cases, parallel.max(1), exe)?;
+    let (ran, skipped) = match execute(&cases, exec, exe, &base.out, file)? {
+        Executed::Ran { ran, skipped } => (ran, skipped),
+        Executed::Submitted(job) => return Ok(Outcome::Submitted(job)),
+    };
     let table = gather(&base.out, &spec.vary, &runs)?;
     let failed = (0..runs.len()).filter(|&i| !run_ok(&base.out, i)).count();
-    Ok(SweepSummary { runs: runs.len(), ran, skipped, failed, table })
+    Ok(Outcome::Gathered(SweepSummary { runs: runs.len(), ran, skipped, failed, table }))
 }
 
 /// The runs' values: the grid of the `vary` lists (every combination, the last varying
@@ -373,9 +382,202 @@ fn run_ok(out: &Path, i: usize) -> bool {
     read_figures(&figures_path(out, i)).is_some_and(|f| f.first().is_some_and(|(k, v)| k == "status" && v == "ok"))
 }
 
+/// Where a study's runs go.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Execution {
+    /// Processes on this machine, `parallel` at a time.
+    Local { parallel: usize },
+    /// One Slurm job array, a task per run not done yet, written to `<output>/slurm/` and
+    /// submitted with `sbatch` (`submit` false: written only); `sbatch` holds extra
+    /// `#SBATCH` options (`--partition=...`, `--time=...`).
+    Slurm { submit: bool, sbatch: Vec<String> },
+    /// No run: the runs' figures gathered (after a Slurm array ended); runs not done are an
+    /// error naming them.
+    Gather,
+}
+
+/// A study gathered, or its runs handed to Slurm.
+#[derive(Debug)]
+pub enum Outcome<T> {
+    Gathered(T),
+    Submitted(SlurmJob),
+}
+
+/// A job array written (and submitted, with its job id) for a study's runs.
+#[derive(Debug)]
+pub struct SlurmJob {
+    pub script: PathBuf,
+    /// Array tasks: the runs not done yet.
+    pub tasks: usize,
+    pub job_id: Option<String>,
+}
+
+/// What [`execute`] did: ran (or found done) the runs, or submitted them.
+pub(super) enum Executed {
+    Ran { ran: usize, skipped: usize },
+    Submitted(SlurmJob),
+}
+
+/// The runs of `cases` (those without `figures.csv`) as `exec` says; `out` the study's output
+/// folder, `file` the study file (named in the job script).
+pub(super) fn execute(
+    cases: &[(PathBuf, String)],
+    exec: &Execution,
+    exe: &Path,
+    out: &Path,
+    file: &Path,
+) -> Result<Executed, StudyError> {
+    match exec {
+        Execution::Local { parallel } => {
+            let (ran, skipped) = run_all(cases, (*parallel).max(1), exe)?;
+            Ok(Executed::Ran { ran, skipped })
+        }
+        Execution::Slurm { submit, sbatch } => {
+            slurm_array(cases, exe, out, file, *submit, sbatch).map(Executed::Submitted)
+        }
+        Execution::Gather => {
+            let missing: Vec<usize> =
+                (0..cases.len()).filter(|&i| !cases[i].0.with_file_name("figures.csv").exists()).collect();
+            if let Some(&first) = missing.first() {
+                let shown: Vec<String> = missing.iter().take(8).map(|i| format!("run_{i:04}")).collect();
+                return Err(StudyError::Io {
+                    path: out.display().to_string(),
+                    msg: format!(
+                        "{} of {} runs not done yet ({}{}): their tasks are queued, running or were killed \
+                         (see {}); gather again when they ended, or run the study again to finish them",
+                        missing.len(),
+                        cases.len(),
+                        shown.join(", "),
+                        if missing.len() > shown.len() { ", ..." } else { "" },
+                        slurm_dir(out).join(format!("task_{first}.log")).display()
+                    ),
+                });
+            }
+            Ok(Executed::Ran { ran: 0, skipped: cases.len() })
+        }
+    }
+}
+
+fn slurm_dir(out: &Path) -> PathBuf {
+    out.join("slurm")
+}
+
+/// Array indices as Slurm's range list (`0-3,5,7-9`).
+pub fn array_ranges(indices: &[usize]) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    let mut k = 0;
+    while k < indices.len() {
+        let start = indices[k];
+        let mut end = start;
+        while k + 1 < indices.len() && indices[k + 1] == end + 1 {
+            k += 1;
+            end += 1;
+        }
+        parts.push(if end > start { format!("{start}-{end}") } else { format!("{start}") });
+        k += 1;
+    }
+    parts.join(",")
+}
+
+/// Writes `<out>/slurm/runs.txt` (run `i`'s case on line `i`) and `<out>/slurm/array.sbatch`
+/// (a task per run not done, each `mortex study task`), and submits it with `sbatch --parsable`
+/// when `submit`.
+fn slurm_array(
+    cases: &[(PathBuf, String)],
+    exe: &Path,
+    out: &Path,
+    file: &Path,
+    submit: bool,
+    sbatch: &[String],
+) -> Result<SlurmJob, StudyError> {
+    let dir = slurm_dir(out);
+    std::fs::create_dir_all(&dir).map_err(io_err(&dir))?;
+    let absolute = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+    let list: String = cases.iter().map(|(c, _)| format!("{}\n", absolute(c).display())).collect();
+    let runs = dir.join("runs.txt");
+    std::fs::write(&runs, list).map_err(io_err(&runs))?;
+    let todo: Vec<usize> = (0..cases.len()).filter(|&i| !cases[i].0.with_file_name("figures.csv").exists()).collect();
+    let script = dir.join("array.sbatch");
+    if todo.is_empty() {
+        return Ok(SlurmJob { script, tasks: 0, job_id: None });
+    }
+    let name = file.file_stem().map_or("study".into(), |s| s.to_string_lossy().to_string());
+    let mut text = format!(
+        "#!/bin/bash\n# Written by `mortex study ... --slurm` for {}: one task per run not done yet;\n\
+         # each runs one case as the local runner does. Gather with: mortex study gather {}\n\
+         #SBATCH --job-name=mortex-{name}\n#SBATCH --array={}\n#SBATCH --ntasks=1\n#SBATCH --cpus-per-task=1\n\
+         #SBATCH --output={}/task_%a.log\n",
+        file.display(),
+        file.display(),
+        array_ranges(&todo),
+        absolute(&dir).display()
+    );
+    for option in sbatch {
+        text.push_str(&format!("#SBATCH {option}\n"));
+    }
+    text.push_str(&format!(
+        "exec {:?} study task {:?} \"$SLURM_ARRAY_TASK_ID\"\n",
+        absolute(exe).display().to_string(),
+        absolute(&runs).display().to_string()
+    ));
+    std::fs::write(&script, text).map_err(io_err(&script))?;
+    if !submit {
+        return Ok(SlurmJob { script, tasks: todo.len(), job_id: None });
+    }
+    let output =
+        std::process::Command::new("sbatch").arg("--parsable").arg(&script).output().map_err(|e| StudyError::Io {
+            path: script.display().to_string(),
+            msg: format!("cannot run sbatch ({e}): is Slurm installed here? (--no-submit writes the script only)"),
+        })?;
+    if !output.status.success() {
+        return Err(StudyError::Io {
+            path: script.display().to_string(),
+            msg: format!("sbatch refused the job array: {}", String::from_utf8_lossy(&output.stderr).trim()),
+        });
+    }
+    let id = String::from_utf8_lossy(&output.stdout).trim().split(';').next().unwrap_or("").to_string();
+    Ok(SlurmJob { script, tasks: todo.len(), job_id: Some(id) })
+}
+
+/// One Slurm array task: run `index` of the list `runs` (a `runs.txt` of [`Execution::Slurm`]),
+/// run as the local runner runs it, its `figures.csv` written.
+pub fn task(runs: &Path, index: usize, exe: &Path) -> Result<(), StudyError> {
+    let text = std::fs::read_to_string(runs).map_err(io_err(runs))?;
+    let Some(case) = text.lines().nth(index) else {
+        return Err(StudyError::Input {
+            file: runs.display().to_string(),
+            key: "index".into(),
+            msg: format!("no run {index}: the list has {} runs", text.lines().count()),
+        });
+    };
+    let case = PathBuf::from(case);
+    let t0 = Instant::now();
+    let status = run_process(&case, exe)?.wait().map_err(io_err(exe))?;
+    let dir = case.parent().unwrap_or(Path::new(".")).to_path_buf();
+    write_figures(&dir, status, t0.elapsed().as_secs_f64())
+}
+
+/// `mortex run --quiet <case> -o result.h5` next to the case, its output in `run.log`.
+fn run_process(case: &Path, exe: &Path) -> Result<std::process::Child, StudyError> {
+    let dir = case.parent().unwrap_or(Path::new("."));
+    let log_path = dir.join("run.log");
+    let log = std::fs::File::create(&log_path).map_err(io_err(&log_path))?;
+    let err = log.try_clone().map_err(io_err(&log_path))?;
+    std::process::Command::new(exe)
+        .arg("run")
+        .arg("--quiet")
+        .arg(case)
+        .arg("-o")
+        .arg(dir.join("result.h5"))
+        .stdout(log)
+        .stderr(err)
+        .spawn()
+        .map_err(io_err(exe))
+}
+
 /// Runs every case whose run has no `figures.csv` yet, `parallel` at a time. Returns the runs
 /// started and the runs found done.
-pub(super) fn run_all(cases: &[(PathBuf, String)], parallel: usize, exe: &Path) -> Result<(usize, usize), StudyError> {
+fn run_all(cases: &[(PathBuf, String)], parallel: usize, exe: &Path) -> Result<(usize, usize), StudyError> {
     let mut todo: Vec<usize> =
         (0..cases.len()).filter(|&i| !cases[i].0.with_file_name("figures.csv").exists()).collect();
     let skipped = cases.len() - todo.len();
@@ -392,22 +594,8 @@ pub(super) fn run_all(cases: &[(PathBuf, String)], parallel: usize, exe: &Path) 
     while !todo.is_empty() || !running.is_empty() {
         while running.len() < parallel {
             let Some(i) = todo.pop() else { break };
-            let case = &cases[i].0;
-            let dir = case.parent().unwrap_or(Path::new("."));
-            let log_path = dir.join("run.log");
-            let log = std::fs::File::create(&log_path).map_err(io_err(&log_path))?;
-            let err = log.try_clone().map_err(io_err(&log_path))?;
-            let child = std::process::Command::new(exe)
-                .arg("run")
-                .arg("--quiet")
-                .arg(case)
-                .arg("-o")
-                .arg(dir.join("result.h5"))
-                .stdout(log)
-                .stderr(err)
-                .spawn()
-                .map_err(io_err(exe))?;
-            tracing::info!(run = i, case = %case.display(), "sweep run started");
+            let child = run_process(&cases[i].0, exe)?;
+            tracing::info!(run = i, case = %cases[i].0.display(), "sweep run started");
             running.push((i, child, Instant::now()));
         }
         let mut k = 0;

@@ -13,9 +13,9 @@
 //! state lives in [`WearState`], which a checkpoint saves.
 
 use super::{
-    bounded_implicit_jump, depth_increment, implicit_pressure_change, next_jump, pairing_position, prediction_cap,
-    swept_step_wear, vertex_measure, wear_coupling, wearing_resolution, worn_vertices, ControllerState, JumpPolicy,
-    JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel, PRESSURE_PREDICTION_TOLERANCE,
+    bounded_implicit_jump, depth_increment, implicit_contact_change, next_jump, pairing_position, prediction_cap,
+    swept_step_wear, vertex_measure, wear_coupling, wearing_resolution, worn_vertices, ControllerState, JumpContact,
+    JumpPolicy, JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel, PRESSURE_PREDICTION_TOLERANCE,
 };
 use crate::contact::ContactSet;
 use crate::mesh::Mesh2;
@@ -59,14 +59,18 @@ pub struct WearState {
     pub pairing_guess: Vec<Vec<f64>>,
 }
 
-/// How the multipliers of the active normal rows answer a change of their weighted gaps with
-/// the loads and the contact/friction sets held: `dlambda_A = dlambda_dgap * dg_A`, the
-/// interface stiffness of the converged state (floating bodies held by their loads included:
-/// a uniform gap change of a force-loaded body leaves the total force unchanged).
+/// How the multipliers of a set of normal rows answer a change of their weighted gaps with the
+/// loads and the friction sets held and every row of the set held at its gap:
+/// `dlambda = dlambda_dgap * dg`, the interface stiffness of the converged state (floating
+/// bodies held by their loads included: a uniform gap change of a force-loaded body leaves the
+/// total force unchanged). The set is the rows in contact, and for the wear jump also the open
+/// candidate rows around them (so that the jump can close them).
 #[derive(Debug, Clone, PartialEq)]
 pub struct GapSensitivity {
-    /// Contact normal rows (model contact-row order) in contact.
+    /// Contact normal rows (model contact-row order).
     pub rows: Vec<usize>,
+    /// Per row: in contact in the converged state (false: an open row held at its gap).
+    pub closed: Vec<bool>,
     pub dlambda_dgap: DMatrix<f64>,
 }
 
@@ -341,9 +345,29 @@ fn implicit_correction(
         });
         couplings.push(coupling);
     }
-    let pressure: Vec<f64> = sens.rows.iter().map(|&k| -multipliers[nt + k]).collect();
+    let pressure: Vec<f64> = sens
+        .rows
+        .iter()
+        .zip(&sens.closed)
+        .map(|(&k, &c)| if c { (-multipliers[nt + k]).max(0.0) } else { 0.0 })
+        .collect();
     let weights: Vec<f64> = sens.rows.iter().map(|&k| scene.contact.phi[k]).collect();
-    let solve = |n: u64| implicit_pressure_change(&sens.dlambda_dgap, &surfaces, n);
+    // The weighted gap of the open rows (closed rows: zero, as the solve holds them).
+    let gap: Vec<f64> = sens
+        .rows
+        .iter()
+        .zip(&sens.closed)
+        .map(|(&k, &c)| {
+            if c {
+                0.0
+            } else {
+                let g = scene.contact.g0[k] + scene.contact.rows[k].iter().map(|&(d, v)| v * u[d]).sum::<f64>();
+                g.max(0.0)
+            }
+        })
+        .collect();
+    let contact = JumpContact { pressure: pressure.clone(), gap, closed: sens.closed.clone() };
+    let solve = |n: u64| implicit_contact_change(&sens.dlambda_dgap, &surfaces, n, &contact);
     let mut controller = wear.controller.clone();
     // The last jump's prediction against this cycle: the pressure of every contact row, the
     // worn-area rate of each surface.

@@ -29,15 +29,16 @@
 //!
 //! **Implicit jump** (the default, [`JumpScheme::Implicit`]): the cycle's wear is taken at the
 //! pressure at the *end* of the jump, linearised with the interface stiffness of the cycle's
-//! last converged increment (`dlambda/dg` on the active normal rows, which the condensed solve
-//! has at hand: one small dense solve per active row); see [`implicit_pressure_change`]. On the
-//! Winkler scene it divides the deviation by `1 + a dN` per jump: stable for any `dN`. What
-//! bounds the jump then is accuracy: the pressure change a jump causes, in the mean square over
-//! the contact, at most `pressure_change` (default 0.2) of the pressure
-//! ([`bounded_implicit_jump`]), besides the depth bound and the doubling. The linearisation
-//! keeps the contact set of the computed cycle, which is why the change must stay moderate (at
-//! 0.5 a McColl run loses its contact in one jump: the rows that should join the contact as the
-//! scar deepens cannot in the linear model). The linearisation also keeps each row's slip of the
+//! last converged increment (`dlambda/dg` on the normal rows in contact and the open candidate
+//! rows around them, each held at its gap, which the condensed solve has at hand: one small
+//! dense solve per row); see [`implicit_pressure_change`]. On the Winkler scene it divides the
+//! deviation by `1 + a dN` per jump: stable for any `dN`. The contact set may change over the
+//! jump ([`implicit_contact_change`]: rows whose end pressure would pull open, open rows whose
+//! end gap would penetrate close), so a scar that deepens widens its contact within the jump:
+//! on a unilateral Winkler foundation the jump is the exact backward-Euler step. What bounds the
+//! jump then is accuracy: the pressure change a jump causes, in the mean square over the
+//! contact, at most `pressure_change` (default 0.2) of the pressure
+//! ([`bounded_implicit_jump`]), besides the depth bound and the doubling. The linearisation also keeps each row's slip of the
 //! computed cycle: where the slip distribution changes with the wear (partial slip, whose slip
 //! zone widens as the scar deepens under force control) the jump's predicted wear rate is off at
 //! first order in `dN`. So each jump is checked a posteriori against the next computed cycle,
@@ -638,12 +639,26 @@ pub struct JumpSurface<'a> {
 /// `(I + dN L sum_b G_b F_b M_b^{-1} k_b G_b^T Phi^{-1} c_b) dp = -dN L sum_b G_b r_b`.
 /// For a Winkler foundation (`L = kappa (I - mean)`) this multiplies the pressure deviation by
 /// `1 / (1 + a dN)` per jump, `a = kappa k dS`: stable for any jump, first order, and exact in
-/// the steady state. `None` if the system is singular.
+/// the steady state. The contact set is held (see [`implicit_contact_change`] for the jump that
+/// lets it change). `None` if the system is singular.
 pub fn implicit_pressure_change(dlambda_dgap: &DMatrix<f64>, surfaces: &[JumpSurface], dn: u64) -> Option<Vec<f64>> {
     let na = dlambda_dgap.nrows();
+    let (a, rhs) = implicit_jump_system(dlambda_dgap, surfaces, dn);
+    let dp = DenseLu::new(a)?.solve(&rhs)?;
+    debug_assert_eq!(dp.len(), na);
+    dp.iter().all(|v| v.is_finite()).then(|| dp.iter().copied().collect())
+}
+
+/// `I + dN L H` and `-dN L sum_b G_b r_b` of [`implicit_pressure_change`], with
+/// `H = sum_b G_b F_b M_b^{-1} k_b G_b^T Phi^{-1} c_b` (column r: the gap opening per cycle of
+/// a unit pressure change at row r).
+fn implicit_jump_system(
+    dlambda_dgap: &DMatrix<f64>,
+    surfaces: &[JumpSurface],
+    dn: u64,
+) -> (DMatrix<f64>, DVector<f64>) {
+    let na = dlambda_dgap.nrows();
     let dn = dn as f64;
-    // H = sum_b G_b F_b M_b^{-1} k_b G_b^T Phi^{-1} c_b (column r: the gap opening per cycle of
-    // a unit pressure change at row r), and the gap opening rate sum_b G_b r_b.
     let mut h = DMatrix::<f64>::zeros(na, na);
     let mut gap_rate = DVector::<f64>::zeros(na);
     for sf in surfaces {
@@ -667,8 +682,78 @@ pub fn implicit_pressure_change(dlambda_dgap: &DMatrix<f64>, surfaces: &[JumpSur
     }
     let a = DMatrix::identity(na, na) + dlambda_dgap * h * dn;
     let rhs = -(dlambda_dgap * gap_rate) * dn;
-    let dp = DenseLu::new(a)?.solve(&rhs)?;
-    dp.iter().all(|v| v.is_finite()).then(|| dp.iter().copied().collect())
+    (a, rhs)
+}
+
+/// The interface at the start of a jump, per row of the stiffness: its pressure `p >= 0` and
+/// weighted gap `g >= 0` (zero where the row is closed).
+#[derive(Debug, Clone, PartialEq)]
+pub struct JumpContact {
+    pub pressure: Vec<f64>,
+    pub gap: Vec<f64>,
+    /// In contact at the start (the others are open rows held at their gap by the stiffness).
+    pub closed: Vec<bool>,
+}
+
+/// Passes of the contact-set iteration of [`implicit_contact_change`] before it gives up.
+pub const MAX_JUMP_CONTACT_ITERATIONS: usize = 30;
+
+/// The end-of-jump pressure change of [`implicit_pressure_change`] with the contact set free to
+/// change over the jump: a wear jump widens a worn contact (its edge rows close) and unloads
+/// rows the wear has hollowed (they open), which a held set gets wrong in sign at the edge.
+/// With the rows' gap change `dG` (the stiffness `L` holds every row at its gap, so
+/// `dp = -L (dg_wear - dG)`), the end state is complementary: closed rows keep `G + dG = 0`
+/// with `p + dp >= 0`, open rows carry `p + dp = 0` with `G + dG >= 0`. Unknowns `dp` on the
+/// closed rows and `dG` on the open ones:
+/// `(I + dN L H)[:, C] dp_C - L[:, O] dG_O = -dN L G r + (I + dN L H)[:, O] p_O - L[:, C] G_C`,
+/// the sets updated (a closed row pulling opens, an open row penetrating closes) until they
+/// hold (a primal-dual active set on the linear complementarity problem). Returns `dp` on every
+/// row (`-p` on the rows that end open); `None` if a system is singular or the sets cycle.
+pub fn implicit_contact_change(
+    dlambda_dgap: &DMatrix<f64>,
+    surfaces: &[JumpSurface],
+    dn: u64,
+    contact: &JumpContact,
+) -> Option<Vec<f64>> {
+    let na = dlambda_dgap.nrows();
+    debug_assert!(contact.pressure.len() == na && contact.gap.len() == na && contact.closed.len() == na);
+    let (a, b) = implicit_jump_system(dlambda_dgap, surfaces, dn);
+    let (p, g) = (&contact.pressure, &contact.gap);
+    let p_max = p.iter().fold(0.0_f64, |m, &v| m.max(v));
+    let g_scale = g.iter().fold(0.0_f64, |m, &v| m.max(v.abs())).max(f64::MIN_POSITIVE);
+    let mut closed = contact.closed.clone();
+    for _ in 0..MAX_JUMP_CONTACT_ITERATIONS {
+        let mut m = DMatrix::<f64>::zeros(na, na);
+        let mut rhs = b.clone();
+        for r in 0..na {
+            if closed[r] {
+                m.set_column(r, &a.column(r));
+                rhs -= dlambda_dgap.column(r) * g[r];
+            } else {
+                m.set_column(r, &(-dlambda_dgap.column(r)));
+                rhs += a.column(r) * p[r];
+            }
+        }
+        let x = DenseLu::new(m)?.solve(&rhs)?;
+        if x.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let dp: Vec<f64> = (0..na).map(|r| if closed[r] { x[r] } else { -p[r] }).collect();
+        let mut changed = false;
+        for r in 0..na {
+            if closed[r] && p[r] + dp[r] < -1e-12 * p_max {
+                closed[r] = false;
+                changed = true;
+            } else if !closed[r] && g[r] + x[r] < -1e-12 * g_scale {
+                closed[r] = true;
+                changed = true;
+            }
+        }
+        if !changed {
+            return Some(dp);
+        }
+    }
+    None
 }
 
 /// Largest `a * dN` the adaptive controller allows (`1 - a dN >= 0`: the deviation from the
