@@ -196,7 +196,7 @@ fn kill_during_wear(finite: bool) {
         .replace("divisions = [30, 160]", "divisions = [14, 60]")
         .replace("divisions = [120, 30]", "divisions = [50, 12]")
         .replace("cycles = 18000", "cycles = 400")
-        .replace("checkpoint_every = 200", "checkpoint_every = 1");
+        .replace("checkpoint_every = 100", "checkpoint_every = 1");
     assert!(text.contains("cycles = 400") && text.contains("divisions = [14, 60]"));
     let case = tmpfile(&format!("kill_wear{tag}.toml"));
     std::fs::write(&case, text).unwrap();

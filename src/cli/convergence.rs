@@ -27,6 +27,8 @@ use std::path::{Path, PathBuf};
 struct ConvergenceFile {
     case: PathBuf,
     output: Option<PathBuf>,
+    /// Keys set in every run (the study's base case).
+    set: Option<toml::Table>,
     knob: Vec<Knob>,
 }
 
@@ -69,7 +71,8 @@ pub fn observed_order(e_a: f64, h_a: f64, e_b: f64, h_b: f64) -> Option<f64> {
 pub fn convergence(file: &Path, exec: &Execution, exe: &Path) -> Result<Outcome<ConvergenceSummary>, StudyError> {
     let name = file.display().to_string();
     let input = |key: &str, msg: String| StudyError::Input { file: name.clone(), key: key.into(), msg };
-    let (spec, base) = read_study(file, &input, |s: &ConvergenceFile| (s.case.clone(), s.output.clone()))?;
+    let (spec, base) =
+        read_study(file, &input, |s: &ConvergenceFile| (s.case.clone(), s.output.clone(), s.set.clone()))?;
     if spec.knob.is_empty() {
         return Err(input("knob", "nothing to refine: give at least one [[knob]] with a key and values".into()));
     }

@@ -30,6 +30,8 @@ use std::path::{Path, PathBuf};
 struct ParetoFile {
     case: PathBuf,
     output: Option<PathBuf>,
+    /// Keys set in every run (the study's base case).
+    set: Option<toml::Table>,
     reference: Vec<Setting>,
     vary: Vec<Vary>,
 }
@@ -72,12 +74,19 @@ pub fn pareto_front(points: &[(f64, f64)]) -> Vec<bool> {
 pub fn pareto(file: &Path, exec: &Execution, exe: &Path) -> Result<Outcome<ParetoSummary>, StudyError> {
     let name = file.display().to_string();
     let input = |key: &str, msg: String| StudyError::Input { file: name.clone(), key: key.into(), msg };
-    let (spec, base) = read_study(file, &input, |s: &ParetoFile| (s.case.clone(), s.output.clone()))?;
+    let (spec, base) = read_study(file, &input, |s: &ParetoFile| (s.case.clone(), s.output.clone(), s.set.clone()))?;
     if spec.reference.is_empty() {
         return Err(input("reference", "give the converged setting: [{ key = ..., value = ... }]".into()));
     }
-    let sweep =
-        SweepFile { case: spec.case, output: spec.output, sampling: None, samples: None, seed: None, vary: spec.vary };
+    let sweep = SweepFile {
+        case: spec.case,
+        output: spec.output,
+        set: None,
+        sampling: None,
+        samples: None,
+        seed: None,
+        vary: spec.vary,
+    };
     let grid_runs = grid(&sweep, &base.table, &input)?;
     let mut runs: Vec<Vec<(String, toml::Value)>> =
         vec![spec.reference.iter().map(|s| (s.key.clone(), s.value.clone())).collect()];

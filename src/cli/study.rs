@@ -49,6 +49,8 @@ pub enum StudyError {
 pub(super) struct SweepFile {
     pub(super) case: PathBuf,
     pub(super) output: Option<PathBuf>,
+    /// Keys set in every run (`"steps.cycles" = 1000`): the study's base case.
+    pub(super) set: Option<toml::Table>,
     /// `"grid"` (default: every combination of the `values`) or `"latin_hypercube"` (`samples`
     /// runs over the `range`s, seeded by `seed`).
     pub(super) sampling: Option<String>,
@@ -91,22 +93,25 @@ pub(super) struct Base {
     pub(super) out: PathBuf,
 }
 
-/// Reads a study file as `T` and its base case (`case`, relative to the study file); `output`
-/// defaults to `results/<study file stem>`.
+/// Reads a study file as `T` and its base case (`case`, relative to the study file, with the
+/// study's `set` keys applied); `output` defaults to `results/<study file stem>`.
 pub(super) fn read_study<T: serde::de::DeserializeOwned>(
     file: &Path,
     input: &dyn Fn(&str, String) -> StudyError,
-    case_and_output: impl Fn(&T) -> (PathBuf, Option<PathBuf>),
+    case_output_set: impl Fn(&T) -> (PathBuf, Option<PathBuf>, Option<toml::Table>),
 ) -> Result<(T, Base), StudyError> {
     let text = std::fs::read_to_string(file).map_err(io_err(file))?;
     let spec: T = toml::from_str(&text).map_err(|e| input("(file)", e.message().to_string()))?;
-    let (case, output) = case_and_output(&spec);
+    let (case, output, set) = case_output_set(&spec);
     let dir = file.parent().unwrap_or(Path::new("."));
     let case_path = dir.join(case);
     let case_text =
         std::fs::read_to_string(&case_path).map_err(|e| input("case", format!("{}: {e}", case_path.display())))?;
-    let table: toml::Table =
+    let mut table: toml::Table =
         toml::from_str(&case_text).map_err(|e| input("case", format!("{}: {}", case_path.display(), e.message())))?;
+    for (key, value) in set.unwrap_or_default() {
+        set_key(&mut table, &key, value).map_err(|msg| input(&format!("set.{key}"), msg))?;
+    }
     let stem = file.file_stem().map_or("study".into(), |s| s.to_string_lossy().to_string());
     let out = output.map_or_else(|| PathBuf::from("results").join(&stem), |o| dir.join(o));
     let case_dir = case_path.parent().unwrap_or(Path::new(".")).to_path_buf();
@@ -148,7 +153,7 @@ pub(super) fn write_cases(
 pub fn sweep(file: &Path, exec: &Execution, exe: &Path) -> Result<Outcome<SweepSummary>, StudyError> {
     let name = file.display().to_string();
     let input = |key: &str, msg: String| StudyError::Input { file: name.clone(), key: key.into(), msg };
-    let (spec, base) = read_study(file, &input, |s: &SweepFile| (s.case.clone(), s.output.clone()))?;
+    let (spec, base) = read_study(file, &input, |s: &SweepFile| (s.case.clone(), s.output.clone(), s.set.clone()))?;
     let runs = grid(&spec, &base.table, &input)?;
     let keyed: Vec<Vec<(String, toml::Value)>> =
         runs.iter().map(|r| spec.vary.iter().map(|v| v.key.clone()).zip(r.iter().cloned()).collect()).collect();
