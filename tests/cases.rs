@@ -311,3 +311,65 @@ fn moving_contact_case() {
     let v = read2(&f, &format!("steps/{steps:06}/surfaces/surface/vertices"));
     assert!((v[[0, 0]] + 1.0).abs() < 1e-12 && (v[[0, 1]] - 1.63).abs() < 1e-12, "{v:?}");
 }
+
+/// Sliding wear of a punch track (`sliding_wear`, see its header): after the first cycle the
+/// middle of the track has worn 2 k P = 10 um (exact for Archard's law; 0.5%: the engine gives
+/// 0.1% for |x| <= 0.5 mm, the rate filter rounds the plateau's shoulders); the worn area is
+/// k P 6 mm per cycle (0.5%: the slip is the stroke less the elastic shear, tiny here); between
+/// cycles 10 and 20 the middle wears at 1.5 k P per cycle, the area rate over the punch's reach
+/// once the groove is flat under it (5%: the groove's ends, grazed only at the stroke ends, are
+/// not quite flat yet); the groove ends at least two and a half element layers deep.
+#[test]
+fn sliding_wear_case() {
+    const K: f64 = 1e-4;
+    const P: f64 = 50.0;
+    const LAYER: f64 = 1.037 / 20.0;
+    let out = run_case("sliding_wear");
+    let f = hdf5::File::open(&out).unwrap();
+    let cycles = f.dataset("wear/cycle").unwrap().read_raw::<u64>().unwrap();
+    let depth = read2(&f, "wear/track/depth");
+    let x: Vec<f64> = f.dataset("wear/track/vertices").unwrap().read_dyn::<f64>().unwrap().slice(ndarray::s![0, .., 0]).to_vec();
+    let area = f.dataset("wear/track/worn_area").unwrap().read_raw::<f64>().unwrap();
+    let row = |c: u64| cycles.iter().position(|&v| v == c).unwrap_or_else(|| panic!("no wear update at cycle {c}"));
+    let middle = |r: usize, half: f64| -> Vec<f64> {
+        x.iter().zip(depth.row(r)).filter(|(x, _)| x.abs() <= half).map(|(_, d)| *d).collect()
+    };
+    for d in middle(row(1), 0.5) {
+        assert!((d / (2.0 * K * P) - 1.0).abs() < 5e-3, "first cycle: depth {d} against 2 k P");
+    }
+    let last = cycles.len() - 1;
+    assert_eq!(cycles[last], 20);
+    assert!((area[last] / (K * P * 6.0 * 20.0) - 1.0).abs() < 5e-3, "worn area {}", area[last]);
+    let mean = |v: Vec<f64>| v.iter().sum::<f64>() / v.len() as f64;
+    let rate = (mean(middle(last, 0.9)) - mean(middle(row(10), 0.9))) / 10.0;
+    assert!((rate / (1.5 * K * P) - 1.0).abs() < 0.05, "late wear rate {rate} against 1.5 k P");
+    let deepest = depth.row(last).iter().fold(0.0_f64, |a, &b| a.max(b));
+    assert!(deepest > 2.5 * LAYER, "groove {deepest} mm deep: less than 2.5 layers of {LAYER}");
+}
+
+/// Hertz line contact (`hertz`, see its header): the peak pressure and the contact half-width
+/// (from the load and the peak, `a = 2 P / (pi p_max)`) against Johnson's `p0` and `a`, 1% each
+/// (the block is a finite 40 x 20 mm body, about 0.2% stiffer than the half-space at this `a`;
+/// the contact has about 20 multiplier nodes); and the pressure integrates to P (0.5%).
+#[test]
+fn hertz_case() {
+    const P: f64 = 100.0;
+    const R: f64 = 10.0;
+    let e_star = 210_000.0 / (2.0 * (1.0 - 0.3 * 0.3));
+    let a = (4.0 * P * R / (std::f64::consts::PI * e_star)).sqrt();
+    let p0 = 2.0 * P / (std::f64::consts::PI * a);
+    let out = run_case("hertz");
+    let f = hdf5::File::open(&out).unwrap();
+    let last = f.group("steps").unwrap().member_names().unwrap().into_iter().max().unwrap();
+    let c = format!("steps/{last}/contacts/hertz");
+    let p = f.dataset(&format!("{c}/pressure")).unwrap().read_raw::<f64>().unwrap();
+    let pos = read2(&f, &format!("{c}/position"));
+    let mut prof: Vec<(f64, f64)> = (0..p.len()).map(|l| (pos[[l, 0]], p[l])).collect();
+    prof.sort_by(|u, v| u.0.total_cmp(&v.0));
+    let load: f64 = prof.windows(2).map(|w| 0.5 * (w[0].1 + w[1].1) * (w[1].0 - w[0].0)).sum();
+    let peak = prof.iter().map(|q| q.1).fold(0.0, f64::max);
+    let a_fit = 2.0 * load / (std::f64::consts::PI * peak);
+    assert!((load / P - 1.0).abs() < 5e-3, "load {load}");
+    assert!((peak / p0 - 1.0).abs() < 0.01, "p_max {peak} against p0 {p0}");
+    assert!((a_fit / a - 1.0).abs() < 0.01, "a {a_fit} against {a}");
+}
