@@ -328,7 +328,8 @@ fn sliding_wear_case() {
     let f = hdf5::File::open(&out).unwrap();
     let cycles = f.dataset("wear/cycle").unwrap().read_raw::<u64>().unwrap();
     let depth = read2(&f, "wear/track/depth");
-    let x: Vec<f64> = f.dataset("wear/track/vertices").unwrap().read_dyn::<f64>().unwrap().slice(ndarray::s![0, .., 0]).to_vec();
+    let x: Vec<f64> =
+        f.dataset("wear/track/vertices").unwrap().read_dyn::<f64>().unwrap().slice(ndarray::s![0, .., 0]).to_vec();
     let area = f.dataset("wear/track/worn_area").unwrap().read_raw::<f64>().unwrap();
     let row = |c: u64| cycles.iter().position(|&v| v == c).unwrap_or_else(|| panic!("no wear update at cycle {c}"));
     let middle = |r: usize, half: f64| -> Vec<f64> {

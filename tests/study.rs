@@ -24,6 +24,20 @@ fn scratch(name: &str) -> PathBuf {
     d
 }
 
+/// A sweep file over `uniform_wear`: the wear coefficient and, when given, the cycles.
+fn uniform_sweep(dir: &Path, k: &str, cycles: Option<&str>) -> PathBuf {
+    let file = dir.join("sweep.toml");
+    let mut text = format!(
+        "case = {:?}\noutput = \"out\"\n[[vary]]\nkey = \"wear[0].coefficient\"\nvalues = [{k}]\n",
+        case().display().to_string()
+    );
+    if let Some(n) = cycles {
+        text.push_str(&format!("[[vary]]\nkey = \"steps.cycles\"\nvalues = [{n}]\n"));
+    }
+    std::fs::write(&file, text).unwrap();
+    file
+}
+
 fn sweep(file: &Path) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_mortex"))
         .args(["study", "sweep"])
@@ -41,13 +55,7 @@ fn sweep(file: &Path) -> std::process::Output {
 #[test]
 fn sweep_gathers_exact_wear_and_resumes_without_running_again() {
     let dir = scratch("grid");
-    let file = dir.join("sweep.toml");
-    let text = format!(
-        "case = {:?}\noutput = \"out\"\n[[vary]]\nkey = \"wear[0].coefficient\"\nvalues = [1e-3, 2e-3]\n\
-         [[vary]]\nkey = \"steps.cycles\"\nvalues = [5, 10]\n",
-        case().display().to_string()
-    );
-    std::fs::write(&file, text).unwrap();
+    let file = uniform_sweep(&dir, "1e-3, 2e-3", Some("5, 10"));
     let out = sweep(&file);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(String::from_utf8_lossy(&out.stdout).contains("4 runs: 4 run now, 0 done before, 0 failed"));
@@ -257,13 +265,7 @@ fn mortex(args: &[&str]) -> std::process::Output {
 #[test]
 fn slurm_job_array_tasks_then_gather_give_the_local_table() {
     let dir = scratch("slurm");
-    let file = dir.join("sweep.toml");
-    let text = format!(
-        "case = {:?}\noutput = \"out\"\n[[vary]]\nkey = \"wear[0].coefficient\"\nvalues = [1e-3, 2e-3]\n\
-         [[vary]]\nkey = \"steps.cycles\"\nvalues = [5]\n",
-        case().display().to_string()
-    );
-    std::fs::write(&file, text).unwrap();
+    let file = uniform_sweep(&dir, "1e-3, 2e-3", Some("5"));
     let f = file.to_str().unwrap();
     let out = mortex(&["study", "sweep", f, "--slurm", "--no-submit", "--sbatch=--time=00:10:00"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
@@ -318,12 +320,7 @@ fn slurm_cluster_runs_the_job_array() {
         return;
     }
     let dir = scratch("slurm-cluster");
-    let file = dir.join("sweep.toml");
-    let text = format!(
-        "case = {:?}\noutput = \"out\"\n[[vary]]\nkey = \"wear[0].coefficient\"\nvalues = [1e-3, 3e-3]\n",
-        case().display().to_string()
-    );
-    std::fs::write(&file, text).unwrap();
+    let file = uniform_sweep(&dir, "1e-3, 3e-3", None);
     let f = file.to_str().unwrap();
     let out = mortex(&["study", "sweep", f, "--slurm", "--sbatch=--time=00:05:00"]);
     let stdout = String::from_utf8_lossy(&out.stdout).to_string();
