@@ -275,6 +275,50 @@ fn density_explore() {
     }
 }
 
+/// Stability where the classical space fails, on a curved contact: the cylinder (which carries
+/// the multipliers) 1, 2, 4, 8 and 12 times finer than the block's 0.005 mm segments under the
+/// contact; largest deviation of the nodal pressure from Hertz over |x| <= 0.9 a, over p0, for
+/// both multiplier spaces. Prints the table and draws `results/stability/curved_contact.png`.
+/// Checks what the chart shows: the classical deviation grows with every step of contrast
+/// (0.7% to 5.7% of p0); the coarse-grained one does not grow (at 12x within 10% of its 2x
+/// value) and is below half the classical one from 4x on. (It stays near 2% of p0 at 2x and
+/// 12x, 2.07% and 2.09%: the 2% the 8x test asks for is missed there by a hair.)
+#[test]
+#[ignore]
+fn stability_density_contrast_curved_contact() {
+    use mortex::io::plot::{write_xy_png, Series};
+    let mut classical = Vec::new();
+    let mut coarse = Vec::new();
+    for refine in [1.0, 2.0, 4.0, 8.0, 12.0] {
+        let (c, nc) = density_deviation(0.005, refine, false, MultiplierSpace::Classical, 0.9);
+        let (g, ng) = density_deviation(0.005, refine, false, MultiplierSpace::CoarseGrained, 0.9);
+        eprintln!(
+            "cylinder {refine:4}x finer: classical {:.2}% ({nc} multipliers), coarse-grained {:.2}% ({ng}) of p0",
+            100.0 * c,
+            100.0 * g
+        );
+        classical.push((refine, 100.0 * c));
+        coarse.push((refine, 100.0 * g));
+    }
+    let out = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("results/stability");
+    std::fs::create_dir_all(&out).unwrap();
+    let series = vec![
+        Series { label: "classical".into(), points: classical.clone(), joined: true },
+        Series { label: "coarse-grained".into(), points: coarse.clone(), joined: true },
+    ];
+    let title = "Hertz contact, cylinder finer than the block: pressure deviation".to_string();
+    write_xy_png(
+        &[(title, "cylinder / block element size ratio".into(), "max |p - p_Hertz| / p0 (%)".into(), series)],
+        &out.join("curved_contact.png"),
+    )
+    .unwrap();
+    assert!(classical.windows(2).all(|w| w[1].1 > w[0].1), "classical should grow: {classical:?}");
+    assert!(coarse[4].1 <= 1.1 * coarse[1].1, "coarse-grained grows: {coarse:?}");
+    for k in 2..5 {
+        assert!(coarse[k].1 < 0.5 * classical[k].1, "at {}x: {coarse:?} against {classical:?}", coarse[k].0);
+    }
+}
+
 /// Pressure L2 error at block core h = 0.005 mm against the cylinder's refinement (README):
 /// refining only the multiplier side does not lower it (1:3 oscillates, classical multipliers).
 #[test]

@@ -238,11 +238,18 @@ fn coarse_grained_multipliers_remove_density_contrast_oscillation() {
     }
 }
 
+/// Stability where the classical space fails, for tying: the circular inclusion's traction
+/// oscillation against the host/patch density ratio (1:1 to 1:20), both spaces, same and stiff
+/// (10x) patch, tension and bending. Prints the table and draws
+/// `results/stability/tying.png` (one panel per load and material).
 #[test]
 #[ignore]
 fn density_contrast_table() {
+    use mortex::io::plot::{write_xy_png, Series};
+    let mut panels = Vec::new();
     for load in ["tension", "bending"] {
         for e_patch in [E, 10.0 * E] {
+            let (mut classical, mut coarse) = (Vec::new(), Vec::new());
             for ratio in [1, 5, 10, 20] {
                 let (c, nc) = inclusion_oscillation(ratio, MultiplierSpace::Classical, e_patch, load);
                 let (g, ng) = inclusion_oscillation(ratio, MultiplierSpace::CoarseGrained, e_patch, load);
@@ -252,9 +259,23 @@ fn density_contrast_table() {
                     c,
                     g
                 );
+                classical.push((ratio as f64, c));
+                coarse.push((ratio as f64, g));
             }
+            panels.push((
+                format!("tied inclusion, {load}, E_patch = {} E_host", e_patch / E),
+                "patch finer than the host by".to_string(),
+                "traction oscillation / mean".to_string(),
+                vec![
+                    Series { label: "classical".into(), points: classical, joined: true },
+                    Series { label: "coarse-grained".into(), points: coarse, joined: true },
+                ],
+            ));
         }
     }
+    let out = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("results/stability");
+    std::fs::create_dir_all(&out).unwrap();
+    write_xy_png(&panels, &out.join("tying.png")).unwrap();
 }
 
 /// Cantilever beam 20 x 2 mm (plane strain), clamped at x = 0, shear load 10 N/mm on x = 20.
