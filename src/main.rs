@@ -65,6 +65,13 @@ enum Command {
         /// against cycles); PNG default <result>_wear.png.
         #[arg(long, conflicts_with_all = ["step", "pair", "xlim"])]
         wear: bool,
+        /// Instead: the pressure at every increment (stroke position) of the recorded cycle
+        /// nearest to this one, a panel each; PNG default <result>_cycle<N>.png.
+        #[arg(long, conflicts_with_all = ["step", "xlim", "wear"])]
+        cycle: Option<u64>,
+        /// With --cycle: a reference run (e.g. without cycle jumps) drawn in each panel.
+        #[arg(long, requires = "cycle")]
+        reference: Option<PathBuf>,
     },
     /// Validate a case without running it and summarise what it defines.
     Check { case: PathBuf },
@@ -201,6 +208,15 @@ fn main() -> ExitCode {
             });
             mortex::io::plot::write_wear_png(&result, &out)
                 .map(|n| println!("{} worn surface(s) -> {}", n, out.display()))
+                .map_err(|e| e.to_string())
+        }
+        Command::Plot { result, cycle: Some(cycle), reference, pair, output, .. } => {
+            let out = output.unwrap_or_else(|| {
+                let stem = result.file_stem().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+                result.with_file_name(format!("{stem}_cycle{cycle}.png"))
+            });
+            mortex::io::plot::write_cycle_png(&result, cycle, reference.as_deref(), pair.as_deref(), &out)
+                .map(|(found, n)| println!("cycle {found}: {n} increments -> {}", out.display()))
                 .map_err(|e| e.to_string())
         }
         Command::Plot { result, step, pair, output, xlim, .. } => plot(result, step, pair, output, xlim),

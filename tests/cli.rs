@@ -313,6 +313,33 @@ fn plot_contact_profile_png() {
     }
 }
 
+/// `mortex plot --cycle`: the pressure at every increment of the recorded cycle nearest to the
+/// one asked, one 900 x 380 panel per increment (uniform_wear: 4 increments per cycle), with a
+/// reference run drawn beside it; a run without cycles or without contact is a clear error.
+#[test]
+fn plot_pressure_over_a_cycle_png() {
+    let d = tmpdir("plot_cycle");
+    let case = Path::new(env!("CARGO_MANIFEST_DIR")).join("wear_cases/uniform_wear.toml");
+    let (ok, text) = run(&["run", case.to_str().unwrap(), "--quiet", "-o", "uw.h5"], &d);
+    assert!(ok, "{text}");
+    let (ok, text) = run(&["plot", "uw.h5", "--cycle", "7", "--reference", "uw.h5"], &d);
+    assert!(ok && text.contains("cycle 7: 4 increments"), "{text}");
+    let bytes = std::fs::read(d.join("uw_cycle7.png")).unwrap();
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "PNG signature");
+    let dim = |k: usize| u32::from_be_bytes([bytes[k], bytes[k + 1], bytes[k + 2], bytes[k + 3]]);
+    assert_eq!((dim(16), dim(20)), (900, 4 * 380), "IHDR size");
+    std::fs::write(d.join("good.toml"), GOOD).unwrap();
+    assert!(run(&["run", "good.toml", "--quiet", "-o", "plain.h5"], &d).0);
+    for (args, needle) in [
+        (vec!["plot", "plain.h5", "--cycle", "1"], "no contact pair"),
+        (vec!["plot", "uw.h5", "--cycle", "1", "--pair", "nope"], "no contact pair 'nope'"),
+        (vec!["plot", "uw.h5", "--cycle", "1", "--reference", "missing.h5"], "missing.h5"),
+    ] {
+        let (ok, text) = run(&args, &d);
+        assert!(!ok && text.contains(needle) && !text.contains("panicked"), "{args:?}:\n{text}");
+    }
+}
+
 /// A contact step that cannot converge (two Newton iterations allowed, no cut-back) is a typed
 /// error naming the step, iteration, residual and the size of the active contact set.
 #[test]

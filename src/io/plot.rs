@@ -428,3 +428,103 @@ pub fn write_xy_png(panels: &[(String, String, String, Vec<Series>)], out: &Path
     }
     root.present().map_err(|e| draw_err(&e))
 }
+
+/// The contact pressure of one recorded cycle of a cyclic run: `pair`'s profile (the only pair
+/// if `None`) at each increment of the recorded cycle nearest to `cycle`, in x order.
+/// Returns the cycle found and `(increment, x, pressure)` per increment.
+#[allow(clippy::type_complexity)]
+pub fn read_cycle_pressure(
+    path: &Path,
+    cycle: u64,
+    pair: Option<&str>,
+) -> Result<(u64, Vec<(u64, Vec<f64>, Vec<f64>)>), PlotError> {
+    let err = |msg: String| PlotError::Input { path: path.display().to_string(), msg };
+    let file = hdf5::File::open(path).map_err(|e| err(format!("cannot open: {e}")))?;
+    let series = file.group("series").map_err(|_| err("no /series group: not a result file".into()))?;
+    let read_u64 = |name: &str| -> Result<Vec<u64>, PlotError> {
+        series.dataset(name).and_then(|d| d.read_raw()).map_err(|e| err(format!("series/{name}: {e}")))
+    };
+    let (cycles, increments) = (read_u64("cycle")?, read_u64("increment")?);
+    let contacts = series.group("contacts").map_err(|_| err("no contact pair in the series".into()))?;
+    // Pairs are the groups (a friction run also keeps its dissipation there).
+    let names: Vec<String> = contacts
+        .groups()
+        .map_err(|e| err(e.to_string()))?
+        .iter()
+        .map(|g| g.name().rsplit('/').next().unwrap_or_default().to_string())
+        .collect();
+    let name = match pair {
+        Some(p) if names.iter().any(|n| n == p) => p.to_string(),
+        Some(p) => return Err(err(format!("no contact pair '{p}' (pairs: {})", names.join(", ")))),
+        None if names.len() == 1 => names[0].clone(),
+        None => return Err(err(format!("several contact pairs: choose one with --pair ({})", names.join(", ")))),
+    };
+    let g = contacts.group(&name).map_err(|e| err(e.to_string()))?;
+    let pressure: ndarray::Array2<f64> =
+        g.dataset("pressure").and_then(|d| d.read_2d()).map_err(|e| err(e.to_string()))?;
+    let position: ndarray::Array3<f64> =
+        g.dataset("position").and_then(|d| d.read()).map_err(|e| err(e.to_string()))?;
+    let found = cycles
+        .iter()
+        .filter(|&&c| c > 0)
+        .min_by_key(|&&c| c.abs_diff(cycle))
+        .copied()
+        .ok_or_else(|| err("no cycle recorded: not a cyclic run".into()))?;
+    let mut out = Vec::new();
+    for s in (0..cycles.len()).filter(|&s| cycles[s] == found && s < pressure.nrows()) {
+        let mut nodes: Vec<(f64, f64)> =
+            (0..pressure.ncols()).map(|l| (position[[s, l, 0]], pressure[[s, l]])).collect();
+        nodes.sort_by(|a, b| a.0.total_cmp(&b.0));
+        out.push((increments[s], nodes.iter().map(|n| n.0).collect(), nodes.iter().map(|n| n.1).collect()));
+    }
+    Ok((found, out))
+}
+
+/// `mortex plot --cycle`: the pressure at every increment (stroke position) of the recorded
+/// cycle nearest to `cycle`, one panel per increment, with the same increments of a
+/// `reference` run (e.g. one without cycle jumps) at its recorded cycle nearest to the one
+/// found. Returns the cycle drawn and the panels.
+pub fn write_cycle_png(
+    path: &Path,
+    cycle: u64,
+    reference: Option<&Path>,
+    pair: Option<&str>,
+    out: &Path,
+) -> Result<(u64, usize), PlotError> {
+    let (found, profiles) = read_cycle_pressure(path, cycle, pair)?;
+    let reference = match reference {
+        Some(r) => Some(read_cycle_pressure(r, found, pair)?),
+        None => None,
+    };
+    // x range: where any drawn profile carries pressure, widened by half its width each side.
+    let all = profiles.iter().chain(reference.iter().flat_map(|r| r.1.iter()));
+    let (lo, hi) = all.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (_, x, p)| {
+        let p_max = p.iter().fold(0.0_f64, |a, &b| a.max(b));
+        x.iter().zip(p).filter(|(_, &v)| v > 1e-9 * p_max).fold((lo, hi), |(lo, hi), (&x, _)| (lo.min(x), hi.max(x)))
+    });
+    let pad = 0.5 * (hi - lo).max(f64::MIN_POSITIVE);
+    let points = |x: &[f64], p: &[f64]| {
+        x.iter().copied().zip(p.iter().copied()).filter(|(x, _)| *x >= lo - pad && *x <= hi + pad).collect::<Vec<_>>()
+    };
+    let panels: Vec<(String, String, String, Vec<Series>)> = profiles
+        .iter()
+        .map(|(inc, x, p)| {
+            let mut series = vec![Series { label: format!("cycle {found}"), points: points(x, p), joined: true }];
+            if let Some((rc, rp)) = &reference {
+                if let Some((_, rx, rpp)) = rp.iter().find(|(i, _, _)| i == inc) {
+                    series.push(Series {
+                        label: format!("reference, cycle {rc}"),
+                        points: points(rx, rpp),
+                        joined: true,
+                    });
+                }
+            }
+            (format!("increment {inc} of cycle {found}"), "x (mm, current)".into(), "pressure (MPa)".into(), series)
+        })
+        .collect();
+    if panels.is_empty() {
+        return Err(PlotError::Input { path: path.display().to_string(), msg: format!("cycle {found} has no step") });
+    }
+    write_xy_png(&panels, out)?;
+    Ok((found, panels.len()))
+}
