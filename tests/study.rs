@@ -161,7 +161,7 @@ fn convergence_of_an_exact_case_is_round_off() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let csv = std::fs::read_to_string(dir.join("out/convergence.csv")).unwrap();
     let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows.len(), 3 * 2, "3 values x (depth, worn area): {csv}");
+    assert_eq!(rows.len(), 3 * 3, "3 values x (depth, worn area, depth profile): {csv}");
     for r in &rows {
         let error: f64 = r[5].parse().unwrap();
         assert!(error < 1e-12, "{r:?}");

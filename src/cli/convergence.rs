@@ -1,7 +1,8 @@
 //! `mortex study convergence`: a case refined one knob at a time (the increments per cycle, a
 //! mesh's divisions, the cycle jump's depth fraction, ...), each knob's finest value the
-//! reference of its runs; the errors of each surface's largest depth and worn area, their
-//! observed orders, and a log-log chart.
+//! reference of its runs; the errors of each surface's largest depth and worn area, the
+//! relative L2 distance of its final depth profile from the reference's (interpolated at the
+//! run's vertices, so meshes may differ), their observed orders, and a log-log chart.
 //!
 //! ```toml
 //! case = "wear_cases/mccoll_fretting.toml"
@@ -110,14 +111,18 @@ pub fn convergence(file: &Path, exec: &Execution, exe: &Path) -> Result<Outcome<
     };
     let figures: Vec<Vec<(String, String)>> =
         (0..runs.len()).map(|i| read_figures(&figures_path(&base.out, i)).unwrap_or_default()).collect();
-    let rows = rows(&spec.knob, &sizes, &figures);
+    let mut rows = rows(&spec.knob, &sizes, &figures);
+    let results: Vec<PathBuf> =
+        (0..runs.len()).map(|i| figures_path(&base.out, i).with_file_name("result.h5")).collect();
+    rows.extend(profile_rows(&spec.knob, &sizes, &results));
     let table = write_table(&base.out, &rows)?;
     chart(&base.out, &spec.knob, &rows);
     Ok(Outcome::Gathered(ConvergenceSummary { runs: runs.len(), ran, skipped, rows, table }))
 }
 
 /// The table's rows: per knob, per figure (largest depth and worn area of each surface), per
-/// value; the knob's last value is its reference.
+/// value; the knob's last value is its reference. The depth profiles' rows follow
+/// ([`profile_rows`]).
 fn rows(knobs: &[Knob], sizes: &[Vec<f64>], figures: &[Vec<(String, String)>]) -> Vec<Row> {
     let mut names: Vec<String> = Vec::new();
     for f in figures {
@@ -158,6 +163,99 @@ fn rows(knobs: &[Knob], sizes: &[Vec<f64>], figures: &[Vec<(String, String)>]) -
                     figure: name.clone(),
                     result: r,
                     error: if is_reference { Some(0.0).filter(|_| r.is_some()) } else { error },
+                    order,
+                });
+            }
+        }
+    }
+    out
+}
+
+/// Each wearing surface's last depth profile in a result file: reference x of its vertices and
+/// depth, in x order (`None` without a wear series).
+fn depth_profiles(result: &Path) -> Option<Vec<(String, Vec<f64>, Vec<f64>)>> {
+    let file = hdf5::File::open(result).ok()?;
+    let wear = file.group("wear").ok()?;
+    let mut out = Vec::new();
+    for g in wear.groups().ok()? {
+        let name = g.name().rsplit('/').next().unwrap_or_default().to_string();
+        let depth: ndarray::Array2<f64> = g.dataset("depth").and_then(|d| d.read_2d()).ok()?;
+        let verts: ndarray::Array3<f64> = g.dataset("vertices").and_then(|d| d.read()).ok()?;
+        let last = depth.nrows().checked_sub(1)?;
+        let mut pts: Vec<(f64, f64)> = (0..depth.ncols()).map(|i| (verts[[0, i, 0]], depth[[last, i]])).collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        out.push((name, pts.iter().map(|p| p.0).collect(), pts.iter().map(|p| p.1).collect()));
+    }
+    out.sort_by(|a, b| a.0.cmp(&b.0));
+    Some(out)
+}
+
+/// Linear interpolation of `(x, y)` (x sorted) at `at`, constant beyond the ends.
+fn interpolate(x: &[f64], y: &[f64], at: f64) -> f64 {
+    let k = x.partition_point(|&v| v < at);
+    if k == 0 {
+        return y[0];
+    }
+    if k == x.len() {
+        return y[x.len() - 1];
+    }
+    if x[k] == at {
+        return y[k];
+    }
+    let t = (at - x[k - 1]) / (x[k] - x[k - 1]);
+    y[k - 1] + t * (y[k] - y[k - 1])
+}
+
+/// Relative L2 distance (trapezoidal in x) of a depth profile from the reference profile,
+/// the reference interpolated at the profile's vertices; and the profile's own L2 norm.
+fn profile_distance(x: &[f64], d: &[f64], rx: &[f64], rd: &[f64]) -> (f64, f64) {
+    let (mut diff, mut norm, mut own) = (0.0, 0.0, 0.0);
+    for i in 0..x.len() {
+        let w = 0.5 * (x[(i + 1).min(x.len() - 1)] - x[i.saturating_sub(1)]);
+        let r = interpolate(rx, rd, x[i]);
+        diff += w * (d[i] - r).powi(2);
+        norm += w * r * r;
+        own += w * d[i] * d[i];
+    }
+    ((diff / norm.max(f64::MIN_POSITIVE)).sqrt(), own.sqrt())
+}
+
+/// Rows of the depth profiles (`<surface> depth_profile`): per knob, each run's relative L2
+/// distance from the knob's finest run (result: the profile's own L2 norm).
+fn profile_rows(knobs: &[Knob], sizes: &[Vec<f64>], results: &[PathBuf]) -> Vec<Row> {
+    let mut out = Vec::new();
+    let mut first = 0;
+    for (k, h) in knobs.iter().zip(sizes) {
+        let profiles: Vec<Option<Vec<(String, Vec<f64>, Vec<f64>)>>> =
+            results[first..first + h.len()].iter().map(|r| depth_profiles(r)).collect();
+        first += h.len();
+        let Some(Some(reference)) = profiles.last() else { continue };
+        for (name, rx, rd) in reference {
+            let mut previous: Option<(f64, f64)> = None;
+            for (i, p) in profiles.iter().enumerate() {
+                let found = p.as_ref().and_then(|p| p.iter().find(|(n, _, _)| n == name));
+                let (error, own) = match found {
+                    Some((_, x, d)) => {
+                        let (e, own) = profile_distance(x, d, rx, rd);
+                        (Some(e), Some(own))
+                    }
+                    None => (None, None),
+                };
+                let is_reference = i + 1 == profiles.len();
+                let order = match (previous, error) {
+                    (Some((e0, h0)), Some(e)) if !is_reference => observed_order(e0, h0, e, h[i]),
+                    _ => None,
+                };
+                if let Some(e) = error.filter(|_| !is_reference) {
+                    previous = Some((e, h[i]));
+                }
+                out.push(Row {
+                    knob: k.key.clone(),
+                    value: k.values[i].to_string(),
+                    h: h[i],
+                    figure: format!("{name} depth_profile"),
+                    result: own,
+                    error: if is_reference { own.map(|_| 0.0) } else { error },
                     order,
                 });
             }
