@@ -171,9 +171,12 @@ fn rows(knobs: &[Knob], sizes: &[Vec<f64>], figures: &[Vec<(String, String)>]) -
     out
 }
 
+/// A wearing surface's name, the reference x of its vertices (sorted) and their depths.
+type Profile = (String, Vec<f64>, Vec<f64>);
+
 /// Each wearing surface's last depth profile in a result file: reference x of its vertices and
 /// depth, in x order (`None` without a wear series).
-fn depth_profiles(result: &Path) -> Option<Vec<(String, Vec<f64>, Vec<f64>)>> {
+fn depth_profiles(result: &Path) -> Option<Vec<Profile>> {
     let file = hdf5::File::open(result).ok()?;
     let wear = file.group("wear").ok()?;
     let mut out = Vec::new();
@@ -226,7 +229,7 @@ fn profile_rows(knobs: &[Knob], sizes: &[Vec<f64>], results: &[PathBuf]) -> Vec<
     let mut out = Vec::new();
     let mut first = 0;
     for (k, h) in knobs.iter().zip(sizes) {
-        let profiles: Vec<Option<Vec<(String, Vec<f64>, Vec<f64>)>>> =
+        let profiles: Vec<Option<Vec<Profile>>> =
             results[first..first + h.len()].iter().map(|r| depth_profiles(r)).collect();
         first += h.len();
         let Some(Some(reference)) = profiles.last() else { continue };
