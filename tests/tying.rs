@@ -217,7 +217,7 @@ fn inclusion_oscillation(ratio: usize, space: MultiplierSpace, e_patch: f64, loa
 /// the coarse-grained space (spacing from the density contrast only) must not grow, and must be
 /// at least ten times smaller than the classical one at every ratio >= 1:5. The full table
 /// (also same-material tension and bending) is printed by `density_contrast_table` (ignored,
-/// ~1 min) and recorded in the README.
+/// ~40 s, with its chart) and recorded in docs/validation.md.
 #[test]
 fn coarse_grained_multipliers_remove_density_contrast_oscillation() {
     let mut classical = vec![];
