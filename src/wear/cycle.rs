@@ -290,25 +290,17 @@ fn check_something_wears(scene: &WearScene<'_>, rates: &[Vec<f64>], count: u64) 
     })
 }
 
-/// The implicit jump's cycle volumes and works per surface (the computed cycle's, each row's
-/// work moved by its change at the end-of-jump pressure, never below zero: the wear balance
-/// holds exactly), and the jump after the controller's pressure-change bound. `None` if the
-/// linearised system is singular.
-fn implicit_correction(
+/// Each wearing surface's part in the implicit jump on the rows of the stiffness (`pos_of`: a
+/// contact row's position among them), and the wear couplings they come from.
+#[allow(clippy::type_complexity)]
+fn jump_surfaces<'a>(
     scene: &WearScene<'_>,
-    wear: &mut WearState,
+    wear: &WearState,
     u: &[f64],
-    multipliers: &[f64],
-    sens: &GapSensitivity,
-    cycle: &CycleRates,
-    dn: &mut u64,
-) -> Option<(Vec<Vec<f64>>, Vec<f64>)> {
-    let nt = scene.contact.first_multiplier;
-    let na = sens.rows.len();
-    let mut pos_of = vec![None; scene.contact.rows.len()];
-    for (r, &k) in sens.rows.iter().enumerate() {
-        pos_of[k] = Some(r);
-    }
+    pos_of: &[Option<usize>],
+    cycle: &'a CycleRates,
+) -> Option<(Vec<JumpSurface<'a>>, Vec<super::WearCoupling>)> {
+    let na = pos_of.iter().flatten().count();
     let (measures, filters, rates) = (&cycle.measures, &cycle.filters, &cycle.rates);
     let mut couplings = Vec::with_capacity(scene.model.surfaces.len());
     let mut surfaces = Vec::with_capacity(scene.model.surfaces.len());
@@ -345,15 +337,13 @@ fn implicit_correction(
         });
         couplings.push(coupling);
     }
-    let pressure: Vec<f64> = sens
-        .rows
-        .iter()
-        .zip(&sens.closed)
-        .map(|(&k, &c)| if c { (-multipliers[nt + k]).max(0.0) } else { 0.0 })
-        .collect();
-    let weights: Vec<f64> = sens.rows.iter().map(|&k| scene.contact.phi[k]).collect();
-    // The weighted gap of the open rows (closed rows: zero, as the solve holds them).
-    let gap: Vec<f64> = sens
+    Some((surfaces, couplings))
+}
+
+/// The weighted gap of each row of the stiffness at `u`: zero where the row is closed (the
+/// solve holds it), the open rows' own gap (never below zero) elsewhere.
+fn open_row_gaps(scene: &WearScene<'_>, sens: &GapSensitivity, u: &[f64]) -> Vec<f64> {
+    sens
         .rows
         .iter()
         .zip(&sens.closed)
@@ -365,7 +355,38 @@ fn implicit_correction(
                 g.max(0.0)
             }
         })
+        .collect()
+}
+
+/// The implicit jump's cycle volumes and works per surface (the computed cycle's, each row's
+/// work moved by its change at the end-of-jump pressure, never below zero: the wear balance
+/// holds exactly), and the jump after the controller's pressure-change bound. `None` if the
+/// linearised system is singular.
+fn implicit_correction(
+    scene: &WearScene<'_>,
+    wear: &mut WearState,
+    u: &[f64],
+    multipliers: &[f64],
+    sens: &GapSensitivity,
+    cycle: &CycleRates,
+    dn: &mut u64,
+) -> Option<(Vec<Vec<f64>>, Vec<f64>)> {
+    let nt = scene.contact.first_multiplier;
+    let na = sens.rows.len();
+    let mut pos_of = vec![None; scene.contact.rows.len()];
+    for (r, &k) in sens.rows.iter().enumerate() {
+        pos_of[k] = Some(r);
+    }
+    let (surfaces, couplings) = jump_surfaces(scene, wear, u, &pos_of, cycle)?;
+    let measures = &cycle.measures;
+    let pressure: Vec<f64> = sens
+        .rows
+        .iter()
+        .zip(&sens.closed)
+        .map(|(&k, &c)| if c { (-multipliers[nt + k]).max(0.0) } else { 0.0 })
         .collect();
+    let weights: Vec<f64> = sens.rows.iter().map(|&k| scene.contact.phi[k]).collect();
+    let gap = open_row_gaps(scene, sens, u);
     let contact = JumpContact { pressure: pressure.clone(), gap, closed: sens.closed.clone() };
     let solve = |n: u64| implicit_contact_change(&sens.dlambda_dgap, &surfaces, n, &contact);
     let mut controller = wear.controller.clone();
