@@ -141,31 +141,18 @@ fn rows(knobs: &[Knob], sizes: &[Vec<f64>], figures: &[Vec<(String, String)>]) -
             let result =
                 |f: &[(String, String)]| f.iter().find(|(n, _)| n == name).and_then(|(_, v)| v.parse::<f64>().ok());
             let reference = runs.last().and_then(|f| result(f));
-            let mut previous: Option<(f64, f64)> = None;
-            for (i, f) in runs.iter().enumerate() {
-                let r = result(f);
-                let error = match (r, reference) {
-                    (Some(a), Some(b)) if b != 0.0 => Some(((a - b) / b).abs()),
-                    _ => None,
-                };
-                let is_reference = i + 1 == runs.len();
-                let order = match (previous, error) {
-                    (Some((e0, h0)), Some(e)) if !is_reference => observed_order(e0, h0, e, h[i]),
-                    _ => None,
-                };
-                if let Some(e) = error.filter(|_| !is_reference) {
-                    previous = Some((e, h[i]));
-                }
-                out.push(Row {
-                    knob: k.key.clone(),
-                    value: k.values[i].to_string(),
-                    h: h[i],
-                    figure: name.clone(),
-                    result: r,
-                    error: if is_reference { Some(0.0).filter(|_| r.is_some()) } else { error },
-                    order,
-                });
-            }
+            let per_run: Vec<(Option<f64>, Option<f64>)> = runs
+                .iter()
+                .map(|f| {
+                    let r = result(f);
+                    let error = match (r, reference) {
+                        (Some(a), Some(b)) if b != 0.0 => Some(((a - b) / b).abs()),
+                        _ => None,
+                    };
+                    (r, error)
+                })
+                .collect();
+            out.extend(knob_rows(k, h, name, &per_run));
         }
     }
     out
@@ -234,35 +221,46 @@ fn profile_rows(knobs: &[Knob], sizes: &[Vec<f64>], results: &[PathBuf]) -> Vec<
         first += h.len();
         let Some(Some(reference)) = profiles.last() else { continue };
         for (name, rx, rd) in reference {
-            let mut previous: Option<(f64, f64)> = None;
-            for (i, p) in profiles.iter().enumerate() {
-                let found = p.as_ref().and_then(|p| p.iter().find(|(n, _, _)| n == name));
-                let (error, own) = match found {
+            let per_run: Vec<(Option<f64>, Option<f64>)> = profiles
+                .iter()
+                .map(|p| match p.as_ref().and_then(|p| p.iter().find(|(n, _, _)| n == name)) {
                     Some((_, x, d)) => {
                         let (e, own) = profile_distance(x, d, rx, rd);
-                        (Some(e), Some(own))
+                        (Some(own), Some(e))
                     }
                     None => (None, None),
-                };
-                let is_reference = i + 1 == profiles.len();
-                let order = match (previous, error) {
-                    (Some((e0, h0)), Some(e)) if !is_reference => observed_order(e0, h0, e, h[i]),
-                    _ => None,
-                };
-                if let Some(e) = error.filter(|_| !is_reference) {
-                    previous = Some((e, h[i]));
-                }
-                out.push(Row {
-                    knob: k.key.clone(),
-                    value: k.values[i].to_string(),
-                    h: h[i],
-                    figure: format!("{name} depth_profile"),
-                    result: own,
-                    error: if is_reference { own.map(|_| 0.0) } else { error },
-                    order,
-                });
-            }
+                })
+                .collect();
+            out.extend(knob_rows(k, h, &format!("{name} depth_profile"), &per_run));
         }
+    }
+    out
+}
+
+/// The rows of one knob and figure from each run's `(result, error against the reference)`,
+/// the last run the reference (error 0 where it has a result), with the order observed from
+/// the previous run that had an error.
+fn knob_rows(k: &Knob, h: &[f64], figure: &str, per_run: &[(Option<f64>, Option<f64>)]) -> Vec<Row> {
+    let mut out = Vec::with_capacity(per_run.len());
+    let mut previous: Option<(f64, f64)> = None;
+    for (i, &(result, error)) in per_run.iter().enumerate() {
+        let is_reference = i + 1 == per_run.len();
+        let order = match (previous, error) {
+            (Some((e0, h0)), Some(e)) if !is_reference => observed_order(e0, h0, e, h[i]),
+            _ => None,
+        };
+        if let Some(e) = error.filter(|_| !is_reference) {
+            previous = Some((e, h[i]));
+        }
+        out.push(Row {
+            knob: k.key.clone(),
+            value: k.values[i].to_string(),
+            h: h[i],
+            figure: figure.to_string(),
+            result,
+            error: if is_reference { result.map(|_| 0.0) } else { error },
+            order,
+        });
     }
     out
 }

@@ -343,8 +343,7 @@ fn jump_surfaces<'a>(
 /// The weighted gap of each row of the stiffness at `u`: zero where the row is closed (the
 /// solve holds it), the open rows' own gap (never below zero) elsewhere.
 fn open_row_gaps(scene: &WearScene<'_>, sens: &GapSensitivity, u: &[f64]) -> Vec<f64> {
-    sens
-        .rows
+    sens.rows
         .iter()
         .zip(&sens.closed)
         .map(|(&k, &c)| {
