@@ -9,7 +9,7 @@
 //! one residual check.
 
 use crate::assembly::{Assembler, AssemblyInput, AssemblyOutput, SparsityPattern, CONSTRAINED};
-use crate::fem::material::{PlasticState, Stress4};
+use crate::fem::material::{Material, PlasticState, Stress4};
 use crate::model::{Discretisation, Model};
 use crate::solver::dense::DenseLu;
 use crate::solver::linear::{LinearSolverError, SparseSolver};
@@ -29,8 +29,9 @@ pub use condensed::SolverReuse;
 /// How one Newton solve of a load increment ended (the caller cuts back when not converged).
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum StepOutcome {
-    /// Converged, the state committed.
-    Converged { iterations: usize, residual: f64 },
+    /// Converged, the state committed; `bulk`: the Newton iterations of the bulk (solves with a
+    /// bulk operator), of which `iterations` counts the contact active-set iterations too.
+    Converged { iterations: usize, bulk: usize, residual: f64 },
     /// Diverged, ran out of iterations or lost the tangent; the state untouched.
     NotConverged { iterations: usize, residual: f64 },
 }
@@ -132,8 +133,12 @@ pub struct StepReport {
     pub increment: usize,
     pub time: f64,
     pub load_factor: f64,
-    /// Newton iterations summed over sub-steps.
+    /// Newton iterations summed over sub-steps (by condensation: the contact active-set
+    /// iterations of every bulk solve).
     pub iterations: usize,
+    /// Newton iterations of the bulk summed over sub-steps: solves with a bulk operator (the
+    /// consistent tangent of yielding bodies; one per step for elastic bodies by condensation).
+    pub newton_iterations: usize,
     pub cutbacks: usize,
     /// Final relative residual.
     pub residual: f64,
@@ -255,7 +260,7 @@ impl<'m> StaticAnalysis<'m> {
     /// As [`Self::new`], on a discretisation of the model other than the one it was built with
     /// (moved or worn surfaces, re-paired contact).
     pub fn on(model: &'m Model, disc: &'m Discretisation) -> Result<Self, AnalysisError> {
-        Self::with_condensation(model, disc, condensed::applies(model, disc))
+        Self::with_condensation(model, disc, condensed::applies(disc))
     }
 
     /// As [`Self::new`] for the next model of a run (moved surfaces, re-paired contact): the
@@ -280,7 +285,7 @@ impl<'m> StaticAnalysis<'m> {
         reuse: Option<SolverReuse>,
         surface_compliance: bool,
     ) -> Result<Self, AnalysisError> {
-        if condensed::applies(model, disc) {
+        if condensed::applies(disc) {
             Self::condensed(model, disc, reuse, surface_compliance)
         } else {
             Self::with_condensation(model, disc, false)
@@ -290,8 +295,11 @@ impl<'m> StaticAnalysis<'m> {
     /// The solver structure this analysis can hand to the next model's (condensed only).
     pub fn into_reuse(self) -> Option<SolverReuse> {
         let key = self.reuse_key?;
+        let tangent = self.condensed.as_ref().is_some_and(|c| c.tangent);
         let compliance = self.condensed.and_then(|c| c.compliance);
-        Some(SolverReuse::new(key, self.assembler, self.solver, self.values, compliance))
+        let reuse = SolverReuse::new(key, self.assembler, self.solver, self.values, compliance);
+        // A factor of a tangent is no next model's elastic K_rho: it assembles its own.
+        Some(if tangent { reuse.without_values() } else { reuse })
     }
 
     /// Whether this analysis was set up on the previous model's pattern and symbolic
@@ -335,7 +343,7 @@ impl<'m> StaticAnalysis<'m> {
         disc: &'m Discretisation,
         condense: bool,
     ) -> Result<Self, AnalysisError> {
-        if condense && condensed::applies(model, disc) {
+        if condense && condensed::applies(disc) {
             return Self::condensed(model, disc, None, false);
         }
         // Constraint rows are scaled by `alpha ~ E / |C|` in the matrix so that both blocks of the
@@ -465,6 +473,7 @@ impl<'m> StaticAnalysis<'m> {
             time: t_end,
             load_factor: 0.0,
             iterations: 0,
+            newton_iterations: 0,
             cutbacks: 0,
             residual: 0.0,
         };
@@ -475,8 +484,9 @@ impl<'m> StaticAnalysis<'m> {
         while state.time < t_end || dt == 0.0 {
             let t_try = if state.time + dt >= t_end { t_end } else { state.time + dt };
             match self.newton(state, step, t_try)? {
-                StepOutcome::Converged { iterations: its, residual: res } => {
+                StepOutcome::Converged { iterations: its, bulk, residual: res } => {
                     report.iterations += its;
+                    report.newton_iterations += bulk;
                     report.residual = res;
                     if dt == 0.0 || t_try >= t_end {
                         break;
@@ -570,7 +580,7 @@ impl<'m> StaticAnalysis<'m> {
             if !set_changed && (res <= p.rtol || norms.all_zero()) {
                 check_small_sliding(disc, &u, &sets.status, step, t)?;
                 self.commit(state, u, mu, t, &sets.status, &sets.slip);
-                return Ok(StepOutcome::Converged { iterations: it, residual: res });
+                return Ok(StepOutcome::Converged { iterations: it, bulk: it, residual: res });
             }
             if it == p.max_iterations {
                 break;
@@ -841,12 +851,27 @@ impl<'m> StaticAnalysis<'m> {
         let mut lam0 = state.multipliers.clone();
         let mut iterations = 0;
         let history = state.history.clone();
-        // Iterative refinement: the interface problem is linear for fixed sets, so a pass that
-        // misses the tolerance only by round-off (K_rho's regularisation of floating bodies
-        // costs digits) is repeated from its own result, the sets then unchanged.
-        for pass in 0..MAX_REFINEMENTS {
+        // Elastic bodies: iterative refinement. The interface problem is linear for fixed sets,
+        // so a pass that misses the tolerance only by round-off (K_rho's regularisation of
+        // floating bodies costs digits) is repeated from its own result, the sets then unchanged.
+        // Yielding bodies: each pass is a Newton step of the bulk whose contact problem is solved
+        // exactly on the interface (the first from the elastic predictor, see below).
+        let plastic = m.has_plasticity();
+        let passes = if plastic { p.max_iterations.max(MAX_REFINEMENTS) } else { MAX_REFINEMENTS };
+        for pass in 0..passes {
             // r_u = f - f_int(u0) - C^T lambda0 on the free equations, z = K_rho^{-1} r_u.
-            self.internal_force(&u, &history);
+            // Yielding bodies: the first pass is the elastic predictor from the converged state
+            // (the prescribed increment spread by the elastic operator, the contact solved
+            // exactly on it); later passes are Newton steps on the consistent tangent at `u`.
+            if plastic && pass == 0 {
+                self.predictor_force(&state.u, &u, &history);
+                self.elastic_operator(cd, &state.u, &history, step)?;
+            } else {
+                self.internal_force(&u, &history);
+                if plastic {
+                    self.tangent_at(cd, &u, &history, step, iterations)?;
+                }
+            }
             let mut ct = vec![0.0; disc.dofs.num_dofs];
             constraint_forces(m, disc, &lam0, &mut ct);
             // Force scale of the step: what the start of the step has seen too (a contact that opens
@@ -917,18 +942,97 @@ impl<'m> StaticAnalysis<'m> {
                 check_small_sliding(disc, &u, &sets.status, step, t)?;
                 self.commit(state, u, mu, t, &sets.status, &sets.slip);
                 self.last_sets = Some((sets.active, sets.status));
-                return Ok(StepOutcome::Converged { iterations, residual: res });
+                return Ok(StepOutcome::Converged { iterations, bulk: pass + 1, residual: res });
             }
-            if let Some(slipping) = gross_sliding(&sets.status) {
+            let last = !res.is_finite() || pass + 1 == passes;
+            if let Some(slipping) = gross_sliding(&sets.status).filter(|_| !plastic || last) {
                 return Err(AnalysisError::GrossSliding { step, time: t, slipping });
             }
-            if !res.is_finite() || pass + 1 == MAX_REFINEMENTS {
+            if last {
                 return Ok(StepOutcome::NotConverged { iterations, residual: res });
             }
             tracing::debug!(step, t, pass, residual = res, "condensed step: refining");
             lam0 = mu;
         }
         Ok(StepOutcome::NotConverged { iterations, residual: f64::INFINITY })
+    }
+
+    /// The internal force of the elastic predictor into `trial_f_int`: `f_int(u_conv) + K (u0 -
+    /// u_conv)` with the elastic `K` (and the ghost penalty). Evaluating the material at `u0`
+    /// itself would shear the elements along prescribed boundaries by the whole increment
+    /// (the prescribed values jump, the nodes next to them do not) and yield them spuriously:
+    /// the Newton steps from that state overshoot and cycle.
+    fn predictor_force(&mut self, u_conv: &[f64], u0: &[f64], history: &[PlasticState]) {
+        let (m, disc) = (self.model, self.disc);
+        let du: Vec<f64> = u0.iter().zip(u_conv).map(|(a, b)| a - b).collect();
+        let elastic: Vec<Material> = m.materials.iter().map(|mat| Material::Elastic(*mat.elastic())).collect();
+        let mut f_du = vec![0.0; disc.dofs.num_dofs];
+        let mut stress = vec![Stress4::zeros(); m.elements.num_points()];
+        let mut states = history.to_vec();
+        self.assembler.assemble(
+            &AssemblyInput {
+                coords: &m.coords,
+                elements: &m.elements,
+                materials: &elastic,
+                rules: &disc.rules,
+                u: &du,
+                state_old: history,
+            },
+            AssemblyOutput { values: None, f_int: &mut f_du, stress: &mut stress, state_new: &mut states },
+            self.parallel,
+        );
+        self.internal_force(u_conv, history);
+        for (f, v) in self.trial_f_int.iter_mut().zip(&f_du) {
+            *f += v;
+        }
+        for &(i, j, v) in &disc.penalty {
+            self.trial_f_int[i] += v * du[j];
+        }
+    }
+
+    /// Yielding bodies: the elastic `K_rho` (the tangent at the converged state `u_conv`) in
+    /// the factor and the interface operator, refactored if a tangent is there.
+    fn elastic_operator(
+        &mut self,
+        cd: &mut condensed::Condensed,
+        u_conv: &[f64],
+        history: &[PlasticState],
+        step: usize,
+    ) -> Result<(), AnalysisError> {
+        if !cd.tangent {
+            return Ok(());
+        }
+        let f_int = self.trial_f_int.clone();
+        self.assemble_trial(u_conv, history, true);
+        self.trial_f_int = f_int;
+        let linear = |source| NewtonError::Linear { step, iteration: 0, source };
+        cd.refactor(self.model, self.disc, &self.assembler.pattern, &mut self.solver, &mut self.values, false)
+            .map_err(linear)?;
+        Ok(())
+    }
+
+    /// Yielding bodies: puts into the factor and the interface operator the consistent tangent
+    /// at `u` from the converged `history` where a point yields there (the elastic `K_rho`
+    /// where none does; kept when it is already that).
+    fn tangent_at(
+        &mut self,
+        cd: &mut condensed::Condensed,
+        u: &[f64],
+        history: &[PlasticState],
+        step: usize,
+        iteration: usize,
+    ) -> Result<(), AnalysisError> {
+        let n_yield = self.trial_history.iter().zip(history).filter(|(a, b)| a != b).count();
+        let yielding = n_yield > 0;
+        tracing::debug!(step, iteration, n_yield, tangent = cd.tangent, "bulk operator");
+        if !yielding && !cd.tangent {
+            return Ok(());
+        }
+        self.assemble_trial(u, history, true);
+        let linear = |source| NewtonError::Linear { step, iteration, source };
+        cd.refactor(self.model, self.disc, &self.assembler.pattern, &mut self.solver, &mut self.values, yielding)
+            .map_err(linear)?;
+        Ok(())
     }
 
     /// The active-set iterations on the live interface rows for the bulk predictor `z`: each

@@ -493,6 +493,8 @@ fn run(
     let bar = progress_bar(quiet, wear_cycles, model, &state);
     let started = std::time::Instant::now();
     let mut total_its = 0;
+    // Yielding bodies: how many bulk Newton iterations each increment took.
+    let mut bulk_its: std::collections::BTreeMap<usize, usize> = std::collections::BTreeMap::new();
     let res = {
         let observer = |r: &mortex::analysis::StepReport,
                         s: &mortex::state::SimState,
@@ -500,6 +502,7 @@ fn run(
                         disc: &mortex::model::Discretisation|
          -> Result<(), String> {
             total_its += r.iterations;
+            *bulk_its.entry(r.newton_iterations).or_default() += 1;
             writer.write_step(step_model, disc, r, s).map_err(|e| e.to_string())?;
             let cycle = if step_model.cycle.is_some() {
                 format!("cycle {} inc {}, ", r.cycle, r.increment)
@@ -536,6 +539,10 @@ fn run(
         Ok(()) => {
             if wear_cycles.is_some() {
                 println!("{}: {}", c.name, scar_summary(model, &state, units));
+            }
+            if model.has_plasticity() {
+                let counts: Vec<String> = bulk_its.iter().map(|(n, k)| format!("{n}: {k}")).collect();
+                println!("{}: bulk Newton iterations per step (iterations: steps) {}", c.name, counts.join(", "));
             }
             println!(
                 "{}: {} steps, {} Newton iterations, {:.2} s -> {} (+ {})",

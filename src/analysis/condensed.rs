@@ -60,6 +60,9 @@ pub(super) struct Condensed {
     /// Finite sliding: the compliance of every equation a row of the model can touch, from
     /// which the operator of any pairing is a small dense product (see [`Compliance`]).
     pub compliance: Option<Compliance>,
+    /// The factor and `d` hold a consistent tangent of yielding bodies instead of the elastic
+    /// `K_rho` (see [`Condensed::refactor`]); the next model then assembles its own.
+    pub tangent: bool,
 }
 
 /// The surface compliance `F = S K_rho^{-1} S^T` over a fixed, sorted set of equations `S`: every
@@ -198,9 +201,10 @@ fn operator_columns(
     Ok(out)
 }
 
-/// Whether a model is solved by condensation: contact present and every body linear elastic.
-pub(super) fn applies(m: &Model, disc: &Discretisation) -> bool {
-    !disc.contact.rows.is_empty() && m.materials.iter().all(|mat| !mat.has_state())
+/// Whether a model is solved by condensation: contact present (yielding bodies too: their
+/// Newton steps run on the consistent tangent, see `StaticAnalysis::tangent_at`).
+pub(super) fn applies(disc: &Discretisation) -> bool {
+    !disc.contact.rows.is_empty()
 }
 
 /// Paired contact rows (normal `k`) whose weighted gap `g / int Phi` is within `margin` times
@@ -387,6 +391,12 @@ impl SolverReuse {
         self.same_bulk = true;
         self
     }
+
+    /// The structure alone: the next model assembles and factors its own values.
+    pub(super) fn without_values(mut self) -> Self {
+        self.values = vec![];
+        self
+    }
 }
 
 /// The sorted union of `sorted` (sorted, no repeats: the ghost-penalty reach) and `extra`
@@ -470,7 +480,8 @@ pub(super) fn setup(
     // each pairing from the compliance of the surfaces (formed on the first, kept while the
     // bulk is). It costs about twenty substitutions of the operator (McColl scene: 0.25 s
     // against 11-70 ms), so a wear cycle of a few increments does without.
-    let compliance = if surface_compliance && m.has_finite_sliding() {
+    // (Not with yielding bodies: their operator is re-formed on each tangent.)
+    let compliance = if surface_compliance && m.has_finite_sliding() && !m.has_plasticity() {
         let eqs = Compliance::equations_of(m, disc, &equations, &grounds);
         match kept_compliance {
             Some(c) if c.eqs == eqs => Some(c),
@@ -491,6 +502,7 @@ pub(super) fn setup(
         grounds: all.len(),
         equations,
         compliance,
+        tangent: false,
     };
     for (g, row) in grounds.iter().enumerate() {
         cd.live.push(all.len() + g);
@@ -627,26 +639,28 @@ fn factor_bulk(
         },
         parallel,
     );
-    // Switched-off DOFs exactly decoupled (a support below the material threshold may still
-    // carry a sliver of element stiffness): the other equations are those of the model's
-    // own DOF map, the held ones keep `du = 0`.
-    {
-        let (col_ptr, row_idx) = (assembler.pattern.symbolic.col_ptr(), assembler.pattern.symbolic.row_idx());
-        for &d in disc.held.iter().flatten() {
-            let e = equations.eq[d];
-            for p in col_ptr[e]..col_ptr[e + 1] {
-                let r = row_idx[p];
-                values[p] = if r == e { e_max } else { 0.0 };
-                if r != e {
-                    if let Ok(q) = row_idx[col_ptr[r]..col_ptr[r + 1]].binary_search(&e) {
-                        values[col_ptr[r] + q] = 0.0;
-                    }
+    decouple_held(disc, &assembler.pattern, equations, e_max, &mut values);
+    solver.factor(&values)?;
+    Ok(values)
+}
+
+/// Switched-off DOFs exactly decoupled (a support below the material threshold may still
+/// carry a sliver of element stiffness): the other equations are those of the model's own DOF
+/// map, the held ones keep `du = 0`.
+fn decouple_held(disc: &Discretisation, pattern: &SparsityPattern, equations: &DofMap, e_max: f64, values: &mut [f64]) {
+    let (col_ptr, row_idx) = (pattern.symbolic.col_ptr(), pattern.symbolic.row_idx());
+    for &d in disc.held.iter().flatten() {
+        let e = equations.eq[d];
+        for p in col_ptr[e]..col_ptr[e + 1] {
+            let r = row_idx[p];
+            values[p] = if r == e { e_max } else { 0.0 };
+            if r != e {
+                if let Ok(q) = row_idx[col_ptr[r]..col_ptr[r + 1]].binary_search(&e) {
+                    values[col_ptr[r] + q] = 0.0;
                 }
             }
         }
     }
-    solver.factor(&values)?;
-    Ok(values)
 }
 
 /// What a live row imposes in one active-set iteration: a gap row (`dw` known, `dlambda`
@@ -818,6 +832,27 @@ impl Condensed {
         let old = self.live.len();
         self.push(m, disc, new, rho);
         self.extend_operator(solver, old)
+    }
+
+    /// Factors `values` (`K_rho` with the bulk's consistent tangent in place of its elastic
+    /// stiffness, as assembled by the caller; `tangent`: whether it is one) and forms `d` anew
+    /// on the whole set, by substitution.
+    pub fn refactor(
+        &mut self,
+        m: &Model,
+        disc: &Discretisation,
+        pattern: &SparsityPattern,
+        solver: &mut SparseSolver,
+        values: &mut [f64],
+        tangent: bool,
+    ) -> Result<(), LinearSolverError> {
+        let e_max = m.materials.iter().map(|mat| mat.elastic().young).fold(0.0, f64::max);
+        decouple_held(disc, pattern, &self.equations, e_max, values);
+        solver.factor(values)?;
+        self.compliance = None;
+        self.d = DMatrix::zeros(0, 0);
+        self.tangent = tangent;
+        self.extend_operator(solver, 0)
     }
 
     /// Appends model multipliers `new` to the set (the operator not yet extended).

@@ -7,7 +7,8 @@
 //!   triangle), `/mesh/<body>/topology` i64 XDMF mixed topology, `/mesh/points` `(p, 2)`
 //!   integration-point coordinates (all bodies, point order).
 //! * `/series/` (every output step, one row each, extendable chunked datasets): `step`,
-//!   `cycle`, `increment`, `iterations` (u64), `time`, `load_factor`, `residual`;
+//!   `cycle`, `increment`, `iterations`, `newton_iterations` (u64: contact active-set and bulk
+//!   Newton iterations), `time`, `load_factor`, `residual`;
 //!   `/series/contacts/<pair>/{pressure, shear, slip, accumulated_slip}` `(steps, l)`, `status`
 //!   u8 `(steps, l)`, `position` `(steps, l, 2)`, `/series/contacts/dissipation`;
 //!   `/series/surfaces/<cut>/vertices` `(steps, v, 2)` of moving surfaces.
@@ -261,7 +262,7 @@ impl Series {
     fn create(file: &hdf5::File, model: &Model) -> hdf5::Result<Series> {
         let g = file.create_group("series")?;
         let mut scalars = vec![];
-        for name in ["step", "cycle", "increment", "iterations"] {
+        for name in ["step", "cycle", "increment", "iterations", "newton_iterations"] {
             scalars.push(g.new_dataset::<u64>().chunk(SERIES_CHUNK * 16).shape(0..).create(name)?);
         }
         for name in ["time", "load_factor", "residual"] {
@@ -313,12 +314,18 @@ impl Series {
     ) -> hdf5::Result<()> {
         use ndarray::s;
         let k = self.rows;
-        let ints = [report.step as u64, report.cycle as u64, report.increment as u64, report.iterations as u64];
+        let ints = [
+            report.step as u64,
+            report.cycle as u64,
+            report.increment as u64,
+            report.iterations as u64,
+            report.newton_iterations as u64,
+        ];
         for (ds, v) in self.scalars.iter().zip(ints) {
             ds.resize(k + 1)?;
             ds.write_slice(&[v], s![k..k + 1])?;
         }
-        for (ds, v) in self.scalars[4..].iter().zip([report.time, report.load_factor, report.residual]) {
+        for (ds, v) in self.scalars[5..].iter().zip([report.time, report.load_factor, report.residual]) {
             ds.resize(k + 1)?;
             ds.write_slice(&[v], s![k..k + 1])?;
         }

@@ -198,6 +198,10 @@ impl Model {
     pub fn is_linear(&self) -> bool {
         self.materials.iter().all(|m| !m.has_state()) && self.initial.contact.rows.is_empty()
     }
+    /// True when a material has a history (elastic-plastic bodies).
+    pub fn has_plasticity(&self) -> bool {
+        self.materials.iter().any(|m| m.has_state())
+    }
     pub fn num_nodes(&self) -> usize {
         self.coords.len()
     }
