@@ -19,7 +19,7 @@
 use crate::analysis::{AnalysisError, StaticAnalysis, StepReport};
 use crate::model::{Discretisation, Model};
 use crate::state::SimState;
-use crate::wear::{accumulate_step_wear, apply_cycle_wear, JumpScheme};
+use crate::wear::{accumulate_step_wear, apply_cycle_wear, cycle_plasticity, plastic_snapshot, JumpScheme};
 
 /// Options of a run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -222,6 +222,9 @@ where
             accumulate_step_wear(&scene, &mut state.wear, (&u_prev, &state.u), (None, &state.multipliers));
             if k + 1 == ramp_steps {
                 apply_cycle_wear(&scene, &mut state.wear, &state.u, &state.multipliers, count, false, None)?;
+                if m.has_plasticity() {
+                    state.wear.plastic_start = plastic_snapshot(&state.history);
+                }
                 state.interface_log.clear();
             }
             (self.observer)(&report, state, m, disc).map_err(|msg| AnalysisError::Observer { step: k + 1, msg })?;
@@ -343,7 +346,14 @@ fn integrate_step_wear(
             JumpScheme::Implicit => analysis.gap_sensitivity_with_open_rows(),
             JumpScheme::Explicit => None,
         };
+        if m.has_plasticity() {
+            (state.wear.cycle_ratcheting, state.wear.cycle_plastic_strain) =
+                cycle_plasticity(&state.wear.plastic_start, &state.history);
+        }
         apply_cycle_wear(&scene, &mut state.wear, &state.u, &state.multipliers, count, true, sensitivity.as_ref())?;
+        if m.has_plasticity() {
+            state.wear.plastic_start = plastic_snapshot(&state.history);
+        }
         if let Some(c) = m.cycle {
             state.time = c.start + c.period * state.wear.cycle as f64;
         }

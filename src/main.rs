@@ -543,6 +543,12 @@ fn run(
             if model.has_plasticity() {
                 let counts: Vec<String> = bulk_its.iter().map(|(n, k)| format!("{n}: {k}")).collect();
                 println!("{}: bulk Newton iterations per step (iterations: steps) {}", c.name, counts.join(", "));
+                if wear_cycles.is_some() {
+                    println!(
+                        "{}: last computed cycle: net plastic strain {:.3e} (ratcheting), accumulated {:.3e}",
+                        c.name, state.wear.cycle_ratcheting, state.wear.cycle_plastic_strain
+                    );
+                }
             }
             println!(
                 "{}: {} steps, {} Newton iterations, {:.2} s -> {} (+ {})",

@@ -128,6 +128,9 @@ pub struct CycleJumpSpec {
     pub prediction_tolerance: Option<f64>,
     /// "implicit" (default: linearised backward Euler, stable for any jump) or "explicit".
     pub scheme: Option<crate::wear::JumpScheme>,
+    /// Yielding bodies: largest net equivalent plastic strain of a computed cycle under which
+    /// cycles may be jumped over (default 1e-5; above it every cycle is computed).
+    pub ratcheting_tolerance: Option<f64>,
 }
 
 /// A rigid set: the nodes of a node or edge set move together (no rotation); load it with a
@@ -1098,6 +1101,12 @@ fn add_cycle_jump(cx: &Ctx, j: &CycleJumpSpec, wear: &[WearSpec], b: &mut ModelB
             return Err(cx.err("cycle_jump.smoothing", format!("must be finite and >= 0, got {sm}")));
         }
         b.set_wear_smoothing(sm);
+    }
+    if let Some(tol) = j.ratcheting_tolerance {
+        if !(tol.is_finite() && tol >= 0.0) {
+            return Err(cx.err("cycle_jump.ratcheting_tolerance", format!("must be finite and >= 0, got {tol}")));
+        }
+        b.set_ratcheting_tolerance(tol);
     }
     Ok(())
 }

@@ -119,6 +119,9 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
         work,
         controller,
         pairing_guess,
+        plastic_start,
+        cycle_ratcheting,
+        cycle_plastic_strain,
     } = w;
     let crate::wear::ControllerState {
         last_rate,
@@ -160,6 +163,9 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
     for (j, u) in pairing_guess.iter().enumerate() {
         vec1(&format!("pairing_guess_{j}"), u)?;
     }
+    vec1("plastic_start", plastic_start)?;
+    super::write_attr(&g, "cycle_ratcheting", cycle_ratcheting)?;
+    super::write_attr(&g, "cycle_plastic_strain", cycle_plastic_strain)?;
     Ok(())
 }
 
@@ -184,6 +190,20 @@ fn read_pairing_guess(g: &hdf5::Group, model: &Model) -> Result<Vec<Vec<f64>>, S
             Ok(u)
         })
         .collect()
+}
+
+/// The plastic strain at the start of the computed cycle (see `WearState::plastic_start`):
+/// empty, or five values per history point. A checkpoint written before it was kept has none.
+fn read_plastic_start(g: &hdf5::Group, model: &Model) -> Result<Vec<f64>, String> {
+    let Ok(d) = g.dataset("plastic_start") else {
+        return Ok(vec![]);
+    };
+    let v = d.read_raw::<f64>().map_err(|e| format!("wear dataset plastic_start: {e}"))?;
+    let expected = 5 * model.elements.num_states();
+    if !v.is_empty() && v.len() != expected {
+        return Err(format!("wear dataset plastic_start has {} values, the model's history points {expected}", v.len()));
+    }
+    Ok(v)
 }
 
 fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, String> {
@@ -271,6 +291,10 @@ fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, 
         work,
         controller,
         pairing_guess: read_pairing_guess(&g, model)?,
+        plastic_start: read_plastic_start(&g, model)?,
+        // (A checkpoint written before they were kept: zero, as for elastic bodies.)
+        cycle_ratcheting: g.attr("cycle_ratcheting").and_then(|a| a.read_scalar::<f64>()).unwrap_or(0.0),
+        cycle_plastic_strain: g.attr("cycle_plastic_strain").and_then(|a| a.read_scalar::<f64>()).unwrap_or(0.0),
     };
     let finite = w
         .vertices

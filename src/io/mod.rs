@@ -122,9 +122,12 @@ struct Series {
 /// `step`, `cycle` (cycles done, jumps included), `computed_cycles`, `jump` (u64), and per
 /// wearing surface `/wear/<cut>/{vertices (rows, v, 2), depth (rows, v), worn_area, work,
 /// max_depth}` and `segments` `(v - 1, 2)` i64 (`v` rows when closed), vertices in the order
-/// the case gave them.
+/// the case gave them. With yielding bodies also `ratcheting` and `plastic_strain`: the
+/// largest net and accumulated equivalent plastic strain of a point over the last computed
+/// cycle (see `wear::cycle_plasticity`).
 struct WearSeries {
     scalars: [hdf5::Dataset; 4],
+    plastic: Option<[hdf5::Dataset; 2]>,
     surfaces: Vec<[hdf5::Dataset; 5]>,
     rows: usize,
     /// Per surface: name and vertex count (XDMF polylines); per row: its output step.
@@ -137,6 +140,8 @@ impl WearSeries {
         let g = file.create_group("wear")?;
         let u = |name: &str| g.new_dataset::<u64>().chunk(SERIES_CHUNK).shape(0..).create(name);
         let scalars = [u("step")?, u("cycle")?, u("computed_cycles")?, u("jump")?];
+        let f = |name: &str| g.new_dataset::<f64>().chunk(SERIES_CHUNK).shape(0..).create(name);
+        let plastic = if model.has_plasticity() { Some([f("ratcheting")?, f("plastic_strain")?]) } else { None };
         let mut surfaces = vec![];
         let mut meta = vec![];
         for w in &model.wear.surfaces {
@@ -157,7 +162,7 @@ impl WearSeries {
                 f("max_depth")?,
             ]);
         }
-        Ok(WearSeries { scalars, surfaces, rows: 0, meta, row_steps: vec![] })
+        Ok(WearSeries { scalars, plastic, surfaces, rows: 0, meta, row_steps: vec![] })
     }
 
     fn append(&mut self, model: &Model, report: &StepReport, state: &SimState) -> hdf5::Result<()> {
@@ -165,6 +170,10 @@ impl WearSeries {
         let k = self.rows;
         let w = &state.wear;
         for (ds, v) in self.scalars.iter().zip([report.step as u64, w.cycle, w.computed_cycles, w.jump]) {
+            ds.resize(k + 1)?;
+            ds.write_slice(&[v], s![k..k + 1])?;
+        }
+        for (ds, v) in self.plastic.iter().flatten().zip([w.cycle_ratcheting, w.cycle_plastic_strain]) {
             ds.resize(k + 1)?;
             ds.write_slice(&[v], s![k..k + 1])?;
         }

@@ -665,6 +665,7 @@ impl ModelBuilder {
             jump: self.wear_jump,
             scheme: self.wear_scheme,
             smoothing: self.wear_smoothing,
+            ratcheting_tolerance: self.ratcheting_tolerance,
         };
         for (name, law, coefficient, max_depth) in &self.wear_cuts {
             let Some(surface) = self.free_cut_index(name) else {

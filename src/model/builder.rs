@@ -86,6 +86,7 @@ pub struct ModelBuilder {
     pub(super) wear_jump: crate::wear::JumpPolicy,
     pub(super) wear_scheme: crate::wear::JumpScheme,
     pub(super) wear_smoothing: f64,
+    pub(super) ratcheting_tolerance: f64,
     pub(super) ghost_penalty: f64,
     pub(super) contacts: Vec<ContactSpec>,
     /// Multi-point constraints `u(node) - u(master) = 0` (rigid sets), global DOFs.
@@ -114,6 +115,7 @@ impl ModelBuilder {
             wear_jump: crate::wear::JumpPolicy::default(),
             wear_scheme: crate::wear::JumpScheme::default(),
             wear_smoothing: crate::wear::DEFAULT_SMOOTHING,
+            ratcheting_tolerance: crate::wear::DEFAULT_RATCHETING_TOLERANCE,
         }
     }
 
@@ -166,6 +168,12 @@ impl ModelBuilder {
     /// Wear-rate smoothing length in segments (see [`crate::wear::smooth_rate`]; 0: none).
     pub fn set_wear_smoothing(&mut self, segments: f64) {
         self.wear_smoothing = segments;
+    }
+
+    /// Largest net plastic strain per computed cycle under which cycles may be jumped over
+    /// (see [`crate::wear::cycle_plasticity`]).
+    pub fn set_ratcheting_tolerance(&mut self, tolerance: f64) {
+        self.ratcheting_tolerance = tolerance;
     }
 
     /// Makes a free cut move during the run (re-cut on fixed points, see

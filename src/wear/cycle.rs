@@ -18,6 +18,7 @@ use super::{
     JumpPolicy, JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel, PRESSURE_PREDICTION_TOLERANCE,
 };
 use crate::contact::ContactSet;
+use crate::fem::material::PlasticState;
 use crate::mesh::Mesh2;
 use crate::moving::FreeSurface;
 use nalgebra::{DMatrix, Point2};
@@ -57,6 +58,39 @@ pub struct WearState {
     /// converged to there (empty before the first), where the next cycle's step is paired
     /// first.
     pub pairing_guess: Vec<Vec<f64>>,
+    /// Yielding bodies: `[eps_p (4 tensor components), alpha]` of every history point at the
+    /// start of the current computed cycle (empty: the virgin state, all zero).
+    pub plastic_start: Vec<f64>,
+    /// Yielding bodies, over the last computed cycle (see [`cycle_plasticity`]): the largest net
+    /// equivalent plastic strain of a point (ratcheting) and the largest equivalent plastic
+    /// strain it accumulated (reversed flow counted too: the width of a stable loop).
+    pub cycle_ratcheting: f64,
+    pub cycle_plastic_strain: f64,
+}
+
+/// Values per history point in [`WearState::plastic_start`].
+const PLASTIC_SNAPSHOT: usize = 5;
+
+/// The plastic strain of every history point, as [`WearState::plastic_start`] keeps it.
+pub fn plastic_snapshot(history: &[PlasticState]) -> Vec<f64> {
+    history.iter().flat_map(|h| [h.eps_p[0], h.eps_p[1], h.eps_p[2], h.eps_p[3], h.alpha]).collect()
+}
+
+/// Over a cycle from `start` (a [`plastic_snapshot`], empty: virgin) to `history`: the largest
+/// net equivalent plastic strain `sqrt(2/3) |eps_p(end) - eps_p(start)|` of a point, which is
+/// zero for elastic shakedown and for a stable (closed) plastic loop and positive while the
+/// body ratchets, and the largest accumulated `alpha(end) - alpha(start)` (zero only for
+/// elastic shakedown).
+pub fn cycle_plasticity(start: &[f64], history: &[PlasticState]) -> (f64, f64) {
+    let virgin = [0.0; PLASTIC_SNAPSHOT];
+    let start_of = |i: usize| start.get(PLASTIC_SNAPSHOT * i..PLASTIC_SNAPSHOT * (i + 1)).unwrap_or(&virgin);
+    history.iter().enumerate().fold((0.0_f64, 0.0_f64), |(net, acc), (i, h)| {
+        let s = start_of(i);
+        let d = [h.eps_p[0] - s[0], h.eps_p[1] - s[1], h.eps_p[2] - s[2], h.eps_p[3] - s[3]];
+        // Tensor norm of the symmetric increment (xy stored once, as a tensor component).
+        let norm = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] + 2.0 * d[3] * d[3]).sqrt();
+        (net.max((2.0_f64 / 3.0).sqrt() * norm), acc.max(h.alpha - s[4]))
+    })
 }
 
 /// How the multipliers of a set of normal rows answer a change of their weighted gaps with the
@@ -182,6 +216,11 @@ pub fn apply_cycle_wear(
     let cycle = CycleRates::of(scene, wear);
     let sensitivity = sensitivity.filter(|s| jump && scene.model.scheme == JumpScheme::Implicit && !s.rows.is_empty());
     let scheme = if sensitivity.is_some() { JumpScheme::Implicit } else { JumpScheme::Explicit };
+    // A body that still ratchets is not jumped over: the history advances only in computed
+    // cycles, so each jumped cycle would drop its net plastic strain.
+    let ratcheting = jump && wear.cycle_ratcheting > scene.model.ratcheting_tolerance;
+    let sensitivity = sensitivity.filter(|_| !ratcheting);
+    let scheme = if ratcheting { JumpScheme::Explicit } else { scheme };
     let mut dn = if jump {
         let resolution = scene
             .model
@@ -196,6 +235,20 @@ pub fn apply_cycle_wear(
     } else {
         1
     };
+    if ratcheting {
+        if dn > 1 && (wear.computed_cycles + 1).is_power_of_two() {
+            tracing::warn!(
+                cycle = wear.cycle,
+                computed = wear.computed_cycles + 1,
+                net_plastic_strain = wear.cycle_ratcheting,
+                tolerance = scene.model.ratcheting_tolerance,
+                "cycle jump refused: the body still ratchets (net plastic strain of the last computed cycle above \
+                 [cycle_jump] ratcheting_tolerance); every cycle is computed until it stops"
+            );
+        }
+        dn = 1;
+        wear.controller.last_jump = 1;
+    }
     if jump && wear.computed_cycles == 0 {
         check_something_wears(scene, &cycle.rates, count)?;
     }

@@ -49,7 +49,10 @@
 
 mod cycle;
 
-pub use cycle::{accumulate_step_wear, apply_cycle_wear, GapSensitivity, WearError, WearScene, WearState};
+pub use cycle::{
+    accumulate_step_wear, apply_cycle_wear, cycle_plasticity, plastic_snapshot, GapSensitivity, WearError, WearScene,
+    WearState,
+};
 
 use crate::contact::{ContactSet, PairedSide};
 use crate::mesh::Mesh2;
@@ -120,7 +123,14 @@ pub struct WearModel {
     pub scheme: JumpScheme,
     /// Filter length of the wear-rate smoothing in segments (see [`smooth_rate`]; 0: none).
     pub smoothing: f64,
+    /// Yielding bodies: the largest net equivalent plastic strain per computed cycle (see
+    /// [`cycle_plasticity`]) under which cycles may be jumped over.
+    pub ratcheting_tolerance: f64,
 }
+
+/// Default ratcheting tolerance: 1e-5 per cycle (a jump of 1,000 cycles then drops at most 1%
+/// of plastic strain; a steel yields at about 0.2%).
+pub const DEFAULT_RATCHETING_TOLERANCE: f64 = 1e-5;
 
 /// Default wear-rate smoothing: one segment.
 pub const DEFAULT_SMOOTHING: f64 = 1.0;
@@ -132,6 +142,7 @@ impl Default for WearModel {
             jump: JumpPolicy::default(),
             scheme: JumpScheme::default(),
             smoothing: DEFAULT_SMOOTHING,
+            ratcheting_tolerance: DEFAULT_RATCHETING_TOLERANCE,
         }
     }
 }
