@@ -201,6 +201,9 @@ pub struct StaticAnalysis<'m> {
     trial_f_int: Vec<f64>,
     /// Interface condensation (contact between linear elastic bodies).
     condensed: Option<condensed::Condensed>,
+    /// Condensation of yielding bodies: the consistent tangent `K_rho` last assembled (`values`
+    /// keeps the elastic one).
+    tangent_values: Vec<f64>,
     /// Active contact nodes in the last Newton iteration (reported when a step fails).
     last_active: usize,
     /// Gross sliding (every node in contact slipping one way) seen by the last failed Newton
@@ -295,11 +298,14 @@ impl<'m> StaticAnalysis<'m> {
     /// The solver structure this analysis can hand to the next model's (condensed only).
     pub fn into_reuse(self) -> Option<SolverReuse> {
         let key = self.reuse_key?;
+        let mut solver = self.solver;
+        // A factor of a tangent is no next model's K_rho: the elastic one is factored back (the
+        // values kept are always its), or if that fails the next model assembles its own.
         let tangent = self.condensed.as_ref().is_some_and(|c| c.tangent);
+        let lost = tangent && solver.factor(&self.values).is_err();
         let compliance = self.condensed.and_then(|c| c.compliance);
-        let reuse = SolverReuse::new(key, self.assembler, self.solver, self.values, compliance);
-        // A factor of a tangent is no next model's elastic K_rho: it assembles its own.
-        Some(if tangent { reuse.without_values() } else { reuse })
+        let reuse = SolverReuse::new(key, self.assembler, solver, self.values, compliance);
+        Some(if lost { reuse.without_values() } else { reuse })
     }
 
     /// Whether this analysis was set up on the previous model's pattern and symbolic
@@ -328,6 +334,7 @@ impl<'m> StaticAnalysis<'m> {
             trial_stress: vec![Stress4::zeros(); model.elements.num_points()],
             trial_f_int: vec![0.0; disc.dofs.num_dofs],
             condensed: Some(cd),
+            tangent_values: vec![],
             last_active: 0,
             last_gross_sliding: None,
             last_sets: None,
@@ -385,6 +392,7 @@ impl<'m> StaticAnalysis<'m> {
             trial_stress: vec![Stress4::zeros(); model.elements.num_points()],
             trial_f_int: vec![0.0; disc.dofs.num_dofs],
             condensed: None,
+            tangent_values: vec![],
             last_active: 0,
             last_gross_sliding: None,
             last_sets: None,
@@ -791,6 +799,16 @@ impl<'m> StaticAnalysis<'m> {
     /// penalty stiffness (ghost penalty) adds its force to the internal force.
     fn assemble_trial(&mut self, u: &[f64], history: &[PlasticState], with_tangent: bool) {
         let (m, disc) = (self.model, self.disc);
+        // By condensation `values` keeps the factored elastic K_rho; a tangent goes beside it.
+        let condensed = self.reuse_key.is_some();
+        if with_tangent && condensed {
+            self.tangent_values.resize(self.values.len(), 0.0);
+        }
+        let values = match (with_tangent, condensed) {
+            (false, _) => None,
+            (true, true) => Some(self.tangent_values.as_mut_slice()),
+            (true, false) => Some(self.values.as_mut_slice()),
+        };
         self.assembler.assemble(
             &AssemblyInput {
                 coords: &m.coords,
@@ -801,7 +819,7 @@ impl<'m> StaticAnalysis<'m> {
                 state_old: history,
             },
             AssemblyOutput {
-                values: if with_tangent { Some(&mut self.values) } else { None },
+                values,
                 f_int: &mut self.trial_f_int,
                 stress: &mut self.trial_stress,
                 state_new: &mut self.trial_history,
@@ -863,14 +881,14 @@ impl<'m> StaticAnalysis<'m> {
             // Yielding bodies: the first pass is the elastic predictor from the converged state
             // (the prescribed increment spread by the elastic operator, the contact solved
             // exactly on it); later passes are Newton steps on the consistent tangent at `u`.
-            if plastic && pass == 0 {
-                self.predictor_force(&state.u, &u, &history);
-                self.elastic_operator(cd, &state.u, &history, step)?;
-            } else {
+            if !plastic {
                 self.internal_force(&u, &history);
-                if plastic {
-                    self.tangent_at(cd, &u, &history, step, iterations)?;
-                }
+            } else if pass > 0 {
+                // The check of the last pass assembled the force and the tangent at `u`.
+                self.tangent_at(cd, &history, step, iterations)?;
+            } else {
+                self.predictor_force(&state.u, &u, &history);
+                self.elastic_operator(cd, step)?;
             }
             let mut ct = vec![0.0; disc.dofs.num_dofs];
             constraint_forces(m, disc, &lam0, &mut ct);
@@ -931,8 +949,9 @@ impl<'m> StaticAnalysis<'m> {
             };
             // Exact zeros where the law says so (open nodes).
             zero_open_multipliers(&disc.contact, &mut mu, &sets.active, &sets.status);
-            // Check: the equilibrium residual of the recovered state.
-            self.internal_force(&u, &history);
+            // Check: the equilibrium residual of the recovered state (yielding bodies: with the
+            // tangent there, for the next pass).
+            self.assemble_trial(&u, &history, plastic);
             constraint_forces(m, disc, &mu, &mut ct);
             let r: Vec<f64> = disc.dofs.free.iter().map(|&g| f_ext[g] - self.trial_f_int[g] - ct[g]).collect();
             let scale = scale0.max(norm(&self.trial_f_int)).max(norm(&ct));
@@ -990,21 +1009,12 @@ impl<'m> StaticAnalysis<'m> {
         }
     }
 
-    /// Yielding bodies: the elastic `K_rho` (the tangent at the converged state `u_conv`) in
-    /// the factor and the interface operator, refactored if a tangent is there.
-    fn elastic_operator(
-        &mut self,
-        cd: &mut condensed::Condensed,
-        u_conv: &[f64],
-        history: &[PlasticState],
-        step: usize,
-    ) -> Result<(), AnalysisError> {
+    /// Yielding bodies: the elastic `K_rho` (the tangent at the converged state) in the factor
+    /// and the interface operator, factored back if a tangent is there.
+    fn elastic_operator(&mut self, cd: &mut condensed::Condensed, step: usize) -> Result<(), AnalysisError> {
         if !cd.tangent {
             return Ok(());
         }
-        let f_int = self.trial_f_int.clone();
-        self.assemble_trial(u_conv, history, true);
-        self.trial_f_int = f_int;
         let linear = |source| NewtonError::Linear { step, iteration: 0, source };
         cd.refactor(self.model, self.disc, &self.assembler.pattern, &mut self.solver, &mut self.values, false)
             .map_err(linear)?;
@@ -1012,26 +1022,24 @@ impl<'m> StaticAnalysis<'m> {
     }
 
     /// Yielding bodies: puts into the factor and the interface operator the consistent tangent
-    /// at `u` from the converged `history` where a point yields there (the elastic `K_rho`
-    /// where none does; kept when it is already that).
+    /// the last assembly left (at `u`, from the converged `history`) where a point yields there;
+    /// the elastic `K_rho` where none does (kept when it is already that).
     fn tangent_at(
         &mut self,
         cd: &mut condensed::Condensed,
-        u: &[f64],
         history: &[PlasticState],
         step: usize,
         iteration: usize,
     ) -> Result<(), AnalysisError> {
-        let n_yield = self.trial_history.iter().zip(history).filter(|(a, b)| a != b).count();
-        let yielding = n_yield > 0;
-        tracing::debug!(step, iteration, n_yield, tangent = cd.tangent, "bulk operator");
-        if !yielding && !cd.tangent {
-            return Ok(());
-        }
-        self.assemble_trial(u, history, true);
+        let yielding = self.trial_history.iter().zip(history).any(|(a, b)| a != b);
         let linear = |source| NewtonError::Linear { step, iteration, source };
-        cd.refactor(self.model, self.disc, &self.assembler.pattern, &mut self.solver, &mut self.values, yielding)
-            .map_err(linear)?;
+        if yielding {
+            let (m, disc) = (self.model, self.disc);
+            cd.refactor(m, disc, &self.assembler.pattern, &mut self.solver, &mut self.tangent_values, true)
+                .map_err(linear)?;
+        } else if cd.tangent {
+            self.elastic_operator(cd, step)?;
+        }
         Ok(())
     }
 

@@ -128,8 +128,9 @@ pub struct CycleJumpSpec {
     pub prediction_tolerance: Option<f64>,
     /// "implicit" (default: linearised backward Euler, stable for any jump) or "explicit".
     pub scheme: Option<crate::wear::JumpScheme>,
-    /// Yielding bodies: largest net equivalent plastic strain of a computed cycle under which
-    /// cycles may be jumped over (default 1e-5; above it every cycle is computed).
+    /// Yielding bodies: largest net equivalent plastic strain a jump may drop at a point (`dN`
+    /// times that of the last computed cycle; default 1e-4). A body that ratchets more than
+    /// this per cycle is computed cycle by cycle.
     pub ratcheting_tolerance: Option<f64>,
 }
 

@@ -170,8 +170,8 @@ impl ModelBuilder {
         self.wear_smoothing = segments;
     }
 
-    /// Largest net plastic strain per computed cycle under which cycles may be jumped over
-    /// (see [`crate::wear::cycle_plasticity`]).
+    /// Largest net plastic strain a cycle jump may drop at a point (see
+    /// [`crate::wear::WearModel::ratcheting_tolerance`]).
     pub fn set_ratcheting_tolerance(&mut self, tolerance: f64) {
         self.ratcheting_tolerance = tolerance;
     }

@@ -68,6 +68,16 @@ pub struct WearState {
     pub cycle_plastic_strain: f64,
 }
 
+/// The largest jump that drops at most `tolerance` of net plastic strain at the rate
+/// `ratcheting` per cycle (unbounded without ratcheting).
+fn ratcheting_cap(ratcheting: f64, tolerance: f64) -> u64 {
+    if ratcheting > 0.0 {
+        (tolerance / ratcheting).floor().min(u64::MAX as f64) as u64
+    } else {
+        u64::MAX
+    }
+}
+
 /// Values per history point in [`WearState::plastic_start`].
 const PLASTIC_SNAPSHOT: usize = 5;
 
@@ -216,9 +226,11 @@ pub fn apply_cycle_wear(
     let cycle = CycleRates::of(scene, wear);
     let sensitivity = sensitivity.filter(|s| jump && scene.model.scheme == JumpScheme::Implicit && !s.rows.is_empty());
     let scheme = if sensitivity.is_some() { JumpScheme::Implicit } else { JumpScheme::Explicit };
-    // A body that still ratchets is not jumped over: the history advances only in computed
-    // cycles, so each jumped cycle would drop its net plastic strain.
-    let ratcheting = jump && wear.cycle_ratcheting > scene.model.ratcheting_tolerance;
+    // The history advances only in computed cycles, so a jump of dN cycles drops dN times the
+    // net plastic strain of the last computed cycle: at most the ratcheting tolerance. A body
+    // that ratchets more per cycle than that is not jumped over at all.
+    let plastic_cap = ratcheting_cap(wear.cycle_ratcheting, scene.model.ratcheting_tolerance);
+    let ratcheting = jump && plastic_cap <= 1;
     let sensitivity = sensitivity.filter(|_| !ratcheting);
     let scheme = if ratcheting { JumpScheme::Explicit } else { scheme };
     let mut dn = if jump {
@@ -235,19 +247,19 @@ pub fn apply_cycle_wear(
     } else {
         1
     };
-    if ratcheting {
-        if dn > 1 && (wear.computed_cycles + 1).is_power_of_two() {
+    if jump && dn > plastic_cap {
+        if ratcheting && (wear.computed_cycles + 1).is_power_of_two() {
             tracing::warn!(
                 cycle = wear.cycle,
                 computed = wear.computed_cycles + 1,
                 net_plastic_strain = wear.cycle_ratcheting,
                 tolerance = scene.model.ratcheting_tolerance,
-                "cycle jump refused: the body still ratchets (net plastic strain of the last computed cycle above \
-                 [cycle_jump] ratcheting_tolerance); every cycle is computed until it stops"
+                "cycle jump refused: the body ratchets (the net plastic strain of the last computed cycle is \
+                 above [cycle_jump] ratcheting_tolerance); cycles are computed one by one until it slows down"
             );
         }
-        dn = 1;
-        wear.controller.last_jump = 1;
+        dn = plastic_cap.max(1);
+        wear.controller.last_jump = dn;
     }
     if jump && wear.computed_cycles == 0 {
         check_something_wears(scene, &cycle.rates, count)?;

@@ -123,14 +123,13 @@ pub struct WearModel {
     pub scheme: JumpScheme,
     /// Filter length of the wear-rate smoothing in segments (see [`smooth_rate`]; 0: none).
     pub smoothing: f64,
-    /// Yielding bodies: the largest net equivalent plastic strain per computed cycle (see
-    /// [`cycle_plasticity`]) under which cycles may be jumped over.
+    /// Yielding bodies: the largest net equivalent plastic strain a jump may drop at a point
+    /// (`dN` times that of the last computed cycle, see [`cycle_plasticity`]).
     pub ratcheting_tolerance: f64,
 }
 
-/// Default ratcheting tolerance: 1e-5 per cycle (a jump of 1,000 cycles then drops at most 1%
-/// of plastic strain; a steel yields at about 0.2%).
-pub const DEFAULT_RATCHETING_TOLERANCE: f64 = 1e-5;
+/// Default ratcheting tolerance: 1e-4 per jump (5% of the yield strain of a 400 MPa steel).
+pub const DEFAULT_RATCHETING_TOLERANCE: f64 = 1e-4;
 
 /// Default wear-rate smoothing: one segment.
 pub const DEFAULT_SMOOTHING: f64 = 1.0;
