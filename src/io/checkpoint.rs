@@ -201,7 +201,10 @@ fn read_plastic_start(g: &hdf5::Group, model: &Model) -> Result<Vec<f64>, String
     let v = d.read_raw::<f64>().map_err(|e| format!("wear dataset plastic_start: {e}"))?;
     let expected = 5 * model.elements.num_states();
     if !v.is_empty() && v.len() != expected {
-        return Err(format!("wear dataset plastic_start has {} values, the model's history points {expected}", v.len()));
+        return Err(format!(
+            "wear dataset plastic_start has {} values, the model's history points {expected}",
+            v.len()
+        ));
     }
     Ok(v)
 }

@@ -1,0 +1,173 @@
+//! Elastic-plastic fretting wear: the McColl scene with a J2 flat (`wear_cases/mccoll_j2.toml`:
+//! yield stress 400 MPa, isotropic hardening 2 GPa, mu = 0.9, so that the flat's surface yields
+//! at every reversal of the stroke), reduced to coarse meshes (cylinder 14 x 60, flat 50 x 12
+//! cells) and 100 cycles.
+//!
+//! ```text
+//!        |  F = 18.5 N/mm (platen, held in x)
+//!     .--+--.   elastic cylinder, R = 6 mm
+//!   ____\_/____  <- stroke +-25 um imposed on the flat's bottom
+//!  |  J2 flat  |
+//! ```
+
+use mortex::analysis::StaticAnalysis;
+use mortex::driver::{run, RunOptions};
+use std::path::Path;
+
+const CASE: &str = "wear_cases/mccoll_j2.toml";
+/// The issue-level bound on the bulk Newton iterations of one step.
+const MAX_NEWTON: usize = 15;
+/// Default `[cycle_jump] ratcheting_tolerance`.
+const RATCHETING_TOLERANCE: f64 = 1e-4;
+
+/// The shipped case on coarse meshes with `cycles` cycles of `increments` increments, `extra`
+/// appended to the case (a `[cycle_jump]` table), `flat` its material.
+fn reduced(cycles: u64, increments: usize, extra: &str, flat: &str) -> mortex::model::Model {
+    let text = std::fs::read_to_string(CASE)
+        .unwrap()
+        .replace("divisions = [30, 160]", "divisions = [14, 60]")
+        .replace("divisions = [120, 30]", "divisions = [50, 12]")
+        .replace("cycles = 1000", &format!("cycles = {cycles}"))
+        .replace("increments = 4", &format!("increments = {increments}"))
+        .replace("material = \"steel_j2\"", &format!("material = \"{flat}\""))
+        .replace("[output]", &format!("{extra}\n[output]"));
+    mortex::case::parse(&text, "mccoll_j2", Path::new("wear_cases"), "mccoll_j2").unwrap().model
+}
+
+/// What a run did, step by step and cycle by cycle.
+#[derive(Default)]
+struct Record {
+    newton: Vec<usize>,
+    cutbacks: usize,
+    /// Per computed cycle: (jump, net plastic strain of the cycle).
+    jumps: Vec<(u64, f64)>,
+    worst_balance: f64,
+}
+
+fn run_recorded(model: &mortex::model::Model) -> (mortex::state::SimState, Record) {
+    let k: Vec<f64> = model.wear.surfaces.iter().map(|w| w.coefficient).collect();
+    let mut state = StaticAnalysis::initial_state_of(model);
+    let mut rec = Record::default();
+    run(model, &mut state, RunOptions::default(), |r, st, _, _| {
+        rec.newton.push(r.newton_iterations);
+        rec.cutbacks += r.cutbacks;
+        let w = &st.wear;
+        if w.increment == 0 && w.cycle > 0 {
+            rec.jumps.push((w.jump, w.cycle_ratcheting));
+            for (i, ki) in k.iter().enumerate() {
+                let rel = (w.worn_area[i] - ki * w.work[i]).abs() / w.worn_area[i];
+                rec.worst_balance = rec.worst_balance.max(rel);
+            }
+        }
+        Ok(())
+    })
+    .unwrap();
+    (state, rec)
+}
+
+fn max_depth(state: &mortex::state::SimState, surface: usize) -> f64 {
+    state.wear.depth[surface].iter().fold(0.0, |a: f64, &b| a.max(b))
+}
+
+/// A J2 flat that never yields (yield stress 1e6 MPa) is the elastic flat: the same condensed
+/// solve on the same elastic operator, the first pass from the elastic predictor
+/// `f(u_n) + K du` instead of `f(u_n + du)` (equal up to round-off), so over a gross-slip cycle
+/// without wear the displacements and the contact multipliers agree to 1e-9 of their largest
+/// value (round-off of the factorisations; measured below 1e-12). Without wear and with small
+/// sliding both models have the same quadrature (a wearing body's band of fixed points is
+/// chosen by its material) and the same pairing; both flats use B-bar (a J2 body's default).
+#[test]
+fn j2_flat_that_never_yields_is_the_elastic_flat() {
+    let scene = |flat: &str, yield_stress: &str| {
+        let mut text = std::fs::read_to_string(CASE)
+            .unwrap()
+            .replace("divisions = [30, 160]", "divisions = [14, 60]")
+            .replace("divisions = [120, 30]", "divisions = [50, 12]")
+            .replace("cycles = 1000", "cycles = 1")
+            .replace("friction = 0.9", "friction = 0.9\nsliding = \"small\"")
+            .replace("material = \"steel_j2\"", &format!("material = \"{flat}\"\nformulation = \"b_bar\""))
+            .replace("yield_stress = 400.0", yield_stress);
+        // No wear: drop the [[wear]] tables.
+        while let Some(a) = text.find("[[wear]]") {
+            let b = text[a..].find("\n\n").map_or(text.len(), |k| a + k + 2);
+            text.replace_range(a..b, "");
+        }
+        mortex::case::parse(&text, "scene", Path::new("wear_cases"), "scene").unwrap().model
+    };
+    let run_scene = |model: &mortex::model::Model| {
+        let mut state = StaticAnalysis::initial_state_of(model);
+        let mut newton = vec![];
+        run(model, &mut state, RunOptions::default(), |r, _, _, _| {
+            newton.push(r.newton_iterations);
+            Ok(())
+        })
+        .unwrap();
+        (state, newton)
+    };
+    let (se, _) = run_scene(&scene("steel", "yield_stress = 400.0"));
+    let (sp, newton) = run_scene(&scene("steel_j2", "yield_stress = 1e6"));
+    assert!(newton.iter().all(|&n| n == 1), "one bulk solve per step: {newton:?}");
+    let rel = |a: &[f64], b: &[f64]| {
+        let big = a.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        a.iter().zip(b).fold(0.0_f64, |m, (x, y)| m.max((x - y).abs())) / big
+    };
+    let (du, dl) = (rel(&se.u, &sp.u), rel(&se.multipliers, &sp.multipliers));
+    eprintln!("never-yielding J2 against elastic: displacements {du:.1e}, multipliers {dl:.1e}");
+    assert!(du < 1e-9 && dl < 1e-9, "displacements {du:.1e}, multipliers {dl:.1e}");
+    assert!(sp.history.iter().all(|h| h.alpha == 0.0));
+}
+
+/// The yielding flat at 4 and 8 increments per cycle: every step converges without a cut-back
+/// in at most 15 bulk Newton iterations; the wear balance `worn area = k int p |ds|` holds to
+/// 1e-10 on both bodies (it holds by construction, plasticity or not); the flat yields (its
+/// largest accumulated plastic strain passes the yield strain 400 / 200,000); every jump drops
+/// at most the ratcheting tolerance of net plastic strain (`dN` times the last computed
+/// cycle's). Depths against the elastic flat are printed (at 1,000 cycles on the shipped meshes:
+/// -5% on the flat).
+#[test]
+fn yielding_flat_converges_without_cutbacks_at_4_and_8_increments() {
+    for increments in [4, 8] {
+        let model = reduced(100, increments, "", "steel_j2");
+        let (state, rec) = run_recorded(&model);
+        let mut hist = std::collections::BTreeMap::new();
+        for &n in &rec.newton {
+            *hist.entry(n).or_insert(0) += 1;
+        }
+        let (elastic, _) = run_recorded(&reduced(100, increments, "", "steel"));
+        eprintln!(
+            "{increments} increments: {} computed cycles; bulk Newton iterations per step {hist:?}; flat depth {:.4e} \
+             (elastic {:.4e}), cylinder {:.4e} (elastic {:.4e}); worn areas {:?} (elastic {:?})",
+            state.wear.computed_cycles,
+            max_depth(&state, 0),
+            max_depth(&elastic, 0),
+            max_depth(&state, 1),
+            max_depth(&elastic, 1),
+            state.wear.worn_area,
+            elastic.wear.worn_area
+        );
+        assert_eq!(state.wear.cycle, 100);
+        assert_eq!(rec.cutbacks, 0, "{increments} increments: cut-backs");
+        let worst = rec.newton.iter().copied().max().unwrap();
+        assert!(worst <= MAX_NEWTON, "{increments} increments: {worst} Newton iterations in a step");
+        assert!(rec.worst_balance < 1e-10, "balance {:.1e}", rec.worst_balance);
+        let alpha = state.history.iter().fold(0.0_f64, |a, h| a.max(h.alpha));
+        assert!(alpha > 400.0 / 200_000.0, "largest plastic strain {alpha:.2e}");
+        for &(jump, net) in &rec.jumps {
+            assert!(jump == 1 || jump as f64 * net <= RATCHETING_TOLERANCE, "jump {jump} at net strain {net:.2e}");
+        }
+    }
+}
+
+/// A body that ratchets more per cycle than the tolerance is computed cycle by cycle: with a
+/// tolerance of 1e-9 every one of 12 cycles is computed, while the same run with the tolerance
+/// at 1 (any ratcheting allowed) jumps.
+#[test]
+fn a_ratcheting_flat_is_refused_cycle_jumps() {
+    let strict = reduced(12, 4, "[cycle_jump]\nratcheting_tolerance = 1e-9\n", "steel_j2");
+    let (state, rec) = run_recorded(&strict);
+    assert_eq!(state.wear.computed_cycles, 12);
+    assert!(rec.jumps.iter().all(|&(j, net)| j == 1 && net > 1e-9), "{:?}", rec.jumps);
+    let loose = reduced(12, 4, "[cycle_jump]\nratcheting_tolerance = 1.0\n", "steel_j2");
+    let (state, _) = run_recorded(&loose);
+    assert!(state.wear.computed_cycles < 12, "computed {}", state.wear.computed_cycles);
+}
