@@ -199,7 +199,7 @@ pub struct StaticAnalysis<'m> {
     trial_history: Vec<PlasticState>,
     trial_stress: Vec<Stress4>,
     trial_f_int: Vec<f64>,
-    /// Interface condensation (contact between linear elastic bodies).
+    /// Interface condensation (contact; yielding bodies on their consistent tangent).
     condensed: Option<condensed::Condensed>,
     /// Condensation of yielding bodies: the consistent tangent `K_rho` last assembled (`values`
     /// keeps the elastic one).

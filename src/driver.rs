@@ -3,7 +3,7 @@
 //! ```text
 //! for each remaining output step k (time t_k, cycle c, increment i):
 //!     move the virtual surfaces to their position at t_k and re-cut (fixed points)
-//!     solve the step (condensed interface solve for elastic contact, Newton otherwise);
+//!     solve the step (condensed interface solve for contact, Newton otherwise);
 //!     finite sliding: in the pairing of the step's own end configuration (a fixed point,
 //!     see `solve_paired_step`)
 //!     hand the converged state and the step's discretisation to the observer (output)

@@ -72,6 +72,14 @@ enum Command {
         /// With --cycle: a reference run (e.g. without cycle jumps) drawn in each panel.
         #[arg(long, requires = "cycle")]
         reference: Option<PathBuf>,
+        /// Instead: the equivalent plastic strain of a body (cell averages around the plastic
+        /// zone, the worn surface on top) at a full-field step (--step, default the last); PNG
+        /// default <result>_eqps.png.
+        #[arg(long, conflicts_with_all = ["pair", "xlim", "wear", "cycle"])]
+        plastic: bool,
+        /// With --plastic: the body (default: the one with the largest plastic strain).
+        #[arg(long, requires = "plastic")]
+        body: Option<String>,
     },
     /// Validate a case without running it and summarise what it defines.
     Check { case: PathBuf },
@@ -208,6 +216,15 @@ fn main() -> ExitCode {
             });
             mortex::io::plot::write_wear_png(&result, &out)
                 .map(|n| println!("{} worn surface(s) -> {}", n, out.display()))
+                .map_err(|e| e.to_string())
+        }
+        Command::Plot { result, plastic: true, body, step, output, .. } => {
+            let out = output.unwrap_or_else(|| {
+                let stem = result.file_stem().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+                result.with_file_name(format!("{stem}_eqps.png"))
+            });
+            mortex::io::plot_field::write_plastic_png(&result, body.as_deref(), step, &out)
+                .map(|(step, top)| println!("step {step}: largest cell plastic strain {top:.3e} -> {}", out.display()))
                 .map_err(|e| e.to_string())
         }
         Command::Plot { result, cycle: Some(cycle), reference, pair, output, .. } => {

@@ -171,3 +171,54 @@ fn a_ratcheting_flat_is_refused_cycle_jumps() {
     let (state, _) = run_recorded(&loose);
     assert!(state.wear.computed_cycles < 12, "computed {}", state.wear.computed_cycles);
 }
+
+/// `mortex plot --plastic` on a short run of the reduced case: it draws the body that yielded
+/// (the flat) at the last full-field step and reports the largest cell value, which is the
+/// file's own `cell_eqps` maximum (exact: the same number read back); on a run whose bodies
+/// never yield it is a clear error with a non-zero exit.
+#[test]
+fn plot_plastic_strain_of_the_flat() {
+    let dir = std::env::temp_dir().join(format!("mortex_plastic_plot_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = std::fs::read_to_string(CASE)
+        .unwrap()
+        .replace("divisions = [30, 160]", "divisions = [14, 60]")
+        .replace("divisions = [120, 30]", "divisions = [50, 12]")
+        .replace("cycles = 1000", "cycles = 1");
+    let case = dir.join("j2.toml");
+    std::fs::write(&case, &text).unwrap();
+    let (h5, png) = (dir.join("j2.h5"), dir.join("j2_eqps.png"));
+    let mortex = |args: &[&std::ffi::OsStr]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_mortex")).args(args).output().unwrap()
+    };
+    let run = mortex(&["run".as_ref(), case.as_os_str(), "-o".as_ref(), h5.as_os_str(), "--quiet".as_ref()]);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let plot = mortex(&["plot".as_ref(), h5.as_os_str(), "--plastic".as_ref()]);
+    let stdout = String::from_utf8_lossy(&plot.stdout);
+    assert!(plot.status.success(), "{}", String::from_utf8_lossy(&plot.stderr));
+    assert!(std::fs::metadata(&png).unwrap().len() > 10_000, "a PNG");
+    let reported: f64 = stdout.split("strain ").nth(1).and_then(|s| s.split(' ').next()).unwrap().parse().unwrap();
+    let file = hdf5::File::open(&h5).unwrap();
+    let steps = file.group("steps").unwrap();
+    let mut names = steps.member_names().unwrap();
+    names.sort();
+    let eqps: Vec<f64> =
+        steps.dataset(&format!("{}/flat/cell_eqps", names.last().unwrap())).unwrap().read_raw().unwrap();
+    let top = eqps.iter().fold(0.0_f64, |a, &b| a.max(b));
+    assert!(
+        top > 0.0 && (reported - top).abs() <= 5e-4 * top,
+        "reported {reported:e}, file {top:e} (printed to 4 digits)"
+    );
+    // An elastic flat: no plastic strain to draw.
+    let elastic = dir.join("el.toml");
+    std::fs::write(&elastic, text.replace("material = \"steel_j2\"", "material = \"steel\"")).unwrap();
+    let el_h5 = dir.join("el.h5");
+    assert!(mortex(&["run".as_ref(), elastic.as_os_str(), "-o".as_ref(), el_h5.as_os_str(), "--quiet".as_ref()])
+        .status
+        .success());
+    let bad = mortex(&["plot".as_ref(), el_h5.as_os_str(), "--plastic".as_ref()]);
+    assert!(!bad.status.success());
+    let msg = String::from_utf8_lossy(&bad.stderr);
+    assert!(msg.contains("no plastic strain") || msg.contains("cell_eqps"), "{msg}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1,4 +1,5 @@
-//! Interface condensation for contact between linear elastic bodies.
+//! Interface condensation for contact between elastic bodies (and yielding ones: each
+//! Newton iteration on their consistent tangent, see [`Condensed::refactor`]).
 //!
 //! The saddle-point system of one semi-smooth Newton iteration is
 //! `K du + C^T dlambda = r_u`, plus one law row per multiplier (gap rows `C_a du = -w_a` for

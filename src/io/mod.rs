@@ -60,6 +60,7 @@
 
 pub mod checkpoint;
 pub mod plot;
+pub mod plot_field;
 
 use crate::analysis::StepReport;
 use crate::model::{Discretisation, Model};

@@ -115,7 +115,7 @@ pub fn read_profile(path: &Path, step: Option<usize>, pair: Option<&str>) -> Res
 }
 
 /// Font for the labels, registered once per process.
-fn register_font() -> Result<(), PlotError> {
+pub(crate) fn register_font() -> Result<(), PlotError> {
     static FONT: OnceLock<Result<(), Vec<String>>> = OnceLock::new();
     FONT.get_or_init(|| {
         let mut tried: Vec<String> = vec![];

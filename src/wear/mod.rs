@@ -44,8 +44,16 @@
 //! first order in `dN`. So each jump is checked a posteriori against the next computed cycle,
 //! which caps the following jump ([`prediction_cap`]): its predicted pressure and its predicted
 //! worn-area rate per surface (`prediction_tolerance`, default 1%; in gross slip the area rate
-//! is `k P S` and this check is silent). Without condensation (elastic-plastic bodies) the
-//! explicit jump is used.
+//! is `k P S` and this check is silent).
+//!
+//! **Plastic history over a jump.** The history advances only in computed cycles: over the
+//! jumped cycles it is frozen, the standard assumption of shakedown to an elastic state or to a
+//! stable (closed) plastic loop. The interface stiffness of the implicit jump is the one of the
+//! last converged state (the consistent tangent where points yield). Where the body still
+//! ratchets, each jumped cycle would drop the net plastic strain of a computed cycle, so a jump
+//! drops at most `ratcheting_tolerance` of it (`dN` times the largest net equivalent plastic
+//! strain of the last computed cycle, [`cycle_plasticity`]); a body that ratchets more per
+//! cycle than that is computed cycle by cycle, with a warning.
 
 mod cycle;
 
