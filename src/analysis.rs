@@ -878,18 +878,7 @@ impl<'m> StaticAnalysis<'m> {
         let passes = if plastic { p.max_iterations.max(MAX_REFINEMENTS) } else { MAX_REFINEMENTS };
         for pass in 0..passes {
             // r_u = f - f_int(u0) - C^T lambda0 on the free equations, z = K_rho^{-1} r_u.
-            // Yielding bodies: the first pass is the elastic predictor from the converged state
-            // (the prescribed increment spread by the elastic operator, the contact solved
-            // exactly on it); later passes are Newton steps on the consistent tangent at `u`.
-            if !plastic {
-                self.internal_force(&u, &history);
-            } else if pass > 0 {
-                // The check of the last pass assembled the force and the tangent at `u`.
-                self.tangent_at(cd, &history, step, iterations)?;
-            } else {
-                self.predictor_force(&state.u, &u, &history);
-                self.elastic_operator(cd, step)?;
-            }
+            self.pass_operator(cd, (&state.u, &u), &history, pass, step, iterations)?;
             let mut ct = vec![0.0; disc.dofs.num_dofs];
             constraint_forces(m, disc, &lam0, &mut ct);
             // Force scale of the step: what the start of the step has seen too (a contact that opens
@@ -974,6 +963,32 @@ impl<'m> StaticAnalysis<'m> {
             lam0 = mu;
         }
         Ok(StepOutcome::NotConverged { iterations, residual: f64::INFINITY })
+    }
+
+    /// The internal force at the start of a condensed pass into `trial_f_int`, and the bulk
+    /// operator in the factor. Elastic bodies: the force at `u`. Yielding bodies: the first
+    /// pass is the elastic predictor from the converged state `u_conv` (the prescribed
+    /// increment spread by the elastic operator, the contact solved exactly on it); later
+    /// passes are Newton steps on the consistent tangent at `u` (the check of the last pass
+    /// assembled force and tangent there).
+    fn pass_operator(
+        &mut self,
+        cd: &mut condensed::Condensed,
+        (u_conv, u): (&[f64], &[f64]),
+        history: &[PlasticState],
+        pass: usize,
+        step: usize,
+        iterations: usize,
+    ) -> Result<(), AnalysisError> {
+        if !self.model.has_plasticity() {
+            self.internal_force(u, history);
+        } else if pass > 0 {
+            self.tangent_at(cd, history, step, iterations)?;
+        } else {
+            self.predictor_force(u_conv, u, history);
+            self.elastic_operator(cd, step)?;
+        }
+        Ok(())
     }
 
     /// The internal force of the elastic predictor into `trial_f_int`: `f_int(u_conv) + K (u0 -

@@ -118,7 +118,7 @@ pub fn write_plastic_png(
     register_font()?;
     let f = read_field(path, body, step)?;
     let top = f.eqps.iter().fold(0.0_f64, |a, &b| a.max(b));
-    if !(top > 0.0) {
+    if top <= 0.0 || !top.is_finite() {
         return Err(PlotError::Input {
             path: path.display().to_string(),
             msg: format!("body '{}' has no plastic strain at step {}", f.body, f.step),
