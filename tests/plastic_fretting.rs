@@ -222,3 +222,71 @@ fn plot_plastic_strain_of_the_flat() {
     assert!(msg.contains("no plastic strain") || msg.contains("cell_eqps"), "{msg}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A yielding wear run resumes bit for bit: the reduced case (small sliding and finite
+/// sliding), 6 cycles with a checkpoint every step, restarted mid-cycle (step 7: cycle 2,
+/// increment 2) and at a cycle's start (step 10), ends with the same displacements, plastic
+/// strain, contact tractions and wear depths as the uninterrupted run, to the last bit.
+#[test]
+fn yielding_wear_run_resumes_bit_for_bit() {
+    let dir = std::env::temp_dir().join(format!("mortex_plastic_restart_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mortex = |args: &[&std::ffi::OsStr]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_mortex")).args(args).output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    };
+    let last_fields = |path: &Path| -> Vec<(String, Vec<f64>)> {
+        let file = hdf5::File::open(path).unwrap();
+        let steps = file.group("steps").unwrap();
+        let mut names = steps.member_names().unwrap();
+        names.sort();
+        let last = names.last().unwrap().clone();
+        let mut out = vec![];
+        for d in
+            ["flat/displacement", "flat/cell_eqps", "cylinder/displacement", "points/eqps", "contacts/pair/pressure"]
+        {
+            let name = format!("{last}/{d}");
+            out.push((name.clone(), steps.dataset(&name).unwrap().read_raw::<f64>().unwrap()));
+        }
+        for s in ["flat.top", "cylinder.arc"] {
+            let depth: ndarray::Array2<f64> = file.dataset(&format!("wear/{s}/depth")).unwrap().read_2d().unwrap();
+            out.push((format!("{s} depth"), depth.row(depth.nrows() - 1).to_vec()));
+        }
+        out
+    };
+    for sliding in ["small", "finite"] {
+        let text = std::fs::read_to_string(CASE)
+            .unwrap()
+            .replace("divisions = [30, 160]", "divisions = [14, 60]")
+            .replace("divisions = [120, 30]", "divisions = [50, 12]")
+            .replace("cycles = 1000", "cycles = 6")
+            .replace("checkpoint_every = 100", "checkpoint_every = 1")
+            .replace("friction = 0.9", &format!("friction = 0.9\nsliding = \"{sliding}\""));
+        let case = dir.join(format!("{sliding}.toml"));
+        std::fs::write(&case, text).unwrap();
+        let whole = dir.join(format!("{sliding}.h5"));
+        mortex(&["run".as_ref(), case.as_os_str(), "-o".as_ref(), whole.as_os_str(), "--quiet".as_ref()]);
+        let reference = last_fields(&whole);
+        for from in ["7", "10"] {
+            let cont = dir.join(format!("{sliding}_from{from}.h5"));
+            mortex(&[
+                "run".as_ref(),
+                case.as_os_str(),
+                "--restart".as_ref(),
+                whole.as_os_str(),
+                "--from-step".as_ref(),
+                from.as_ref(),
+                "-o".as_ref(),
+                cont.as_os_str(),
+                "--quiet".as_ref(),
+            ]);
+            for ((name, a), (_, b)) in reference.iter().zip(last_fields(&cont)) {
+                assert!(
+                    a.len() == b.len() && a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()),
+                    "{sliding}, from step {from}: {name} differs"
+                );
+            }
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
