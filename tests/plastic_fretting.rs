@@ -290,3 +290,49 @@ fn yielding_wear_run_resumes_bit_for_bit() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Prager (linear, unlimited) kinematic hardening cannot ratchet under periodic loading: with
+/// unlimited linear kinematic hardening incremental collapse is excluded and the cycle tends
+/// to elastic shakedown or to a closed plastic loop (Konig, Shakedown of Elastic-Plastic
+/// Structures, Elsevier 1987; the basis of Zarka's simplified method). The J2 flat with kinematic hardening 20 GPa and
+/// no isotropic hardening, no wear (a periodic load), 24 gross-slip cycles: the net plastic
+/// strain per cycle decreases from cycle to cycle over the last ten and falls below 2% of what
+/// it was in the second cycle (it decays about 16% per cycle; measured 0.66% at cycle 24), while the
+/// accumulated plastic strain per cycle stays above half of its second-cycle value (the loop
+/// keeps its width: alternating plasticity, not elastic shakedown). This is what the run
+/// reports per computed cycle (`/wear/ratcheting`, `/wear/plastic_strain`).
+#[test]
+fn kinematic_hardening_settles_into_a_closed_loop() {
+    let mut text = std::fs::read_to_string(CASE)
+        .unwrap()
+        .replace("divisions = [30, 160]", "divisions = [14, 60]")
+        .replace("divisions = [120, 30]", "divisions = [50, 12]")
+        .replace("cycles = 1000", "cycles = 24")
+        .replace("isotropic_hardening = 2000.0", "isotropic_hardening = 0.0\nkinematic_hardening = 20000.0");
+    while let Some(a) = text.find("[[wear]]") {
+        let b = text[a..].find("\n\n").map_or(text.len(), |k| a + k + 2);
+        text.replace_range(a..b, "");
+    }
+    let model = mortex::case::parse(&text, "kinematic", Path::new("wear_cases"), "kinematic").unwrap().model;
+    let mut state = StaticAnalysis::initial_state_of(&model);
+    let mut start = mortex::wear::plastic_snapshot(&state.history);
+    let mut per_cycle = vec![];
+    run(&model, &mut state, RunOptions::default(), |r, st, _, _| {
+        if r.cycle == 0 && r.increment == 1 || r.cycle > 0 && r.increment == 4 {
+            if r.cycle > 0 {
+                per_cycle.push(mortex::wear::cycle_plasticity(&start, &st.history));
+            }
+            start = mortex::wear::plastic_snapshot(&st.history);
+        }
+        Ok(())
+    })
+    .unwrap();
+    for (i, (n, a)) in per_cycle.iter().enumerate() {
+        eprintln!("cycle {}: net {n:.3e}, accumulated {a:.3e}", i + 1);
+    }
+    assert_eq!(per_cycle.len(), 24);
+    assert!(per_cycle[14..].windows(2).all(|w| w[1].0 < w[0].0), "the net strain per cycle decreases");
+    let (second, last) = (per_cycle[1], per_cycle[23]);
+    assert!(last.0 < 0.02 * second.0, "net plastic strain per cycle {:.2e} (second cycle {:.2e})", last.0, second.0);
+    assert!(last.1 > 0.5 * second.1, "accumulated per cycle {:.2e} (second cycle {:.2e})", last.1, second.1);
+}
