@@ -20,14 +20,19 @@ const MAX_NEWTON: usize = 15;
 /// Default `[cycle_jump] ratcheting_tolerance`.
 const RATCHETING_TOLERANCE: f64 = 1e-4;
 
-/// The shipped case on coarse meshes with `cycles` cycles of `increments` increments, `extra`
-/// appended to the case (a `[cycle_jump]` table), `flat` its material.
-fn reduced(cycles: u64, increments: usize, extra: &str, flat: &str) -> mortex::model::Model {
-    let text = std::fs::read_to_string(CASE)
+/// The shipped case's text on the coarse meshes with `cycles` cycles.
+fn coarse(cycles: u64) -> String {
+    std::fs::read_to_string(CASE)
         .unwrap()
         .replace("divisions = [30, 160]", "divisions = [14, 60]")
         .replace("divisions = [120, 30]", "divisions = [50, 12]")
         .replace("cycles = 1000", &format!("cycles = {cycles}"))
+}
+
+/// The shipped case on coarse meshes with `cycles` cycles of `increments` increments, `extra`
+/// appended to the case (a `[cycle_jump]` table), `flat` its material.
+fn reduced(cycles: u64, increments: usize, extra: &str, flat: &str) -> mortex::model::Model {
+    let text = coarse(cycles)
         .replace("increments = 4", &format!("increments = {increments}"))
         .replace("material = \"steel_j2\"", &format!("material = \"{flat}\""))
         .replace("[output]", &format!("{extra}\n[output]"));
@@ -79,11 +84,7 @@ fn max_depth(state: &mortex::state::SimState, surface: usize) -> f64 {
 #[test]
 fn j2_flat_that_never_yields_is_the_elastic_flat() {
     let scene = |flat: &str, yield_stress: &str| {
-        let mut text = std::fs::read_to_string(CASE)
-            .unwrap()
-            .replace("divisions = [30, 160]", "divisions = [14, 60]")
-            .replace("divisions = [120, 30]", "divisions = [50, 12]")
-            .replace("cycles = 1000", "cycles = 1")
+        let mut text = coarse(1)
             .replace("friction = 0.9", "friction = 0.9\nsliding = \"small\"")
             .replace("material = \"steel_j2\"", &format!("material = \"{flat}\"\nformulation = \"b_bar\""))
             .replace("yield_stress = 400.0", yield_stress);
@@ -180,11 +181,7 @@ fn a_ratcheting_flat_is_refused_cycle_jumps() {
 fn plot_plastic_strain_of_the_flat() {
     let dir = std::env::temp_dir().join(format!("mortex_plastic_plot_{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let text = std::fs::read_to_string(CASE)
-        .unwrap()
-        .replace("divisions = [30, 160]", "divisions = [14, 60]")
-        .replace("divisions = [120, 30]", "divisions = [50, 12]")
-        .replace("cycles = 1000", "cycles = 1");
+    let text = coarse(1);
     let case = dir.join("j2.toml");
     std::fs::write(&case, &text).unwrap();
     let (h5, png) = (dir.join("j2.h5"), dir.join("j2_eqps.png"));
@@ -255,11 +252,7 @@ fn yielding_wear_run_resumes_bit_for_bit() {
         out
     };
     for sliding in ["small", "finite"] {
-        let text = std::fs::read_to_string(CASE)
-            .unwrap()
-            .replace("divisions = [30, 160]", "divisions = [14, 60]")
-            .replace("divisions = [120, 30]", "divisions = [50, 12]")
-            .replace("cycles = 1000", "cycles = 6")
+        let text = coarse(6)
             .replace("checkpoint_every = 100", "checkpoint_every = 1")
             .replace("friction = 0.9", &format!("friction = 0.9\nsliding = \"{sliding}\""));
         let case = dir.join(format!("{sliding}.toml"));
@@ -303,12 +296,8 @@ fn yielding_wear_run_resumes_bit_for_bit() {
 /// reports per computed cycle (`/wear/ratcheting`, `/wear/plastic_strain`).
 #[test]
 fn kinematic_hardening_settles_into_a_closed_loop() {
-    let mut text = std::fs::read_to_string(CASE)
-        .unwrap()
-        .replace("divisions = [30, 160]", "divisions = [14, 60]")
-        .replace("divisions = [120, 30]", "divisions = [50, 12]")
-        .replace("cycles = 1000", "cycles = 24")
-        .replace("isotropic_hardening = 2000.0", "isotropic_hardening = 0.0\nkinematic_hardening = 20000.0");
+    let mut text =
+        coarse(24).replace("isotropic_hardening = 2000.0", "isotropic_hardening = 0.0\nkinematic_hardening = 20000.0");
     while let Some(a) = text.find("[[wear]]") {
         let b = text[a..].find("\n\n").map_or(text.len(), |k| a + k + 2);
         text.replace_range(a..b, "");
