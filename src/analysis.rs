@@ -1035,8 +1035,8 @@ impl<'m> StaticAnalysis<'m> {
         let du: Vec<f64> = u0.iter().zip(u_conv).map(|(a, b)| a - b).collect();
         let elastic: Vec<Material> = m.materials.iter().map(|mat| Material::Elastic(*mat.elastic())).collect();
         let mut f_du = vec![0.0; disc.dofs.num_dofs];
-        let mut stress = vec![Stress4::zeros(); m.elements.num_points()];
-        let mut states = history.to_vec();
+        // The trial stress and history serve as scratch: the internal force below rewrites
+        // them at every point the elastic assembly wrote.
         self.assembler.assemble(
             &AssemblyInput {
                 coords: &m.coords,
@@ -1046,7 +1046,12 @@ impl<'m> StaticAnalysis<'m> {
                 u: &du,
                 state_old: history,
             },
-            AssemblyOutput { values: None, f_int: &mut f_du, stress: &mut stress, state_new: &mut states },
+            AssemblyOutput {
+                values: None,
+                f_int: &mut f_du,
+                stress: &mut self.trial_stress,
+                state_new: &mut self.trial_history,
+            },
             self.parallel,
         );
         self.internal_force(u_conv, history);

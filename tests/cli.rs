@@ -8,6 +8,14 @@ fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_mortex"))
 }
 
+/// Width and height of a PNG file from its header, after checking its signature.
+fn png_size(path: &Path) -> (u32, u32) {
+    let bytes = std::fs::read(path).unwrap();
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{}: PNG signature", path.display());
+    let dim = |k: usize| u32::from_be_bytes([bytes[k], bytes[k + 1], bytes[k + 2], bytes[k + 3]]);
+    (dim(16), dim(20))
+}
+
 fn tmpdir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("mortex-cli-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
@@ -294,10 +302,7 @@ fn plot_contact_profile_png() {
     {
         let (ok, text) = run(&args, &d);
         assert!(ok, "{args:?}: {text}");
-        let bytes = std::fs::read(d.join(png)).unwrap();
-        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{png}: PNG signature");
-        let dim = |k: usize| u32::from_be_bytes([bytes[k], bytes[k + 1], bytes[k + 2], bytes[k + 3]]);
-        assert_eq!((dim(16), dim(20)), (1000, 700), "{png}: IHDR size");
+        assert_eq!(png_size(&d.join(png)), (1000, 700), "{png}: IHDR size");
     }
     std::fs::write(d.join("good.toml"), GOOD).unwrap();
     assert!(run(&["run", "good.toml", "--quiet", "-o", "plain.h5"], &d).0);
@@ -324,10 +329,7 @@ fn plot_pressure_over_a_cycle_png() {
     assert!(ok, "{text}");
     let (ok, text) = run(&["plot", "uw.h5", "--cycle", "7", "--reference", "uw.h5"], &d);
     assert!(ok && text.contains("cycle 7: 4 increments"), "{text}");
-    let bytes = std::fs::read(d.join("uw_cycle7.png")).unwrap();
-    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "PNG signature");
-    let dim = |k: usize| u32::from_be_bytes([bytes[k], bytes[k + 1], bytes[k + 2], bytes[k + 3]]);
-    assert_eq!((dim(16), dim(20)), (900, 4 * 380), "IHDR size");
+    assert_eq!(png_size(&d.join("uw_cycle7.png")), (900, 4 * 380), "IHDR size");
     std::fs::write(d.join("good.toml"), GOOD).unwrap();
     assert!(run(&["run", "good.toml", "--quiet", "-o", "plain.h5"], &d).0);
     for (args, needle) in [
