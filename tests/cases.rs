@@ -4,7 +4,35 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn run_case(name: &str) -> PathBuf {
+/// A case's result files in the temp dir, removed when the test ends (the shipped cases write
+/// up to 800 MB: repeated test runs must not fill the disk).
+struct CaseOutput(PathBuf);
+
+impl std::ops::Deref for CaseOutput {
+    type Target = PathBuf;
+    fn deref(&self) -> &PathBuf {
+        &self.0
+    }
+}
+
+impl AsRef<Path> for CaseOutput {
+    fn as_ref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for CaseOutput {
+    fn drop(&mut self) {
+        let stem = self.0.with_extension("");
+        for f in
+            [self.0.clone(), self.0.with_extension("xdmf"), PathBuf::from(format!("{}_contact.csv", stem.display()))]
+        {
+            let _ = std::fs::remove_file(f);
+        }
+    }
+}
+
+fn run_case(name: &str) -> CaseOutput {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let out = std::env::temp_dir().join(format!("mortex-cases-{}-{name}.h5", std::process::id()));
     let status = Command::new(env!("CARGO_BIN_EXE_mortex"))
@@ -18,7 +46,7 @@ fn run_case(name: &str) -> PathBuf {
         .status()
         .unwrap();
     assert!(status.success(), "case {name} failed");
-    out
+    CaseOutput(out)
 }
 
 fn read2(f: &hdf5::File, path: &str) -> ndarray::Array2<f64> {
