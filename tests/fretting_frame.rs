@@ -152,3 +152,162 @@ fn swept_wear_converges_in_the_increments_per_cycle() {
         }
     }
 }
+
+#[path = "common/halfplane.rs"]
+mod halfplane;
+use halfplane::{HalfPlaneFretting, Profile};
+
+/// The McColl scene as half-planes (see `common/halfplane.rs`): E* = E / (2 (1 - nu^2)).
+fn mccoll_half_planes(increments: usize, panel: f64) -> HalfPlaneFretting {
+    HalfPlaneFretting {
+        radius: 6.0,
+        load: 18.5,
+        e_star: 200_000.0 / (2.0 * (1.0 - 0.3 * 0.3)),
+        stroke: 0.025,
+        k_flat: 2.9e-8,
+        k_cylinder: 1.9e-8,
+        panel,
+        window: 0.14,
+        increments,
+        substeps: 8,
+    }
+}
+
+/// Largest depth, width where the depth is at least 1% of it, and area of a profile.
+fn scar(x: &[f64], d: &[f64]) -> (f64, f64, f64) {
+    let max = d.iter().fold(0.0_f64, |a, &b| a.max(b));
+    let on: Vec<f64> = x.iter().zip(d).filter(|(_, &v)| v >= 0.01 * max).map(|(&x, _)| x).collect();
+    let width = on.iter().cloned().fold(f64::MIN, f64::max) - on.iter().cloned().fold(f64::MAX, f64::min);
+    let mut o: Vec<(f64, f64)> = x.iter().cloned().zip(d.iter().cloned()).collect();
+    o.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let area = o.windows(2).map(|w| 0.5 * (w[0].1 + w[1].1) * (w[1].0 - w[0].0)).sum();
+    (max, width, area)
+}
+
+/// The shipped McColl case at 1,000 cycles (its defaults): the depth profiles of both bodies
+/// (x of each vertex, depth), worn areas, and the pressure profiles (x, p) of the multiplier
+/// nodes at the increments of the last computed cycle.
+struct EngineRun {
+    flat: (Vec<f64>, Vec<f64>),
+    cylinder: (Vec<f64>, Vec<f64>),
+    worn_area: Vec<f64>,
+    last_cycle: Vec<(Vec<f64>, Vec<f64>)>,
+}
+
+fn mccoll_engine(cycles: usize) -> EngineRun {
+    let text = std::fs::read_to_string("wear_cases/mccoll_fretting.toml")
+        .expect("shipped case")
+        .replace("cycles = 18000", &format!("cycles = {cycles}"));
+    let case =
+        mortex::case::parse(&text, "mccoll", Path::new("wear_cases"), "mccoll").unwrap_or_else(|e| panic!("{e}"));
+    let model = case.model;
+    let increments = 4;
+    let mut state = StaticAnalysis::initial_state_of(&model);
+    let mut profiles = vec![];
+    run(&model, &mut state, RunOptions::default(), |_, st, _, d| {
+        let f = mortex::contact::contact_field(&d.contact, &st.contact_unknowns(), 0);
+        profiles.push((f.iter().map(|n| n.position.x).collect(), f.iter().map(|n| n.pressure).collect()));
+        Ok(())
+    })
+    .unwrap_or_else(|e| panic!("{e}"));
+    let w = state.wear;
+    let xs = |i: usize| w.vertices[i].iter().map(|v| v[0]).collect::<Vec<f64>>();
+    EngineRun {
+        flat: (xs(0), w.depth[0].clone()),
+        cylinder: (xs(1), w.depth[1].clone()),
+        worn_area: w.worn_area.clone(),
+        last_cycle: profiles.split_off(profiles.len() - increments),
+    }
+}
+
+/// L2 difference of a profile (x, v) from a reference on a uniform grid, over the reference's
+/// L2 norm (the profile interpolated linearly onto the grid, 0 outside it).
+fn l2_against(x: &[f64], v: &[f64], xr: &[f64], vr: &[f64]) -> f64 {
+    let profile = Profile::new(x, v);
+    let num: f64 = xr.iter().zip(vr).map(|(&t, &r)| (profile.at(t) - r).powi(2)).sum();
+    let den: f64 = vr.iter().map(|r| r * r).sum();
+    (num / den).sqrt()
+}
+
+/// An independent reference (`common/halfplane.rs`): both bodies as elastic half-planes with
+/// panel pressures, both worn by Archard's law, the flat swept under the held cylinder, 16
+/// increments per cycle, 1 um panels, no cycle jump (converged: 8 to 64 increments and 2 or
+/// 1 um panels give the same depths to 0.1%). The shipped case at 1,000 cycles (defaults):
+/// - raw, the engine's depths are 1.9% (flat) and 2.3% (cylinder) below the half-planes',
+///   tolerance 3%: the finite bodies' elastic tangential compliance takes up part of each
+///   stroke before the contact slips again (the half-planes slip over the whole stroke). The
+///   engine's worn areas measure what is left, exactly (`k P S N`, the balance holds to
+///   round-off): 97.0% of the stroke, bound [95%, 100%] (the line-load compliance of the
+///   half-planes, with the load points 2 mm and 6 mm deep, estimates 1.7%);
+/// - given the engine's slip (its stroke scaled by that ratio), the half-planes' largest
+///   depths are within 1% (measured 0.34%, 0.20%): the figure the bodies' finite size leaves
+///   is the tilt of the surface under the shear, of order (a / thickness)^2;
+/// - the profiles within 4% in L2 (measured 2.7%, 1.9%): the flanks of the scars, where the
+///   cylinder's edge rides at the stroke ends, are resolved by 8-9 um segments (flat) while the
+///   depth there falls from 190 to 5 nm over 40 um; the scar widths (1% of the largest depth)
+///   within two segments, 18 um (measured +15.6 um flat, -5.6 um cylinder).
+///
+/// The pressure is printed, not asserted (known fault, docs/validation.md): at the stroke ends
+/// the engine's differs from the half-planes' by 44% in L2 (p_max 438 against 321 MPa), at
+/// the centre by 19-22%. The half-plane model given the *engine's* worn profiles finds the same
+/// kind of spikes (p_max 503 MPa at the stroke end): element-scale roughness of the worn
+/// geometry, well under a nanometre, not the contact solve, makes them.
+#[test]
+fn mccoll_against_half_planes() {
+    let engine = mccoll_engine(1000);
+    let (k_flat, load, cycles, stroke) = (2.9e-8, 18.5, 1000.0, 0.025);
+    let reference = mccoll_half_planes(16, 0.001);
+    let rigid = reference.run(1000, |_, _, _, _| {});
+    let slip_ratio = engine.worn_area[0] / (k_flat * load * cycles * 4.0 * stroke);
+    let mut calibrated = reference.clone();
+    calibrated.stroke *= slip_ratio;
+    let mut ref_p = vec![];
+    let end = calibrated.run(1000, |c, i, _, st| {
+        if c == 1000 && i % 4 == 0 {
+            ref_p.push(st.pressure.clone());
+        }
+    });
+    eprintln!("engine slip over the stroke: {slip_ratio:.4}");
+    assert!((0.95..1.0).contains(&slip_ratio), "slip ratio {slip_ratio}");
+    let segment = 0.009;
+    for (name, (x, d), (xr, dr), dr_rigid) in [
+        ("flat", &engine.flat, (&end.flat_x, &end.flat_depth), &rigid.flat_depth),
+        ("cylinder", &engine.cylinder, (&end.x, &end.cylinder_depth), &rigid.cylinder_depth),
+    ] {
+        let (e, r) = (scar(x, d), scar(xr, dr));
+        let raw = e.0 / dr_rigid.iter().fold(0.0_f64, |a, &b| a.max(b)) - 1.0;
+        let l2 = l2_against(x, d, xr, dr);
+        eprintln!(
+            "{name}: depth {:.4} um, half-planes {:.4} um ({:+.2}%; full stroke {:+.2}%), width {:.1} / {:.1} um, profile L2 {:.2}%",
+            1e3 * e.0,
+            1e3 * r.0,
+            100.0 * (e.0 / r.0 - 1.0),
+            100.0 * raw,
+            1e3 * e.1,
+            1e3 * r.1,
+            100.0 * l2
+        );
+        assert!(raw.abs() < 0.03, "{name}: depth against the full-stroke half-planes {raw:+.3e}");
+        assert!((e.0 / r.0 - 1.0).abs() < 0.01, "{name}: depth {:.4} against {:.4} um", 1e3 * e.0, 1e3 * r.0);
+        assert!(l2 < 0.04, "{name}: profile L2 {l2:.3e}");
+        assert!((e.1 - r.1).abs() < 2.0 * segment, "{name}: width {:.1} against {:.1} um", 1e3 * e.1, 1e3 * r.1);
+    }
+    for (k, ((x, p), pr)) in engine.last_cycle.iter().zip(&ref_p).enumerate() {
+        let pm = p.iter().fold(0.0_f64, |a, &b| a.max(b));
+        let prm = pr.iter().fold(0.0_f64, |a, &b| a.max(b));
+        eprintln!(
+            "cycle 1000, increment {}: p_max {pm:.0}, half-planes {prm:.0} MPa; pressure L2 {:.1}%",
+            k + 1,
+            100.0 * l2_against(x, p, &end.x, pr)
+        );
+    }
+    let worn = calibrated.state_with(
+        &Profile::new(&engine.cylinder.0, &engine.cylinder.1),
+        &Profile::new(&engine.flat.0, &engine.flat.1),
+    );
+    let p = calibrated.pressure_at(&worn, calibrated.stroke);
+    eprintln!(
+        "the engine's worn profiles in the half-plane model at the stroke end: p_max {:.0} MPa",
+        p.iter().fold(0.0_f64, |a, &b| a.max(b))
+    );
+}
