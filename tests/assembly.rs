@@ -236,3 +236,97 @@ fn assembler_geometry_follows_changed_rule_points() {
     let (values, f, new, _) = assemble(&model, &disc, &u, true);
     assert_eq!(reused, (values, f, new));
 }
+
+/// The assembled tangent is the derivative of the assembled internal force (the consistent
+/// tangent of the J2 return mapping, Simo & Taylor, CMAME 48 (1985) 101, through B-bar Quad4 and
+/// elastic Tri3): `K v` against central differences `(f(u + h v) - f(u - h v)) / 2h` along
+/// random directions `v`, at a bent state where part of the points yield from the virgin state,
+/// and at the reversed bend from that plastic state (elastic unloading at some points, reverse
+/// yield at others). Tolerance 1e-6 of `|K v|`: central differences with h = 1e-9 (strain
+/// perturbations about 1e-8) carry round-off about 1e-9 relative and truncation below it, unless
+/// a point crosses the yield surface within +-h (measured 7e-10 with 840 of 2,400 points
+/// flowing, 4e-10 with 435 reverse-flowing).
+#[test]
+fn assembled_tangent_is_the_derivative_of_the_internal_force_across_yield() {
+    let (model, _) = mixed_model();
+    let disc = model.initial();
+    let pattern = SparsityPattern::new(model.num_nodes(), &model.elements, &disc.dofs);
+    let mut asm = Assembler::new(pattern, &model.elements);
+    let n = disc.dofs.num_free;
+    // Bending, strain c y (c = 1e-3 /mm over the 2 mm height: twice the yield strain at the
+    // top), with a little noise.
+    let mut rng = Lcg(5);
+    let u: Vec<f64> = (0..model.num_dofs())
+        .map(|d| {
+            let p = model.coords[d / 2];
+            let smooth = if d % 2 == 0 { 1e-3 * p.x * p.y } else { -0.5e-3 * p.x * p.x };
+            smooth + 1e-6 * rng.next()
+        })
+        .collect();
+    let virgin = vec![PlasticState::default(); model.elements.num_states()];
+    // A plastic history to reverse from: the state at u.
+    let (_, _, at_u) = assemble_with(&mut asm, &model, disc, &u, false);
+    let reversed: Vec<f64> = u.iter().map(|v| -0.6 * v).collect();
+    for (name, old, at) in [("from the virgin state", &virgin, &u), ("reversed from a plastic state", &at_u, &reversed)]
+    {
+        let force = |asm: &mut Assembler, x: &[f64], with_k: bool| {
+            let mut values = vec![0.0; asm.pattern.nnz()];
+            let mut f = vec![0.0; model.num_dofs()];
+            let mut stress = vec![Stress4::zeros(); model.elements.num_points()];
+            let mut new = old.clone();
+            asm.assemble(
+                &AssemblyInput {
+                    coords: &model.coords,
+                    elements: &model.elements,
+                    materials: &model.materials,
+                    rules: &disc.rules,
+                    u: x,
+                    state_old: old,
+                },
+                AssemblyOutput {
+                    values: if with_k { Some(&mut values) } else { None },
+                    f_int: &mut f,
+                    stress: &mut stress,
+                    state_new: &mut new,
+                },
+                false,
+            );
+            (values, f, new)
+        };
+        let (values, _, new) = force(&mut asm, at, true);
+        let plastic = new.iter().zip(old.iter()).filter(|(a, b)| a.alpha > b.alpha).count();
+        assert!(plastic > 0 && plastic < new.len(), "{name}: {plastic} of {} points flow", new.len());
+        let sym = asm.pattern.symbolic.clone();
+        let mut rng = Lcg(11);
+        for trial in 0..3 {
+            let v: Vec<f64> =
+                (0..model.num_dofs()).map(|d| if disc.dofs.eq[d] != CONSTRAINED { rng.next() } else { 0.0 }).collect();
+            let mut vf = vec![0.0; n];
+            for (d, &e) in disc.dofs.eq.iter().enumerate() {
+                if e != CONSTRAINED {
+                    vf[e] = v[d];
+                }
+            }
+            let mut kv = vec![0.0; n];
+            for j in 0..n {
+                for p in sym.col_ptr()[j]..sym.col_ptr()[j + 1] {
+                    kv[sym.row_idx()[p]] += values[p] * vf[j];
+                }
+            }
+            let h = 1e-9;
+            let shifted = |s: f64| at.iter().zip(&v).map(|(a, b)| a + s * b).collect::<Vec<f64>>();
+            let (_, fp, _) = force(&mut asm, &shifted(h), false);
+            let (_, fm, _) = force(&mut asm, &shifted(-h), false);
+            let mut fd = vec![0.0; n];
+            for (d, &e) in disc.dofs.eq.iter().enumerate() {
+                if e != CONSTRAINED {
+                    fd[e] = (fp[d] - fm[d]) / (2.0 * h);
+                }
+            }
+            let norm = kv.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let err = kv.iter().zip(&fd).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt() / norm;
+            eprintln!("{name} ({plastic} points flowing), direction {trial}: |K v - FD| / |K v| = {err:.1e}");
+            assert!(err < 1e-6, "{name}, direction {trial}: {err:.2e}");
+        }
+    }
+}
