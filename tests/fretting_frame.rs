@@ -220,6 +220,22 @@ fn mccoll_engine(cycles: usize) -> EngineRun {
     }
 }
 
+/// Writes the half-plane pressures of cycle 1,000 (one profile per stroke position, increments
+/// 1-4 as the engine numbers them) in the layout of a result file's `/series`, so that
+/// `mortex plot <run.h5> --cycle 1000 --reference <this>` draws the engine against it.
+fn write_reference(path: &Path, x: &[f64], profiles: &[Vec<f64>]) {
+    let f = hdf5::File::create(path).unwrap();
+    let series = f.create_group("series").unwrap();
+    let n = profiles.len();
+    series.new_dataset_builder().with_data(&vec![1000u64; n]).create("cycle").unwrap();
+    series.new_dataset_builder().with_data(&(1..=n as u64).collect::<Vec<u64>>()).create("increment").unwrap();
+    let pair = series.create_group("contacts").unwrap().create_group("pair").unwrap();
+    let pressure = ndarray::Array2::from_shape_fn((n, x.len()), |(s, i)| profiles[s][i]);
+    let position = ndarray::Array3::from_shape_fn((n, x.len(), 2), |(_, i, c)| if c == 0 { x[i] } else { 0.0 });
+    pair.new_dataset_builder().with_data(&pressure).create("pressure").unwrap();
+    pair.new_dataset_builder().with_data(&position).create("position").unwrap();
+}
+
 /// L2 difference of a profile (x, v) from a reference on a uniform grid, over the reference's
 /// L2 norm (the profile interpolated linearly onto the grid, 0 outside it).
 fn l2_against(x: &[f64], v: &[f64], xr: &[f64], vr: &[f64]) -> f64 {
@@ -300,6 +316,9 @@ fn mccoll_against_half_planes() {
             k + 1,
             100.0 * l2_against(x, p, &end.x, pr)
         );
+    }
+    if let Ok(path) = std::env::var("MORTEX_HALFPLANE_H5") {
+        write_reference(Path::new(&path), &end.x, &ref_p);
     }
     let worn = calibrated.state_with(
         &Profile::new(&engine.cylinder.0, &engine.cylinder.1),

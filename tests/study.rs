@@ -144,9 +144,10 @@ fn latin_hypercube_puts_one_run_in_each_stratum() {
 }
 
 /// `mortex study convergence` of the uniform-wear case in its increments per cycle (4, 8,
-/// 16): the wear is exact at any setting, so every error against
-/// the finest run is round-off (below 1e-12), the reference rows read 0, and the table holds
-/// a row per value and figure. Knob values that do not refine (the step size growing) are an
+/// 16): the wear and the (uniform) contact pressure are exact at any setting, so every error
+/// against the finest run (largest depth, worn area, depth profile, pressure at the stroke
+/// positions of the last cycle) is round-off (below 1e-12), the reference rows read 0, and the
+/// table holds a row per value and figure. Knob values that do not refine (the step size growing) are an
 /// error naming the knob.
 #[test]
 fn convergence_of_an_exact_case_is_round_off() {
@@ -161,7 +162,7 @@ fn convergence_of_an_exact_case_is_round_off() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let csv = std::fs::read_to_string(dir.join("out/convergence.csv")).unwrap();
     let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows.len(), 3 * 3, "3 values x (depth, worn area, depth profile): {csv}");
+    assert_eq!(rows.len(), 3 * 4, "3 values x (depth, worn area, depth profile, pressure profile): {csv}");
     for r in &rows {
         let error: f64 = r[5].parse().unwrap();
         assert!(error < 1e-12, "{r:?}");

@@ -2,7 +2,9 @@
 //! mesh's divisions, the cycle jump's depth fraction, ...), each knob's finest value the
 //! reference of its runs; the errors of each surface's largest depth and worn area, the
 //! relative L2 distance of its final depth profile from the reference's (interpolated at the
-//! run's vertices, so meshes may differ), their observed orders, and a log-log chart.
+//! run's vertices, so meshes may differ), that of the contact pressure at the stroke positions
+//! of the last cycle (a cyclic run with one contact pair), their observed orders, and a log-log
+//! chart.
 //!
 //! ```toml
 //! case = "wear_cases/mccoll_fretting.toml"
@@ -115,6 +117,7 @@ pub fn convergence(file: &Path, exec: &Execution, exe: &Path) -> Result<Outcome<
     let results: Vec<PathBuf> =
         (0..runs.len()).map(|i| figures_path(&base.out, i).with_file_name("result.h5")).collect();
     rows.extend(profile_rows(&spec.knob, &sizes, &results));
+    rows.extend(pressure_rows(&spec.knob, &sizes, &results));
     let table = write_table(&base.out, &rows)?;
     chart(&base.out, &spec.knob, &rows);
     Ok(Outcome::Gathered(ConvergenceSummary { runs: runs.len(), ran, skipped, rows, table }))
@@ -233,6 +236,50 @@ fn profile_rows(knobs: &[Knob], sizes: &[Vec<f64>], results: &[PathBuf]) -> Vec<
                 .collect();
             out.extend(knob_rows(k, h, &format!("{name} depth_profile"), &per_run));
         }
+    }
+    out
+}
+
+/// The contact pressure of a cyclic run's last recorded cycle (its only contact pair): per
+/// increment, its position in the cycle (increment / increments), x and pressure in x order.
+/// `None` for a run that is not cyclic, has several pairs, or cannot be read.
+fn last_cycle_pressure(result: &Path) -> Option<Vec<(f64, Vec<f64>, Vec<f64>)>> {
+    let (_, profiles) = mortex::io::plot::read_cycle_pressure(result, u64::MAX, None).ok()?;
+    let n = profiles.len() as f64;
+    Some(profiles.into_iter().map(|(inc, x, p)| (inc as f64 / n, x, p)).collect())
+}
+
+/// Rows of the contact pressure (`pressure_profile`): per knob, each run's largest relative L2
+/// distance from the knob's finest run over the stroke positions of the last cycle that both
+/// record (the same fraction of the cycle; every position of the coarsest increments), the
+/// finest run's profile interpolated at the run's multiplier nodes (result: the run's largest
+/// pressure over the cycle).
+fn pressure_rows(knobs: &[Knob], sizes: &[Vec<f64>], results: &[PathBuf]) -> Vec<Row> {
+    let mut out = Vec::new();
+    let mut first = 0;
+    for (k, h) in knobs.iter().zip(sizes) {
+        let cycles: Vec<Option<Vec<(f64, Vec<f64>, Vec<f64>)>>> =
+            results[first..first + h.len()].iter().map(|r| last_cycle_pressure(r)).collect();
+        first += h.len();
+        let Some(Some(reference)) = cycles.last() else { continue };
+        let per_run: Vec<(Option<f64>, Option<f64>)> = cycles
+            .iter()
+            .map(|c| {
+                let c = c.as_ref()?;
+                let peak = c.iter().flat_map(|(_, _, p)| p.iter()).fold(0.0_f64, |a, &b| a.max(b));
+                let errors: Vec<f64> = c
+                    .iter()
+                    .filter_map(|(f, x, p)| {
+                        let (_, rx, rp) = reference.iter().find(|(rf, _, _)| (rf - f).abs() < 1e-9)?;
+                        Some(profile_distance(x, p, rx, rp).0)
+                    })
+                    .collect();
+                let error = (!errors.is_empty()).then(|| errors.iter().fold(0.0_f64, |a, &b| a.max(b)));
+                Some((Some(peak), error))
+            })
+            .map(|r| r.unwrap_or((None, None)))
+            .collect();
+        out.extend(knob_rows(k, h, "pressure_profile", &per_run));
     }
     out
 }
