@@ -308,9 +308,9 @@ fn assembled_tangent_is_the_derivative_of_the_internal_force_across_yield() {
                 }
             }
             let mut kv = vec![0.0; n];
-            for j in 0..n {
+            for (j, vj) in vf.iter().enumerate() {
                 for p in sym.col_ptr()[j]..sym.col_ptr()[j + 1] {
-                    kv[sym.row_idx()[p]] += values[p] * vf[j];
+                    kv[sym.row_idx()[p]] += values[p] * vj;
                 }
             }
             let h = 1e-9;

@@ -375,6 +375,7 @@ fn plasticity_per_cycle(mu: f64, cycles: u64) -> (f64, Vec<(f64, f64)>) {
 /// - mu = 0.9 (1.37, above): the flat keeps flowing, above 1e-4 per cycle through cycle 8
 ///   (measured 6.5e-4 at cycle 8, a tenth of it net, ratcheting, strain), which is
 ///   what makes the wear run refuse or cap cycle jumps (`a_ratcheting_flat_is_refused_cycle_jumps`).
+///
 /// How close the engine gets (measured, not asserted): on these meshes it shakes down at
 /// mu = 0.70 (`mu p0 / k` = 1.07; 9e-9 at cycle 3) and still flows at mu = 0.75 (1.14; 2.9e-5
 /// at cycle 12), so its limit lies 7-14% above Johnson's: its Gauss points lie below the

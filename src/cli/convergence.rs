@@ -243,7 +243,10 @@ fn profile_rows(knobs: &[Knob], sizes: &[Vec<f64>], results: &[PathBuf]) -> Vec<
 /// The contact pressure of a cyclic run's last recorded cycle (its only contact pair): per
 /// increment, its position in the cycle (increment / increments), x and pressure in x order.
 /// `None` for a run that is not cyclic, has several pairs, or cannot be read.
-fn last_cycle_pressure(result: &Path) -> Option<Vec<(f64, Vec<f64>, Vec<f64>)>> {
+/// A pressure profile at one stroke position: its fraction of the cycle, x and pressure.
+type StrokePressure = (f64, Vec<f64>, Vec<f64>);
+
+fn last_cycle_pressure(result: &Path) -> Option<Vec<StrokePressure>> {
     let (_, profiles) = mortex::io::plot::read_cycle_pressure(result, u64::MAX, None).ok()?;
     let n = profiles.len() as f64;
     Some(profiles.into_iter().map(|(inc, x, p)| (inc as f64 / n, x, p)).collect())
@@ -258,7 +261,7 @@ fn pressure_rows(knobs: &[Knob], sizes: &[Vec<f64>], results: &[PathBuf]) -> Vec
     let mut out = Vec::new();
     let mut first = 0;
     for (k, h) in knobs.iter().zip(sizes) {
-        let cycles: Vec<Option<Vec<(f64, Vec<f64>, Vec<f64>)>>> =
+        let cycles: Vec<Option<Vec<StrokePressure>>> =
             results[first..first + h.len()].iter().map(|r| last_cycle_pressure(r)).collect();
         first += h.len();
         let Some(Some(reference)) = cycles.last() else { continue };
