@@ -62,7 +62,7 @@ enum Command {
         #[arg(long, num_args = 2, value_names = ["X_MIN", "X_MAX"], allow_negative_numbers = true)]
         xlim: Option<Vec<f64>>,
         /// Instead: the wear history of a wear run (scar profiles at six cycles, largest depth
-        /// against cycles); PNG default <result>_wear.png.
+        /// and worn area against cycles); PNG default <result>_wear.png.
         #[arg(long, conflicts_with_all = ["step", "pair", "xlim"])]
         wear: bool,
         /// Instead: the pressure at every increment (stroke position) of the recorded cycle

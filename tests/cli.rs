@@ -321,6 +321,9 @@ fn plot_contact_profile_png() {
 /// `mortex plot --cycle`: the pressure at every increment of the recorded cycle nearest to the
 /// one asked, one 900 x 380 panel per increment (uniform_wear: 4 increments per cycle), with a
 /// reference run drawn beside it; a run without cycles or without contact is a clear error.
+/// `mortex plot --wear` of the same run: one 1000 x 350 panel of scar profiles per wearing
+/// surface (one here), then the largest depth and the worn area against the cycles; a run
+/// without wear is a clear error.
 #[test]
 fn plot_pressure_over_a_cycle_png() {
     let d = tmpdir("plot_cycle");
@@ -330,12 +333,16 @@ fn plot_pressure_over_a_cycle_png() {
     let (ok, text) = run(&["plot", "uw.h5", "--cycle", "7", "--reference", "uw.h5"], &d);
     assert!(ok && text.contains("cycle 7: 4 increments"), "{text}");
     assert_eq!(png_size(&d.join("uw_cycle7.png")), (900, 4 * 380), "IHDR size");
+    let (ok, text) = run(&["plot", "uw.h5", "--wear"], &d);
+    assert!(ok, "{text}");
+    assert_eq!(png_size(&d.join("uw_wear.png")), (1000, (1 + 2) * 350), "IHDR size");
     std::fs::write(d.join("good.toml"), GOOD).unwrap();
     assert!(run(&["run", "good.toml", "--quiet", "-o", "plain.h5"], &d).0);
     for (args, needle) in [
         (vec!["plot", "plain.h5", "--cycle", "1"], "no contact pair"),
         (vec!["plot", "uw.h5", "--cycle", "1", "--pair", "nope"], "no contact pair 'nope'"),
         (vec!["plot", "uw.h5", "--cycle", "1", "--reference", "missing.h5"], "missing.h5"),
+        (vec!["plot", "plain.h5", "--wear"], "not a wear run"),
     ] {
         let (ok, text) = run(&args, &d);
         assert!(!ok && text.contains(needle) && !text.contains("panicked"), "{args:?}:\n{text}");

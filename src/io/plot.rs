@@ -290,8 +290,9 @@ pub fn write_png(p: &ContactProfile, xlim: (f64, f64), out: &Path) -> Result<(),
 }
 
 /// The wear history of a wear run's result file: per worn surface its depth profile along x at
-/// up to six recorded cycles (evenly spread over the run), and the largest depth and worn area
-/// of every surface against the cycles. Returns the number of surfaces drawn.
+/// up to six recorded cycles (evenly spread over the run), then two panels with the largest
+/// depth and the worn area of every surface against the cycles. Returns the number of surfaces
+/// drawn.
 pub fn write_wear_png(path: &Path, out: &Path) -> Result<usize, PlotError> {
     register_font()?;
     let err = |msg: String| PlotError::Input { path: path.display().to_string(), msg };
@@ -306,9 +307,9 @@ pub fn write_wear_png(path: &Path, out: &Path) -> Result<usize, PlotError> {
     }
     let draw_err = |e: String| PlotError::Draw { path: out.display().to_string(), msg: e };
     let de = |e: &dyn std::fmt::Display| draw_err(e.to_string());
-    let root = BitMapBackend::new(out, (1000, 350 * (names.len() as u32 + 1))).into_drawing_area();
+    let root = BitMapBackend::new(out, (1000, 350 * (names.len() as u32 + 2))).into_drawing_area();
     root.fill(&WHITE).map_err(|e| de(&e))?;
-    let panels = root.split_evenly((names.len() + 1, 1));
+    let panels = root.split_evenly((names.len() + 2, 1));
     let rows: Vec<usize> = {
         let n = cycles.len();
         let mut r: Vec<usize> = (1..=6).map(|k| ((n - 1) * k) / 6).collect();
@@ -323,8 +324,10 @@ pub fn write_wear_png(path: &Path, out: &Path) -> Result<usize, PlotError> {
             g.dataset("depth").and_then(|d| d.read_2d()).map_err(|e| err(e.to_string()))?;
         let verts: ndarray::Array3<f64> =
             g.dataset("vertices").and_then(|d| d.read()).map_err(|e| err(e.to_string()))?;
-        let max_depth: Vec<f64> = g.dataset("max_depth").and_then(|d| d.read_raw()).map_err(|e| err(e.to_string()))?;
-        histories.push((name.clone(), max_depth));
+        let read = |key: &str| -> Result<Vec<f64>, PlotError> {
+            g.dataset(key).and_then(|d| d.read_raw()).map_err(|e| err(format!("wear/{name}/{key}: {e}")))
+        };
+        histories.push((name.clone(), read("max_depth")?, read("worn_area")?));
         let last = depth.nrows() - 1;
         let dmax = depth.row(last).iter().fold(0.0_f64, |a, &b| a.max(b)).max(f64::MIN_POSITIVE);
         // x range: where the last profile is at least 0.1% of its maximum, widened by a quarter.
@@ -352,28 +355,33 @@ pub fn write_wear_png(path: &Path, out: &Path) -> Result<usize, PlotError> {
         }
         legend(&mut ch).map_err(|e| de(&e))?;
     }
-    // Last panel: largest depth against the cycles.
-    let top = histories.iter().flat_map(|h| h.1.iter().copied()).fold(0.0_f64, f64::max).max(f64::MIN_POSITIVE);
+    // Last panels: largest depth (um) and worn area (um^2) of each surface against the cycles.
     let nmax = *cycles.last().unwrap_or(&1) as f64;
-    let mut ch = ChartBuilder::on(&panels[names.len()])
-        .caption("largest wear depth", ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(36)
-        .y_label_area_size(72)
-        .build_cartesian_2d(0.0..nmax.max(1.0), 0.0..top * 1.1 * 1e3)
-        .map_err(|e| de(&e))?;
-    ch.configure_mesh().x_desc("cycles").y_desc("max depth (um)").draw().map_err(|e| de(&e))?;
-    for (k, (name, h)) in histories.iter().enumerate() {
-        let color = palette[k % palette.len()];
-        ch.draw_series(LineSeries::new(
-            cycles.iter().zip(h).map(|(&c, &d)| (c as f64, d * 1e3)),
-            color.stroke_width(2),
-        ))
-        .map_err(|e| de(&e))?
-        .label(name.clone())
-        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+    for (k, (title, y_desc, scale)) in
+        [("largest wear depth", "max depth (um)", 1e3), ("worn area", "worn area (um^2)", 1e6)].into_iter().enumerate()
+    {
+        let value = |h: &(String, Vec<f64>, Vec<f64>)| if k == 0 { h.1.clone() } else { h.2.clone() };
+        let top = histories.iter().flat_map(value).fold(0.0_f64, f64::max).max(f64::MIN_POSITIVE);
+        let mut ch = ChartBuilder::on(&panels[names.len() + k])
+            .caption(title, ("sans-serif", 20))
+            .margin(12)
+            .x_label_area_size(36)
+            .y_label_area_size(72)
+            .build_cartesian_2d(0.0..nmax.max(1.0), 0.0..top * 1.1 * scale)
+            .map_err(|e| de(&e))?;
+        ch.configure_mesh().x_desc("cycles").y_desc(y_desc).draw().map_err(|e| de(&e))?;
+        for (j, h) in histories.iter().enumerate() {
+            let color = palette[j % palette.len()];
+            ch.draw_series(LineSeries::new(
+                cycles.iter().zip(value(h)).map(|(&c, d)| (c as f64, d * scale)),
+                color.stroke_width(2),
+            ))
+            .map_err(|e| de(&e))?
+            .label(h.0.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+        }
+        legend(&mut ch).map_err(|e| de(&e))?;
     }
-    legend(&mut ch).map_err(|e| de(&e))?;
     root.present().map_err(|e| de(&e))?;
     Ok(names.len())
 }
