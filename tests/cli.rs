@@ -161,6 +161,18 @@ fn bad_inputs_give_clear_errors() {
         &["bodies[0].material", "titanium"],
     );
     expect_error(&d, "no_load_kind", &GOOD.replace("traction = [0.0, -1.0]", ""), &["loads[0]", "exactly one of"]);
+    expect_error(
+        &d,
+        "gradient_alone",
+        &GOOD.replace("traction = [0.0, -1.0]", "pressure = 1.0\ntraction_gradient = [[0.0, 1.0], [0.0, 0.0]]"),
+        &["loads[0].traction_gradient", "needs traction"],
+    );
+    expect_error(
+        &d,
+        "gradient_nan",
+        &GOOD.replace("traction = [0.0, -1.0]", "traction = [0.0, -1.0]\ntraction_gradient = [[0.0, nan], [0.0, 0.0]]"),
+        &["loads[0].traction_gradient"],
+    );
     // Gmsh files: an inverted (bow-tie) quad and an unsupported second-order triangle.
     let msh_head = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 5 1 5\n2 1 0 5\n1\n2\n3\n4\n5\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 0 0\n$EndNodes\n";
     std::fs::write(

@@ -217,7 +217,7 @@ const KEYS: &[&str] = &[
     "newton", "max_iterations", "rtol", "max_cutbacks", "divergence_factor", "checkpoint_every", "fields_every",
     "multipliers", "host_surface", "closed", "keep", "motion", "friction", "sliding", "mortar_cut", "other_cut",
     "coefficient", "law", "max_depth", "fixed", "smoothing", "depth_fraction", "max_jump", "pressure_change",
-    "prediction_tolerance", "scheme",
+    "prediction_tolerance", "scheme", "traction_gradient",
 ];
 
 /// Values for inserted keys beyond [`all_values`]: valid enum names, arrays and tables.

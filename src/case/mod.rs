@@ -411,8 +411,12 @@ pub struct LoadSpec {
     pub set: String,
     /// Uniform pressure on an edge set (positive pushes into the body).
     pub pressure: Option<f64>,
-    /// Uniform traction vector on an edge set (force per unit length).
+    /// Traction vector on an edge set (force per unit length): uniform, or its value at the
+    /// origin when `traction_gradient` is given.
     pub traction: Option<[f64; 2]>,
+    /// `[[dtx/dx, dtx/dy], [dty/dx, dty/dy]]`: the traction varies linearly in space,
+    /// `t(x) = traction + G x` (reference positions).
+    pub traction_gradient: Option<[[f64; 2]; 2]>,
     /// Force applied at every node of a node set.
     pub force: Option<[f64; 2]>,
     /// Resultant force applied at the set's first node (for rigid sets, whose nodes move
@@ -873,9 +877,18 @@ fn add_loads(
         if let Some(p) = l.pressure {
             b.pressure(bi, &l.set, cx.finite(&k("pressure"), p)?).map_err(|e| model_err(cx, k("set"), e))?;
         }
+        if l.traction_gradient.is_some() && l.traction.is_none() {
+            return Err(cx.err(k("traction_gradient"), "needs traction (the traction at the origin)"));
+        }
         if let Some(t) = l.traction {
             let t = Vector2::new(cx.finite(&k("traction"), t[0])?, cx.finite(&k("traction"), t[1])?);
-            b.traction(bi, &l.set, t).map_err(|e| model_err(cx, k("set"), e))?;
+            let mut g = nalgebra::Matrix2::zeros();
+            for (r, row) in l.traction_gradient.unwrap_or_default().iter().enumerate() {
+                for (c, &v) in row.iter().enumerate() {
+                    g[(r, c)] = cx.finite(&k("traction_gradient"), v)?;
+                }
+            }
+            b.linear_traction(bi, &l.set, t, g).map_err(|e| model_err(cx, k("set"), e))?;
         }
         if let Some(f) = l.force {
             let f = Vector2::new(cx.finite(&k("force"), f[0])?, cx.finite(&k("force"), f[1])?);

@@ -1,6 +1,7 @@
 //! The builder's declarations: bodies, materials, sets, loads, ties, cuts, contact and wear.
 
 use super::*;
+use nalgebra::Matrix2;
 
 pub(super) struct ContactSpec {
     pub(super) name: String,
@@ -601,13 +602,34 @@ impl ModelBuilder {
 
     /// Uniform traction vector (force per unit length) on an edge set.
     pub fn traction(&mut self, body: usize, set: &str, tr: Vector2<f64>) -> Result<(), ModelError> {
+        self.linear_traction(body, set, tr, Matrix2::zeros())
+    }
+
+    /// Traction varying linearly in space on an edge set, `t(x) = t0 + G x` (force per unit
+    /// length; `G` per unit length, `x` the reference position): consistent nodal forces,
+    /// exact on straight edges, `f_a = L (2 t_a + t_b) / 6`, `f_b = L (t_a + 2 t_b) / 6`.
+    pub fn linear_traction(
+        &mut self,
+        body: usize,
+        set: &str,
+        t0: Vector2<f64>,
+        gradient: Matrix2<f64>,
+    ) -> Result<(), ModelError> {
         let b = &self.bodies[body];
         let edges = self.edge_set(body, set, "traction")?;
         let (off, t) = (b.node_offset, b.thickness);
         for e in edges {
-            let seg = Seg2 { a: b.mesh.nodes[e[0]], b: b.mesh.nodes[e[1]] };
-            let f = tr * seg.length() * t * 0.5;
-            for &a in &e {
+            let (pa, pb) = (b.mesh.nodes[e[0]], b.mesh.nodes[e[1]]);
+            let len = Seg2 { a: pa, b: pb }.length();
+            let (ta, tb) = (t0 + gradient * pa.coords, t0 + gradient * pb.coords);
+            // Uniform traction: both nodes get exactly half (no rounding of thirds and sixths).
+            let (fa, fb) = if ta == tb {
+                let f = ta * len * t * 0.5;
+                (f, f)
+            } else {
+                ((2.0 * ta + tb) * len * t / 6.0, (ta + 2.0 * tb) * len * t / 6.0)
+            };
+            for (a, f) in [(e[0], fa), (e[1], fb)] {
                 self.f_curves[self.curve][2 * (a + off)] += f.x;
                 self.f_curves[self.curve][2 * (a + off) + 1] += f.y;
             }
