@@ -59,11 +59,24 @@ fn assemble_with(
     u: &[f64],
     parallel: bool,
 ) -> (Vec<f64>, Vec<f64>, Vec<PlasticState>) {
+    let old = vec![PlasticState::default(); model.elements.num_states()];
+    assemble_from(asm, (model, disc), u, &old, true, parallel)
+}
+
+/// One assembly with `asm` from the history `old`: matrix values (if `with_k`), internal
+/// force, trial history.
+fn assemble_from(
+    asm: &mut Assembler,
+    (model, disc): (&Model, &Discretisation),
+    u: &[f64],
+    old: &[PlasticState],
+    with_k: bool,
+    parallel: bool,
+) -> (Vec<f64>, Vec<f64>, Vec<PlasticState>) {
     let mut values = vec![0.0; asm.pattern.nnz()];
     let mut f = vec![0.0; model.num_dofs()];
     let mut stress = vec![Stress4::zeros(); model.elements.num_points()];
-    let old = vec![PlasticState::default(); model.elements.num_states()];
-    let mut new = old.clone();
+    let mut new = old.to_vec();
     asm.assemble(
         &AssemblyInput {
             coords: &model.coords,
@@ -71,9 +84,14 @@ fn assemble_with(
             materials: &model.materials,
             rules: &disc.rules,
             u,
-            state_old: &old,
+            state_old: old,
         },
-        AssemblyOutput { values: Some(&mut values), f_int: &mut f, stress: &mut stress, state_new: &mut new },
+        AssemblyOutput {
+            values: if with_k { Some(&mut values) } else { None },
+            f_int: &mut f,
+            stress: &mut stress,
+            state_new: &mut new,
+        },
         parallel,
     );
     (values, f, new)
@@ -269,30 +287,8 @@ fn assembled_tangent_is_the_derivative_of_the_internal_force_across_yield() {
     let reversed: Vec<f64> = u.iter().map(|v| -0.6 * v).collect();
     for (name, old, at) in [("from the virgin state", &virgin, &u), ("reversed from a plastic state", &at_u, &reversed)]
     {
-        let force = |asm: &mut Assembler, x: &[f64], with_k: bool| {
-            let mut values = vec![0.0; asm.pattern.nnz()];
-            let mut f = vec![0.0; model.num_dofs()];
-            let mut stress = vec![Stress4::zeros(); model.elements.num_points()];
-            let mut new = old.clone();
-            asm.assemble(
-                &AssemblyInput {
-                    coords: &model.coords,
-                    elements: &model.elements,
-                    materials: &model.materials,
-                    rules: &disc.rules,
-                    u: x,
-                    state_old: old,
-                },
-                AssemblyOutput {
-                    values: if with_k { Some(&mut values) } else { None },
-                    f_int: &mut f,
-                    stress: &mut stress,
-                    state_new: &mut new,
-                },
-                false,
-            );
-            (values, f, new)
-        };
+        let force =
+            |asm: &mut Assembler, x: &[f64], with_k: bool| assemble_from(asm, (&model, disc), x, old, with_k, false);
         let (values, _, new) = force(&mut asm, at, true);
         let plastic = new.iter().zip(old.iter()).filter(|(a, b)| a.alpha > b.alpha).count();
         assert!(plastic > 0 && plastic < new.len(), "{name}: {plastic} of {} points flow", new.len());

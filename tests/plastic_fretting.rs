@@ -39,6 +39,39 @@ fn reduced(cycles: u64, increments: usize, extra: &str, flat: &str) -> mortex::m
     mortex::case::parse(&text, "mccoll_j2", Path::new("wear_cases"), "mccoll_j2").unwrap().model
 }
 
+/// `text` without its `[[wear]]` tables (the same scene, no wear).
+fn without_wear(mut text: String) -> String {
+    while let Some(a) = text.find("[[wear]]") {
+        let b = text[a..].find("\n\n").map_or(text.len(), |k| a + k + 2);
+        text.replace_range(a..b, "");
+    }
+    text
+}
+
+/// The static peak pressure and, per gross-slip cycle, the (net, accumulated) equivalent
+/// plastic strain over all points ([`mortex::wear::cycle_plasticity`]) of the case `text`.
+fn plasticity_of(text: &str) -> (f64, Vec<(f64, f64)>) {
+    let model = mortex::case::parse(text, "plastic", Path::new("wear_cases"), "plastic").unwrap().model;
+    let mut state = StaticAnalysis::initial_state_of(&model);
+    let mut start = mortex::wear::plastic_snapshot(&state.history);
+    let (mut per_cycle, mut p0) = (vec![], 0.0);
+    run(&model, &mut state, RunOptions::default(), |r, st, _, d| {
+        if r.cycle == 0 && r.increment == 1 {
+            let f = mortex::contact::contact_field(&d.contact, &st.contact_unknowns(), 0);
+            p0 = f.iter().map(|n| n.pressure).fold(0.0, f64::max);
+        }
+        if r.cycle == 0 && r.increment == 1 || r.cycle > 0 && r.increment == 4 {
+            if r.cycle > 0 {
+                per_cycle.push(mortex::wear::cycle_plasticity(&start, &st.history));
+            }
+            start = mortex::wear::plastic_snapshot(&st.history);
+        }
+        Ok(())
+    })
+    .unwrap();
+    (p0, per_cycle)
+}
+
 /// What a run did, step by step and cycle by cycle.
 #[derive(Default)]
 struct Record {
@@ -87,16 +120,11 @@ fn max_depth(state: &mortex::state::SimState, surface: usize) -> f64 {
 #[test]
 fn j2_flat_that_never_yields_is_the_elastic_flat() {
     let scene = |flat: &str, yield_stress: &str, mu: &str| {
-        let mut text = coarse(1)
+        let text = coarse(1)
             .replace("friction = 0.9", &format!("friction = {mu}\nsliding = \"small\""))
             .replace("material = \"steel_j2\"", &format!("material = \"{flat}\"\nformulation = \"b_bar\""))
             .replace("yield_stress = 400.0", yield_stress);
-        // No wear: drop the [[wear]] tables.
-        while let Some(a) = text.find("[[wear]]") {
-            let b = text[a..].find("\n\n").map_or(text.len(), |k| a + k + 2);
-            text.replace_range(a..b, "");
-        }
-        mortex::case::parse(&text, "scene", Path::new("wear_cases"), "scene").unwrap().model
+        mortex::case::parse(&without_wear(text), "scene", Path::new("wear_cases"), "scene").unwrap().model
     };
     let run_scene = |model: &mortex::model::Model| {
         let mut state = StaticAnalysis::initial_state_of(model);
@@ -301,26 +329,9 @@ fn yielding_wear_run_resumes_bit_for_bit() {
 /// reports per computed cycle (`/wear/ratcheting`, `/wear/plastic_strain`).
 #[test]
 fn kinematic_hardening_settles_into_a_closed_loop() {
-    let mut text =
+    let text =
         coarse(24).replace("isotropic_hardening = 2000.0", "isotropic_hardening = 0.0\nkinematic_hardening = 20000.0");
-    while let Some(a) = text.find("[[wear]]") {
-        let b = text[a..].find("\n\n").map_or(text.len(), |k| a + k + 2);
-        text.replace_range(a..b, "");
-    }
-    let model = mortex::case::parse(&text, "kinematic", Path::new("wear_cases"), "kinematic").unwrap().model;
-    let mut state = StaticAnalysis::initial_state_of(&model);
-    let mut start = mortex::wear::plastic_snapshot(&state.history);
-    let mut per_cycle = vec![];
-    run(&model, &mut state, RunOptions::default(), |r, st, _, _| {
-        if r.cycle == 0 && r.increment == 1 || r.cycle > 0 && r.increment == 4 {
-            if r.cycle > 0 {
-                per_cycle.push(mortex::wear::cycle_plasticity(&start, &st.history));
-            }
-            start = mortex::wear::plastic_snapshot(&st.history);
-        }
-        Ok(())
-    })
-    .unwrap();
+    let (_, per_cycle) = plasticity_of(&without_wear(text));
     for (i, (n, a)) in per_cycle.iter().enumerate() {
         eprintln!("cycle {}: net {n:.3e}, accumulated {a:.3e}", i + 1);
     }
@@ -331,36 +342,13 @@ fn kinematic_hardening_settles_into_a_closed_loop() {
     assert!(last.1 > 0.5 * second.1, "accumulated per cycle {:.2e} (second cycle {:.2e})", last.1, second.1);
 }
 
-/// Plastic strain per cycle of the coarse scene without wear, perfectly plastic J2 flat (yield
-/// 400 MPa), friction `mu`, `cycles` gross-slip cycles: the static peak pressure and, per cycle,
-/// (net, accumulated) equivalent plastic strain over all points ([`mortex::wear::cycle_plasticity`]).
+/// [`plasticity_of`] the coarse scene without wear, perfectly plastic J2 flat (yield 400 MPa),
+/// friction `mu`, `cycles` gross-slip cycles.
 fn plasticity_per_cycle(mu: f64, cycles: u64) -> (f64, Vec<(f64, f64)>) {
-    let mut text = coarse(cycles)
+    let text = coarse(cycles)
         .replace("isotropic_hardening = 2000.0", "isotropic_hardening = 0.0")
         .replace("friction = 0.9", &format!("friction = {mu:?}"));
-    while let Some(a) = text.find("[[wear]]") {
-        let b = text[a..].find("\n\n").map_or(text.len(), |k| a + k + 2);
-        text.replace_range(a..b, "");
-    }
-    let model = mortex::case::parse(&text, "shakedown", Path::new("wear_cases"), "shakedown").unwrap().model;
-    let mut state = StaticAnalysis::initial_state_of(&model);
-    let mut start = mortex::wear::plastic_snapshot(&state.history);
-    let (mut per_cycle, mut p0) = (vec![], 0.0);
-    run(&model, &mut state, RunOptions::default(), |r, st, _, d| {
-        if r.cycle == 0 && r.increment == 1 {
-            let f = mortex::contact::contact_field(&d.contact, &st.contact_unknowns(), 0);
-            p0 = f.iter().map(|n| n.pressure).fold(0.0, f64::max);
-        }
-        if r.cycle == 0 && r.increment == 1 || r.cycle > 0 && r.increment == 4 {
-            if r.cycle > 0 {
-                per_cycle.push(mortex::wear::cycle_plasticity(&start, &st.history));
-            }
-            start = mortex::wear::plastic_snapshot(&st.history);
-        }
-        Ok(())
-    })
-    .unwrap();
-    (p0, per_cycle)
+    plasticity_of(&without_wear(text))
 }
 
 /// Shakedown in repeated sliding of a line contact (Johnson, Contact Mechanics, 1985, ch. 9; the
