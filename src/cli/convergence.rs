@@ -240,12 +240,12 @@ fn profile_rows(knobs: &[Knob], sizes: &[Vec<f64>], results: &[PathBuf]) -> Vec<
     out
 }
 
-/// The contact pressure of a cyclic run's last recorded cycle (its only contact pair): per
-/// increment, its position in the cycle (increment / increments), x and pressure in x order.
-/// `None` for a run that is not cyclic, has several pairs, or cannot be read.
 /// A pressure profile at one stroke position: its fraction of the cycle, x and pressure.
 type StrokePressure = (f64, Vec<f64>, Vec<f64>);
 
+/// The contact pressure of a cyclic run's last recorded cycle (its only contact pair): per
+/// increment, its position in the cycle (increment / increments), x and pressure in x order.
+/// `None` for a run that is not cyclic, has several pairs, or cannot be read.
 fn last_cycle_pressure(result: &Path) -> Option<Vec<StrokePressure>> {
     let (_, profiles) = mortex::io::plot::read_cycle_pressure(result, u64::MAX, None).ok()?;
     let n = profiles.len() as f64;
