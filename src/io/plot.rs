@@ -316,7 +316,7 @@ pub fn write_wear_png(path: &Path, out: &Path) -> Result<usize, PlotError> {
         r.dedup();
         r
     };
-    let palette = [BLUE, RED, GREEN, MAGENTA, CYAN, BLACK];
+    let palette = PALETTE;
     let mut histories = vec![];
     for (name, panel) in names.iter().zip(panels.iter()) {
         let g = wear.group(name).map_err(|e| err(e.to_string()))?;
@@ -386,6 +386,9 @@ pub fn write_wear_png(path: &Path, out: &Path) -> Result<usize, PlotError> {
     Ok(names.len())
 }
 
+/// Series colours, in order (eight, so that a convergence chart's figures stay apart).
+const PALETTE: [RGBColor; 8] = [BLUE, RED, GREEN, MAGENTA, CYAN, BLACK, RGBColor(255, 140, 0), RGBColor(139, 69, 19)];
+
 /// One curve of an XY chart: its label and its points.
 pub struct Series {
     pub label: String,
@@ -402,7 +405,7 @@ pub fn write_xy_png(panels: &[(String, String, String, Vec<Series>)], out: &Path
     let root = BitMapBackend::new(out, (900, 380 * panels.len().max(1) as u32)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| draw_err(&e))?;
     let areas = root.split_evenly((panels.len().max(1), 1));
-    let palette = [BLUE, RED, GREEN, MAGENTA, CYAN, BLACK];
+    let palette = PALETTE;
     for ((title, x_desc, y_desc, series), area) in panels.iter().zip(areas.iter()) {
         let finite = |p: &&(f64, f64)| p.0.is_finite() && p.1.is_finite();
         let all: Vec<(f64, f64)> = series.iter().flat_map(|s| s.points.iter().filter(finite).copied()).collect();
