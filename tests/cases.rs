@@ -1,40 +1,14 @@
 //! Every shipped case in `wear_cases/` runs through the `mortex` binary, and its HDF5 result,
 //! read back both with the `hdf5` crate and with h5py (Python), matches the case's reference.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::ResultFiles;
+use std::path::Path;
 use std::process::Command;
 
-/// A case's result files in the temp dir, removed when the test ends (the shipped cases write
-/// up to 800 MB: repeated test runs must not fill the disk).
-struct CaseOutput(PathBuf);
-
-impl std::ops::Deref for CaseOutput {
-    type Target = PathBuf;
-    fn deref(&self) -> &PathBuf {
-        &self.0
-    }
-}
-
-impl AsRef<Path> for CaseOutput {
-    fn as_ref(&self) -> &Path {
-        &self.0
-    }
-}
-
-impl Drop for CaseOutput {
-    fn drop(&mut self) {
-        let stem = self.0.with_extension("");
-        for f in
-            [self.0.clone(), self.0.with_extension("xdmf"), PathBuf::from(format!("{}_contact.csv", stem.display()))]
-        {
-            let _ = std::fs::remove_file(f);
-        }
-    }
-}
-
-fn run_case(name: &str) -> CaseOutput {
+fn run_case(name: &str) -> ResultFiles {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let out = std::env::temp_dir().join(format!("mortex-cases-{}-{name}.h5", std::process::id()));
+    let out = ResultFiles::in_scratch("cases", &format!("{name}.h5"));
     let status = Command::new(env!("CARGO_BIN_EXE_mortex"))
         .args([
             "run",
@@ -46,7 +20,7 @@ fn run_case(name: &str) -> CaseOutput {
         .status()
         .unwrap();
     assert!(status.success(), "case {name} failed");
-    CaseOutput(out)
+    out
 }
 
 fn read2(f: &hdf5::File, path: &str) -> ndarray::Array2<f64> {
@@ -433,10 +407,9 @@ fn tied_bending_contrast_case() {
     let text = std::fs::read_to_string(root.join("wear_cases/tied_bending_contrast.toml"))
         .unwrap()
         .replace("multipliers = \"coarse_grained\"", "multipliers = \"classical\"");
-    let classical_case =
-        CaseOutput(std::env::temp_dir().join(format!("mortex-cases-{}-classical.toml", std::process::id())));
+    let classical_case = ResultFiles::in_scratch("cases", "classical.toml");
     std::fs::write(&*classical_case, text).unwrap();
-    let classical_out = CaseOutput(classical_case.with_extension("h5"));
+    let classical_out = ResultFiles(classical_case.with_extension("h5"));
     let status = Command::new(env!("CARGO_BIN_EXE_mortex"))
         .args(["run", classical_case.to_str().unwrap(), "--quiet", "-o", classical_out.to_str().unwrap()])
         .status()

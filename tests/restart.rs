@@ -9,47 +9,16 @@
 //! accumulated slip and dissipation).
 
 mod common;
-use common::CylinderPair;
+use common::{CylinderPair, ResultFiles};
 use mortex::analysis::StaticAnalysis;
 use mortex::io::checkpoint::{self, CheckpointError};
 use mortex::io::ResultWriter;
 use mortex::model::Model;
 use mortex::state::SimState;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-/// A result file in the temp dir (per process), removed with its XDMF and contact CSV when the
-/// test ends (a restart run writes about 150 MB).
-struct TmpFile(PathBuf);
-
-impl std::ops::Deref for TmpFile {
-    type Target = PathBuf;
-    fn deref(&self) -> &PathBuf {
-        &self.0
-    }
-}
-
-impl AsRef<Path> for TmpFile {
-    fn as_ref(&self) -> &Path {
-        &self.0
-    }
-}
-
-impl Drop for TmpFile {
-    fn drop(&mut self) {
-        let stem = self.0.with_extension("");
-        for f in
-            [self.0.clone(), self.0.with_extension("xdmf"), PathBuf::from(format!("{}_contact.csv", stem.display()))]
-        {
-            let _ = std::fs::remove_file(f);
-        }
-        let _ = std::fs::remove_dir(self.0.parent().unwrap_or(Path::new("")));
-    }
-}
-
-fn tmpfile(name: &str) -> TmpFile {
-    let d = std::env::temp_dir().join(format!("mortex-restart-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    TmpFile(d.join(name))
+fn tmpfile(name: &str) -> ResultFiles {
+    ResultFiles::in_scratch("restart", name)
 }
 
 /// Runs `model` to the end writing `path` (checkpoint every step); returns every state.

@@ -7,6 +7,45 @@ use mortex::model::Model;
 use mortex::state::SimState;
 use nalgebra::Point2;
 
+/// A result file `<name>` in this process's scratch directory `mortex-<kind>-<pid>` of the temp
+/// dir; when dropped it removes the file, its XDMF and contact CSV, and the directory once
+/// empty (a shipped case writes up to 800 MB: repeated test runs must not fill the disk).
+pub struct ResultFiles(pub std::path::PathBuf);
+
+impl ResultFiles {
+    pub fn in_scratch(kind: &str, name: &str) -> Self {
+        let d = std::env::temp_dir().join(format!("mortex-{kind}-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        ResultFiles(d.join(name))
+    }
+}
+
+impl std::ops::Deref for ResultFiles {
+    type Target = std::path::PathBuf;
+    fn deref(&self) -> &std::path::PathBuf {
+        &self.0
+    }
+}
+
+impl AsRef<std::path::Path> for ResultFiles {
+    fn as_ref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl Drop for ResultFiles {
+    fn drop(&mut self) {
+        let stem = self.0.with_extension("");
+        let csv = std::path::PathBuf::from(format!("{}_contact.csv", stem.display()));
+        for f in [self.0.clone(), self.0.with_extension("xdmf"), csv] {
+            let _ = std::fs::remove_file(f);
+        }
+        if let Some(dir) = self.0.parent() {
+            let _ = std::fs::remove_dir(dir);
+        }
+    }
+}
+
 /// Deterministic pseudo-random numbers in [-1, 1] (no external RNG needed).
 pub struct Lcg(pub u64);
 impl Lcg {
