@@ -360,8 +360,14 @@ pub fn write_wear_png(path: &Path, out: &Path) -> Result<usize, PlotError> {
     for (k, (title, y_desc, scale)) in
         [("largest wear depth", "max depth (um)", 1e3), ("worn area", "worn area (um^2)", 1e6)].into_iter().enumerate()
     {
-        let value = |h: &(String, Vec<f64>, Vec<f64>)| if k == 0 { h.1.clone() } else { h.2.clone() };
-        let top = histories.iter().flat_map(value).fold(0.0_f64, f64::max).max(f64::MIN_POSITIVE);
+        fn value(h: &(String, Vec<f64>, Vec<f64>), k: usize) -> &[f64] {
+            if k == 0 {
+                &h.1
+            } else {
+                &h.2
+            }
+        }
+        let top = histories.iter().flat_map(|h| value(h, k)).fold(0.0_f64, |a, &b| a.max(b)).max(f64::MIN_POSITIVE);
         let mut ch = ChartBuilder::on(&panels[names.len() + k])
             .caption(title, ("sans-serif", 20))
             .margin(12)
@@ -373,7 +379,7 @@ pub fn write_wear_png(path: &Path, out: &Path) -> Result<usize, PlotError> {
         for (j, h) in histories.iter().enumerate() {
             let color = palette[j % palette.len()];
             ch.draw_series(LineSeries::new(
-                cycles.iter().zip(value(h)).map(|(&c, d)| (c as f64, d * scale)),
+                cycles.iter().zip(value(h, k)).map(|(&c, &d)| (c as f64, d * scale)),
                 color.stroke_width(2),
             ))
             .map_err(|e| de(&e))?
