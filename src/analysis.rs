@@ -216,6 +216,9 @@ pub struct StaticAnalysis<'m> {
     reuse_key: Option<condensed::ReuseKey>,
     /// Whether the set-up reused the previous model's pattern and symbolic factorisation.
     reused: bool,
+    /// Birth forces of ghost-penalty faces (`(dof, K_F u_birth)` summed, from the state at the
+    /// start of each step; see [`crate::state::GhostBirths`]).
+    ghost_offset: Vec<(usize, f64)>,
 }
 
 /// Small sliding pairs from the reference geometry: a converged state whose nodes in contact
@@ -340,6 +343,7 @@ impl<'m> StaticAnalysis<'m> {
             condensed: Some(cd),
             tangent_values: vec![],
             last_active: 0,
+            ghost_offset: vec![],
             last_gross_sliding: None,
             last_sets: None,
             reuse_key: Some(key),
@@ -398,6 +402,7 @@ impl<'m> StaticAnalysis<'m> {
             condensed: None,
             tangent_values: vec![],
             last_active: 0,
+            ghost_offset: vec![],
             last_gross_sliding: None,
             last_sets: None,
             reuse_key: None,
@@ -458,6 +463,7 @@ impl<'m> StaticAnalysis<'m> {
             dissipation: 0.0,
             interface_log: vec![],
             wear: m.initial_wear_state(),
+            ghost: Default::default(),
         }
     }
 
@@ -493,6 +499,7 @@ impl<'m> StaticAnalysis<'m> {
         // Points without material (moving surfaces) are skipped by the kernel and keep the
         // stress they had: the trial buffer starts from the converged values.
         self.trial_stress.copy_from_slice(&state.stress);
+        self.ghost_offset = state.ghost.offset();
         while state.time < t_end || dt == 0.0 {
             let t_try = if state.time + dt >= t_end { t_end } else { state.time + dt };
             match self.newton(state, step, t_try)? {
@@ -832,6 +839,9 @@ impl<'m> StaticAnalysis<'m> {
         );
         for &(i, j, v) in &disc.penalty {
             self.trial_f_int[i] += v * u[j];
+        }
+        for &(i, f) in &self.ghost_offset {
+            self.trial_f_int[i] -= f;
         }
     }
 

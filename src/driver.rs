@@ -101,6 +101,7 @@ where
         if model.has_moving_surfaces() {
             let recut =
                 current.place_surfaces(model, t).map_err(|source| AnalysisError::Surface { step, time: t, source })?;
+            current.sync_ghost_births(model, &mut state.ghost, &state.u);
             tracing::debug!(step, moved = recut.moved, cut_by_degree = ?recut.cut_cells_by_degree, held = recut.held_dofs, "surfaces re-cut");
         }
         if model.has_finite_sliding() {
@@ -196,13 +197,14 @@ where
 {
     /// The worn surfaces where the state has them, re-cut and re-paired (small sliding: in the
     /// reference geometry, with the pairing reach extended by the wear depth allowed).
-    fn place_surfaces(&mut self, state: &SimState) -> Result<(), AnalysisError> {
+    fn place_surfaces(&mut self, state: &mut SimState) -> Result<(), AnalysisError> {
         let t0 = std::time::Instant::now();
         self.current.place_worn_surfaces(self.model, &state.wear).map_err(|source| AnalysisError::Surface {
             step: state.step,
             time: state.time,
             source,
         })?;
+        self.current.sync_ghost_births(self.model, &mut state.ghost, &state.u);
         self.timings.wear += t0.elapsed().as_secs_f64();
         Ok(())
     }

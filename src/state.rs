@@ -39,6 +39,39 @@ pub struct SimState {
     pub interface_log: Vec<Vec<usize>>,
     /// Wear state (empty without wearing surfaces).
     pub wear: WearState,
+    /// Ghost-penalty faces born after the start on re-cut bodies of path-dependent material.
+    pub ghost: GhostBirths,
+}
+
+/// The ghost-penalty faces of re-cut bodies whose material has a history (J2), each with its
+/// force at birth. The penalty of such a face acts on the displacement since it was born,
+/// `f_F = K_F (u - u_birth)`, the element-birth rule of history-dependent analyses: a face a
+/// moving or worn surface brings into the penalty would otherwise load the body at once with
+/// `K_F u`, the jump of the normal derivative of a field that is already plastically deformed
+/// (a load no increment cut-back can reduce). Elastic bodies keep the penalty on the total
+/// displacement: their solution depends only on the current cut.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct GhostBirths {
+    /// Per face `(body, cell, neighbour)`, sorted: `K_F u_birth` as `(dof, force)`, sorted by DOF
+    /// (zeros for faces there from the start).
+    pub faces: Vec<((usize, usize, usize), Vec<(usize, f64)>)>,
+}
+
+impl GhostBirths {
+    /// The birth forces summed per DOF (sorted, zeros left out).
+    pub fn offset(&self) -> Vec<(usize, f64)> {
+        let mut all: Vec<(usize, f64)> =
+            self.faces.iter().flat_map(|(_, f)| f.iter().copied()).filter(|e| e.1 != 0.0).collect();
+        all.sort_by_key(|e| e.0);
+        let mut out: Vec<(usize, f64)> = Vec::with_capacity(all.len());
+        for (d, f) in all {
+            match out.last_mut() {
+                Some(last) if last.0 == d => last.1 += f,
+                _ => out.push((d, f)),
+            }
+        }
+        out
+    }
 }
 
 impl SimState {

@@ -192,6 +192,45 @@ fn yielding_flat_converges_without_cutbacks_at_4_and_8_increments() {
     }
 }
 
+/// The yielding flat on the shipped meshes at 8 increments per cycle through its first two wear
+/// updates (3 cycles): every step converges without a cut-back in at most 15 bulk Newton
+/// iterations. Each wear update re-cuts the flat and brings new host faces into the ghost
+/// penalty inside the plastically deformed surface layer; with the penalty on the total
+/// displacement such a face loads the body at once with `K_F u` and step 10 (the first after
+/// the update) stalled at a relative residual of 0.4-0.7 even at 1/1024 of the increment.
+/// Faces of yielding bodies are born at the displacement of the re-cut (`GhostBirths`): the
+/// births are checked to be there, and self-equilibrated (`K_F` vanishes on rigid motions, so
+/// each birth force sums to zero in both directions, to round-off: 1e-9 of the largest).
+#[test]
+fn yielding_flat_on_the_shipped_meshes_passes_its_wear_updates_at_8_increments() {
+    let text = std::fs::read_to_string(CASE)
+        .unwrap()
+        .replace("cycles = 1000", "cycles = 3")
+        .replace("increments = 4", "increments = 8");
+    let model = mortex::case::parse(&text, "mccoll_j2", Path::new("wear_cases"), "mccoll_j2").unwrap().model;
+    let (state, rec) = run_recorded(&model);
+    eprintln!("shipped meshes, 8 increments, 3 cycles: bulk Newton iterations per step {:?}", rec.newton);
+    assert_eq!(state.wear.cycle, 3);
+    assert_eq!(rec.cutbacks, 0, "cut-backs");
+    let worst = rec.newton.iter().copied().max().unwrap();
+    assert!(worst <= MAX_NEWTON, "{worst} Newton iterations in a step");
+    let born: Vec<_> = state.ghost.faces.iter().filter(|(_, f)| f.iter().any(|e| e.1 != 0.0)).collect();
+    eprintln!("{} ghost faces tracked, {} born in a deformed state", state.ghost.faces.len(), born.len());
+    assert!(!born.is_empty(), "no face was born during the run");
+    for ((_, c, n), f) in born {
+        let (mut sx, mut sy, mut big) = (0.0_f64, 0.0_f64, 0.0_f64);
+        for &(d, v) in f {
+            if d % 2 == 0 {
+                sx += v
+            } else {
+                sy += v
+            }
+            big = big.max(v.abs());
+        }
+        assert!(sx.abs().max(sy.abs()) <= 1e-9 * big, "face ({c}, {n}): birth force sums to ({sx:.2e}, {sy:.2e})");
+    }
+}
+
 /// A body that ratchets more per cycle than the tolerance is computed cycle by cycle: with a
 /// tolerance of 1e-9 every one of 12 cycles is computed, while the same run with the tolerance
 /// at 1 (any ratcheting allowed) jumps.
@@ -255,7 +294,8 @@ fn plot_plastic_strain_of_the_flat() {
 
 /// A yielding wear run resumes bit for bit: the reduced case (small sliding and finite
 /// sliding), 6 cycles with a checkpoint every step, restarted mid-cycle (step 7: cycle 2,
-/// increment 2) and at a cycle's start (step 10), ends with the same displacements, plastic
+/// increment 2) and at a cycle's start (step 10, whose checkpoint carries ghost-penalty faces
+/// born at the re-cuts), ends with the same displacements, plastic
 /// strain, contact tractions and wear depths as the uninterrupted run, to the last bit.
 #[test]
 fn yielding_wear_run_resumes_bit_for_bit() {
@@ -293,6 +333,15 @@ fn yielding_wear_run_resumes_bit_for_bit() {
         let whole = dir.join(format!("{sliding}.h5"));
         mortex(&["run".as_ref(), case.as_os_str(), "-o".as_ref(), whole.as_os_str(), "--quiet".as_ref()]);
         let reference = last_fields(&whole);
+        // The restart must carry ghost-penalty faces born during the run (re-cuts of a yielding
+        // flat): step 10's checkpoint holds birth forces, some of them non-zero.
+        let births: Vec<f64> = hdf5::File::open(&whole)
+            .unwrap()
+            .dataset("steps/000010/checkpoint/ghost_forces")
+            .unwrap()
+            .read_raw()
+            .unwrap();
+        assert!(births.iter().any(|&f| f != 0.0), "{sliding}: no ghost face born by step 10");
         for from in ["7", "10"] {
             let cont = dir.join(format!("{sliding}_from{from}.h5"));
             mortex(&[

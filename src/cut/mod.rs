@@ -743,13 +743,38 @@ pub fn rule_points(mesh: &Mesh2, c: usize, rule: &QuadratureRule) -> Vec<Point2<
     rule.points.iter().map(|xi| m.map(*xi)).collect()
 }
 
+/// One face of the ghost penalty: the host edge between `cells.0` (cut) and `cells.1`, and its
+/// contributions `(dof_i, dof_j, value)` to the penalty matrix in the order they are summed
+/// (Gauss point by Gauss point, so that [`ghost_penalty`] adds them as it always did).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GhostFace {
+    pub cells: (usize, usize),
+    pub entries: Vec<(usize, usize, f64)>,
+}
+
+impl GhostFace {
+    /// The face's penalty force `K_F u` at `u`, summed per DOF (sorted by DOF).
+    pub fn force(&self, u: &[f64]) -> Vec<(usize, f64)> {
+        let mut f: Vec<(usize, f64)> = vec![];
+        for &(i, j, v) in &self.entries {
+            match f.iter_mut().find(|(d, _)| *d == i) {
+                Some(e) => e.1 += v * u[j],
+                None => f.push((i, v * u[j])),
+            }
+        }
+        f.sort_by_key(|e| e.0);
+        f
+    }
+}
+
 /// Ghost-penalty stabilisation of cut cells (Burman, C. R. Acad. Sci. Paris I 348 (2010) 1217;
 /// Burman & Hansbo 2012): on every interior host edge next to a cut cell, with material on both
 /// sides, `G(u, v) = gamma E h int_F [d_n u] . [d_n v] ds` (jump of the normal derivative of each
 /// displacement component, `h` the edge length, 2 Gauss points). It vanishes for linear fields,
 /// so patch tests stay exact, and it gives nodes with a tiny material support the stiffness of
 /// their neighbours. Returns `(dof_i, dof_j, value)` entries of a constant symmetric matrix in
-/// global DOFs (`node_offset` maps the mesh's nodes to global ones).
+/// global DOFs (`node_offset` maps the mesh's nodes to global ones): the sum of
+/// [`ghost_faces`].
 pub fn ghost_penalty(
     mesh: &Mesh2,
     adjacency: &CellAdjacency,
@@ -758,8 +783,28 @@ pub fn ghost_penalty(
     young: f64,
     gamma: f64,
 ) -> Vec<(usize, usize, f64)> {
-    use crate::fem::element::ShapeEval;
     let mut acc: HashMap<(usize, usize), f64> = HashMap::new();
+    for face in ghost_faces(mesh, adjacency, cut, node_offset, young, gamma) {
+        for (i, j, x) in face.entries {
+            *acc.entry((i, j)).or_insert(0.0) += x;
+        }
+    }
+    let mut v: Vec<(usize, usize, f64)> = acc.into_iter().map(|((i, j), x)| (i, j, x)).filter(|t| t.2 != 0.0).collect();
+    v.sort_by(|x, y| (x.0, x.1).cmp(&(y.0, y.1)));
+    v
+}
+
+/// The faces of the ghost penalty (see [`ghost_penalty`]), each once, in cell order.
+pub fn ghost_faces(
+    mesh: &Mesh2,
+    adjacency: &CellAdjacency,
+    cut: &CutMesh,
+    node_offset: usize,
+    young: f64,
+    gamma: f64,
+) -> Vec<GhostFace> {
+    use crate::fem::element::ShapeEval;
+    let mut faces = vec![];
     let (gx, gw) = gauss_legendre(2);
     let mut ev = ShapeEval::default();
     for c in 0..mesh.num_cells() {
@@ -782,6 +827,7 @@ pub fn ghost_penalty(
             let n = Vector2::new(e.y, -e.x) / h;
             let m1 = MappedElement::new(mesh.cells[c].kind, mesh.cell_coords(c));
             let m2 = MappedElement::new(mesh.cells[nb].kind, mesh.cell_coords(nb));
+            let mut entries = vec![];
             for (x, w) in gx.iter().zip(&gw) {
                 let p = a + e * (0.5 * (x + 1.0));
                 let mut g: Vec<(usize, f64)> = Vec::with_capacity(8);
@@ -800,15 +846,14 @@ pub fn ghost_penalty(
                 for &(p_node, gp) in &g {
                     for &(q_node, gq) in &g {
                         for comp in 0..2 {
-                            *acc.entry((2 * (p_node + node_offset) + comp, 2 * (q_node + node_offset) + comp))
-                                .or_insert(0.0) += scale * gp * gq;
+                            let (i, j) = (2 * (p_node + node_offset) + comp, 2 * (q_node + node_offset) + comp);
+                            entries.push((i, j, scale * gp * gq));
                         }
                     }
                 }
             }
+            faces.push(GhostFace { cells: (c, nb), entries });
         }
     }
-    let mut v: Vec<(usize, usize, f64)> = acc.into_iter().map(|((i, j), x)| (i, j, x)).filter(|t| t.2 != 0.0).collect();
-    v.sort_by(|x, y| (x.0, x.1).cmp(&(y.0, y.1)));
-    v
+    faces
 }

@@ -6,7 +6,9 @@
 //! `f_int`, `multipliers`, `slip_increment`, `accumulated_slip` `(n)`, `friction_status` `(n)` u8,
 //! `history` `(s, 9)` (`eps_p[4]`, `back[4]`, `alpha` per stateful point), `stress` `(p, 4)`, and
 //! the interface-condensation log `interface_rows` / `interface_batches` (u64): the multiplier
-//! rows the condensed operator grew by, batch by batch. Replaying that log makes the restarted
+//! rows the condensed operator grew by, batch by batch; where yielding bodies are re-cut, the
+//! ghost-penalty faces born during the run (`ghost_faces`, `ghost_counts`, `ghost_dofs`,
+//! `ghost_forces`). Replaying that log makes the restarted
 //! solver do the same arithmetic as the uninterrupted run, which is what "bit for bit" needs.
 //!
 //! A checkpoint group carries the attribute `complete = 1`, written after its last dataset;
@@ -66,6 +68,7 @@ pub(super) fn write(g: &hdf5::Group, state: &SimState) -> hdf5::Result<()> {
         dissipation,
         interface_log,
         wear,
+        ghost,
     } = state;
     let c = g.create_group("checkpoint")?;
     super::write_attr(&c, "step", &(*step as u64))?;
@@ -93,9 +96,60 @@ pub(super) fn write(g: &hdf5::Group, state: &SimState) -> hdf5::Result<()> {
     if !wear.vertices.is_empty() {
         write_wear(&c, wear)?;
     }
+    if !ghost.faces.is_empty() {
+        write_ghost(&c, ghost)?;
+    }
     // Written last: a checkpoint without it was cut short (a killed run) and is not offered.
     super::write_attr(&c, "complete", &1u8)?;
     Ok(())
+}
+
+/// The ghost-penalty births: `ghost_faces` `(n, 3)` (body, cell, neighbour), `ghost_counts`
+/// `(n)` (entries per face), `ghost_dofs` and `ghost_forces` (the entries, face after face).
+fn write_ghost(c: &hdf5::Group, ghost: &crate::state::GhostBirths) -> hdf5::Result<()> {
+    let keys: Vec<u64> = ghost.faces.iter().flat_map(|((b, c, n), _)| [*b as u64, *c as u64, *n as u64]).collect();
+    let counts: Vec<u64> = ghost.faces.iter().map(|(_, f)| f.len() as u64).collect();
+    let dofs: Vec<u64> = ghost.faces.iter().flat_map(|(_, f)| f.iter().map(|e| e.0 as u64)).collect();
+    let forces: Vec<f64> = ghost.faces.iter().flat_map(|(_, f)| f.iter().map(|e| e.1)).collect();
+    let keys = ndarray::Array2::from_shape_vec((ghost.faces.len(), 3), keys)
+        .map_err(|e| hdf5::Error::from(e.to_string().as_str()))?;
+    c.new_dataset_builder().with_data(&keys).create("ghost_faces")?;
+    c.new_dataset_builder().with_data(&Array1::from(counts)).create("ghost_counts")?;
+    c.new_dataset_builder().with_data(&Array1::from(dofs)).create("ghost_dofs")?;
+    c.new_dataset_builder().with_data(&Array1::from(forces)).create("ghost_forces")?;
+    Ok(())
+}
+
+/// The ghost-penalty births of a checkpoint (none where it has no `ghost_faces`: no re-cut
+/// yielding body, or a file written before births were kept).
+fn read_ghost(c: &hdf5::Group, num_dofs: usize) -> Result<crate::state::GhostBirths, String> {
+    if c.dataset("ghost_faces").is_err() {
+        return Ok(Default::default());
+    }
+    let u64s =
+        |name: &str| c.dataset(name).and_then(|d| d.read_raw::<u64>()).map_err(|e| format!("dataset {name}: {e}"));
+    let (keys, counts, dofs) = (u64s("ghost_faces")?, u64s("ghost_counts")?, u64s("ghost_dofs")?);
+    let forces = c
+        .dataset("ghost_forces")
+        .and_then(|d| d.read_raw::<f64>())
+        .map_err(|e| format!("dataset ghost_forces: {e}"))?;
+    if keys.len() != 3 * counts.len()
+        || counts.iter().sum::<u64>() != dofs.len() as u64
+        || forces.len() != dofs.len()
+        || dofs.iter().any(|&d| d as usize >= num_dofs)
+        || forces.iter().any(|f| !f.is_finite())
+    {
+        return Err("ghost-penalty births inconsistent (sizes, DOFs or non-finite forces)".into());
+    }
+    let mut faces = Vec::with_capacity(counts.len());
+    let mut at = 0;
+    for (k, &n) in keys.chunks_exact(3).zip(&counts) {
+        let n = n as usize;
+        let entries = dofs[at..at + n].iter().zip(&forces[at..at + n]).map(|(&d, &f)| (d as usize, f)).collect();
+        faces.push(((k[0] as usize, k[1] as usize, k[2] as usize), entries));
+        at += n;
+    }
+    Ok(crate::state::GhostBirths { faces })
 }
 
 /// The wear state under `checkpoint/wear`: counters as attributes, per surface `i` the datasets
@@ -480,6 +534,7 @@ pub fn read(path: &Path, step: Option<usize>, model: &Model) -> Result<SimState,
         dissipation: attr_f64("dissipation")?,
         interface_log,
         wear,
+        ghost: read_ghost(&c, model.num_dofs()).map_err(read_err)?,
     };
     if !state.u.iter().chain(&state.multipliers).all(|v| v.is_finite()) {
         return Err(read_err("non-finite displacement or multiplier".into()));

@@ -259,6 +259,35 @@ impl Discretisation {
         Ok(report)
     }
 
+    /// Brings `births` to this discretisation's ghost-penalty faces on re-cut bodies whose
+    /// material has a history: a face that appeared is born at `u` (its force `K_F u` kept),
+    /// a face that left is dropped, the others keep their birth force. Elastic bodies are not
+    /// tracked (see [`crate::state::GhostBirths`]). Called after every re-cut, with the
+    /// converged displacement the next step starts from.
+    pub fn sync_ghost_births(&self, model: &Model, births: &mut crate::state::GhostBirths, u: &[f64]) {
+        let mut next = Vec::with_capacity(births.faces.len());
+        for (b, body) in model.bodies.iter().enumerate() {
+            let material = &model.materials[body.material];
+            let (Some(band), Some(cut)) = (model.bands[b].as_ref(), self.cuts[b].as_ref()) else { continue };
+            if !material.has_state() || model.ghost_penalty <= 0.0 {
+                continue;
+            }
+            let young = material.elastic().young;
+            for face in
+                crate::cut::ghost_faces(&body.mesh, &band.adjacency, cut, body.node_offset, young, model.ghost_penalty)
+            {
+                let key = (b, face.cells.0, face.cells.1);
+                let force = match births.faces.binary_search_by(|e| e.0.cmp(&key)) {
+                    Ok(k) => std::mem::take(&mut births.faces[k].1),
+                    Err(_) => face.force(u),
+                };
+                next.push((key, force));
+            }
+        }
+        next.sort_by(|x, y| x.0.cmp(&y.0));
+        births.faces = next;
+    }
+
     /// Re-cuts body `b` with its current surfaces: cut state, band weights, ghost penalty and
     /// switched-off nodes.
     fn recut_body(&mut self, model: &Model, b: usize, report: &mut RecutReport) -> Result<(), ModelError> {
