@@ -101,7 +101,7 @@ where
         if model.has_moving_surfaces() {
             let recut =
                 current.place_surfaces(model, t).map_err(|source| AnalysisError::Surface { step, time: t, source })?;
-            current.sync_ghost_births(model, &mut state.ghost, &state.u);
+            current.sync_ghost_births(model, &mut state.ghost, &state.u, &state.history);
             tracing::debug!(step, moved = recut.moved, cut_by_degree = ?recut.cut_cells_by_degree, held = recut.held_dofs, "surfaces re-cut");
         }
         if model.has_finite_sliding() {
@@ -204,7 +204,7 @@ where
             time: state.time,
             source,
         })?;
-        self.current.sync_ghost_births(self.model, &mut state.ghost, &state.u);
+        self.current.sync_ghost_births(self.model, &mut state.ghost, &state.u, &state.history);
         self.timings.wear += t0.elapsed().as_secs_f64();
         Ok(())
     }

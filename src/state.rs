@@ -48,12 +48,13 @@ pub struct SimState {
 /// `f_F = K_F (u - u_birth)`, the element-birth rule of history-dependent analyses: a face a
 /// moving or worn surface brings into the penalty would otherwise load the body at once with
 /// `K_F u`, the jump of the normal derivative of a field that is already plastically deformed
-/// (a load no increment cut-back can reduce). Elastic bodies keep the penalty on the total
-/// displacement: their solution depends only on the current cut.
+/// (a load no increment cut-back can reduce). Faces that appear in material that has not
+/// yielded, and all faces of elastic bodies, keep the penalty on the total displacement:
+/// there the solution depends only on the current cut.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct GhostBirths {
     /// Per face `(body, cell, neighbour)`, sorted: `K_F u_birth` as `(dof, force)`, sorted by DOF
-    /// (zeros for faces there from the start).
+    /// (empty for faces on the total displacement: there from the start, or born elastic).
     pub faces: Vec<((usize, usize, usize), Vec<(usize, f64)>)>,
 }
 

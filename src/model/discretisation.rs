@@ -260,11 +260,23 @@ impl Discretisation {
     }
 
     /// Brings `births` to this discretisation's ghost-penalty faces on re-cut bodies whose
-    /// material has a history: a face that appeared is born at `u` (its force `K_F u` kept),
-    /// a face that left is dropped, the others keep their birth force. Elastic bodies are not
-    /// tracked (see [`crate::state::GhostBirths`]). Called after every re-cut, with the
-    /// converged displacement the next step starts from.
-    pub fn sync_ghost_births(&self, model: &Model, births: &mut crate::state::GhostBirths, u: &[f64]) {
+    /// material has a history: a face that appeared next to a cell with yielded points is born
+    /// at `u` (its force `K_F u` kept), one that appeared in elastic material acts on the total
+    /// displacement as in an elastic body (no force kept), a face that left is dropped, the
+    /// others keep theirs. Elastic bodies are not tracked (see [`crate::state::GhostBirths`]).
+    /// Called after every re-cut, with the converged state the next step starts from.
+    pub fn sync_ghost_births(
+        &self,
+        model: &Model,
+        births: &mut crate::state::GhostBirths,
+        u: &[f64],
+        history: &[crate::fem::material::PlasticState],
+    ) {
+        let yielded = |b: usize, c: usize| {
+            let e = model.bodies[b].element_offset + c;
+            let el = &model.elements;
+            history[el.state_offset[e]..el.state_offset[e + 1]].iter().any(|h| h.alpha > 0.0 || h.eps_p != [0.0; 4])
+        };
         let mut next = Vec::with_capacity(births.faces.len());
         for (b, body) in model.bodies.iter().enumerate() {
             let material = &model.materials[body.material];
@@ -279,7 +291,8 @@ impl Discretisation {
                 let key = (b, face.cells.0, face.cells.1);
                 let force = match births.faces.binary_search_by(|e| e.0.cmp(&key)) {
                     Ok(k) => std::mem::take(&mut births.faces[k].1),
-                    Err(_) => face.force(u),
+                    Err(_) if yielded(b, face.cells.0) || yielded(b, face.cells.1) => face.force(u),
+                    Err(_) => vec![],
                 };
                 next.push((key, force));
             }
