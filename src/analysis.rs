@@ -308,9 +308,17 @@ impl<'m> StaticAnalysis<'m> {
         let mut solver = self.solver;
         // A factor of a tangent is no next model's K_rho: the elastic one is factored back (the
         // values kept are always its), or if that fails the next model assembles its own.
-        let tangent = self.condensed.as_ref().is_some_and(|c| c.tangent);
-        let lost = tangent && solver.factor(&self.values).is_err();
-        let compliance = self.condensed.and_then(|c| c.compliance);
+        let mut condensed = self.condensed;
+        let tangent = condensed.as_ref().is_some_and(|c| c.tangent);
+        let lost = tangent
+            && match condensed.as_mut().and_then(|c| c.elastic_factor.take()) {
+                Some(elastic) => {
+                    solver.put_factor(elastic);
+                    false
+                }
+                None => solver.factor(&self.values).is_err(),
+            };
+        let compliance = condensed.and_then(|c| c.compliance);
         let reuse = SolverReuse::new(key, self.assembler, solver, self.values, compliance);
         Some(if lost { reuse.without_values() } else { reuse })
     }

@@ -26,7 +26,7 @@ use crate::contact::{row_laws, FrictionStatus, RowLaw};
 use crate::fem::material::{PlasticState, Stress4};
 use crate::model::{Discretisation, Model};
 use crate::solver::dense::DenseLu;
-use crate::solver::linear::{LinearSolverError, LinearSolverKind, SparseSolver};
+use crate::solver::linear::{Factor, LinearSolverError, LinearSolverKind, SparseSolver};
 use crate::wear::GapSensitivity;
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
@@ -64,6 +64,11 @@ pub(super) struct Condensed {
     /// The factor and `d` hold a consistent tangent of yielding bodies instead of the elastic
     /// `K_rho` (see [`Condensed::refactor`]); the next model then assembles its own.
     pub tangent: bool,
+    /// While a tangent is factored: the elastic `K_rho`'s factor, put back instead of
+    /// refactoring it (the same numbers: a factorisation of the same values); and the storage
+    /// of the last tangent factor, for the next.
+    pub elastic_factor: Option<Factor>,
+    spare_factor: Option<Factor>,
 }
 
 /// The surface compliance `F = S K_rho^{-1} S^T` over a fixed, sorted set of equations `S`: every
@@ -504,6 +509,8 @@ pub(super) fn setup(
         equations,
         compliance,
         tangent: false,
+        elastic_factor: None,
+        spare_factor: None,
     };
     for (g, row) in grounds.iter().enumerate() {
         cd.live.push(all.len() + g);
@@ -837,7 +844,8 @@ impl Condensed {
 
     /// Factors `values` (`K_rho` with the bulk's consistent tangent in place of its elastic
     /// stiffness, as assembled by the caller; `tangent`: whether it is one) and forms `d` anew
-    /// on the whole set, by substitution.
+    /// on the whole set, by substitution. The elastic factor is kept aside while tangents are
+    /// factored and put back when `values` is the elastic `K_rho` again (no refactorisation).
     pub fn refactor(
         &mut self,
         m: &Model,
@@ -849,7 +857,31 @@ impl Condensed {
     ) -> Result<(), LinearSolverError> {
         let e_max = m.materials.iter().map(|mat| mat.elastic().young).fold(0.0, f64::max);
         decouple_held(disc, pattern, &self.equations, e_max, values);
-        solver.factor(values)?;
+        match (tangent, self.tangent, self.elastic_factor.take()) {
+            // Elastic -> tangent: the elastic factor is kept aside.
+            (true, false, _) => {
+                self.elastic_factor = Some(solver.take_factor());
+                if let Some(spare) = self.spare_factor.take() {
+                    solver.put_factor(spare);
+                }
+                if let Err(e) = solver.factor(values) {
+                    // The elastic factor goes back: the solver stays usable for a cut-back.
+                    if let Some(elastic) = self.elastic_factor.take() {
+                        solver.put_factor(elastic);
+                    }
+                    return Err(e);
+                }
+            }
+            // Tangent -> elastic: the kept factor is put back.
+            (false, true, Some(elastic)) => {
+                self.spare_factor = Some(solver.take_factor());
+                solver.put_factor(elastic);
+            }
+            (_, _, kept) => {
+                self.elastic_factor = kept;
+                solver.factor(values)?;
+            }
+        }
         self.compliance = None;
         self.d = DMatrix::zeros(0, 0);
         self.tangent = tangent;

@@ -54,6 +54,11 @@ fn parallelism(s: &SymbolicCholesky<usize>) -> Par {
     }
 }
 
+/// A numeric factor taken out of its [`SparseSolver`] (to be put back into the same solver):
+/// a caller that alternates two matrices on one pattern keeps both factors instead of
+/// refactoring.
+pub struct Factor(Numeric);
+
 /// A direct solver bound to one sparsity pattern.
 pub struct SparseSolver {
     kind: LinearSolverKind,
@@ -130,6 +135,18 @@ impl SparseSolver {
             (None, None) => return Err(LinearSolverError::NotFactored),
         };
         Ok(())
+    }
+
+    /// Takes the numeric factor out; the solver is unfactored until [`Self::factor`] or
+    /// [`Self::put_factor`].
+    pub fn take_factor(&mut self) -> Factor {
+        Factor(std::mem::replace(&mut self.numeric, Numeric::None))
+    }
+
+    /// Puts back a factor [`Self::take_factor`] took from this solver (its storage is reused by
+    /// the next [`Self::factor`]).
+    pub fn put_factor(&mut self, factor: Factor) {
+        self.numeric = factor.0;
     }
 
     /// Solves in place: `rhs <- A^{-1} rhs`.
