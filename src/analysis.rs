@@ -245,6 +245,9 @@ const MAX_REFINEMENTS: usize = 3;
 /// this many iterations is cut back (converging solves take 2-8).
 const STALLED_AFTER: usize = 10;
 
+/// Halvings a yielding body's Newton pass may be cut back by when it raises the residual.
+const LINE_SEARCH_CUTS: usize = 6;
+
 /// `C^T lambda` over all DOFs.
 fn constraint_forces(m: &Model, disc: &Discretisation, mult: &[f64], out: &mut [f64]) {
     out.iter_mut().for_each(|v| *v = 0.0);
@@ -899,6 +902,7 @@ impl<'m> StaticAnalysis<'m> {
         let plastic = m.has_plasticity();
         let passes = if plastic { p.max_iterations.max(MAX_REFINEMENTS) } else { MAX_REFINEMENTS };
         let mut first_res: Option<f64> = None;
+        let mut last_res = f64::INFINITY;
         for pass in 0..passes {
             // r_u = f - f_int(u0) - C^T lambda0 on the free equations, z = K_rho^{-1} r_u.
             self.pass_operator(cd, (&state.u, &u), &history, pass, step, iterations)?;
@@ -966,11 +970,11 @@ impl<'m> StaticAnalysis<'m> {
             zero_open_multipliers(&disc.contact, &mut mu, &sets.active, &sets.status);
             // Check: the equilibrium residual of the recovered state (yielding bodies: with the
             // tangent there, for the next pass).
-            self.assemble_trial(&u, &history, plastic);
-            constraint_forces(m, disc, &mu, &mut ct);
-            let r: Vec<f64> = disc.dofs.free.iter().map(|&g| f_ext[g] - self.trial_f_int[g] - ct[g]).collect();
-            let scale = scale0.max(norm(&self.trial_f_int)).max(norm(&ct));
-            let res = if scale > 0.0 { norm(&r) / scale } else { norm(&r) };
+            let mut res = self.residual_at(&u, &mu, &history, (&f_ext, scale0), plastic);
+            if plastic && pass > 0 && res > last_res {
+                res = self.backtrack((&start.u_start, &lam0), (&mut u, &mut mu), &history, (&f_ext, scale0), last_res);
+            }
+            last_res = res;
             tracing::debug!(step, t, iterations, residual = res, "condensed step");
             if res.is_finite() && res <= p.rtol {
                 check_small_sliding(disc, &u, &sets.status, step, t)?;
@@ -986,6 +990,64 @@ impl<'m> StaticAnalysis<'m> {
             lam0 = mu;
         }
         Ok(StepOutcome::NotConverged { iterations, residual: f64::INFINITY })
+    }
+
+    /// Relative equilibrium residual of `(u, mu)` on the free equations (the step's force scale
+    /// `scale0` or the forces there, whichever is larger); leaves force, stresses, trial
+    /// history (and with `tangent` the tangent) of `u` in the trial buffers.
+    fn residual_at(
+        &mut self,
+        u: &[f64],
+        mu: &[f64],
+        history: &[PlasticState],
+        (f_ext, scale0): (&[f64], f64),
+        tangent: bool,
+    ) -> f64 {
+        let (m, disc) = (self.model, self.disc);
+        self.assemble_trial(u, history, tangent);
+        let mut ct = vec![0.0; disc.dofs.num_dofs];
+        constraint_forces(m, disc, mu, &mut ct);
+        let r: Vec<f64> = disc.dofs.free.iter().map(|&g| f_ext[g] - self.trial_f_int[g] - ct[g]).collect();
+        let scale = scale0.max(norm(&self.trial_f_int)).max(norm(&ct));
+        if scale > 0.0 {
+            norm(&r) / scale
+        } else {
+            norm(&r)
+        }
+    }
+
+    /// Yielding bodies: a Newton pass that raised the residual above the last one's (`last`) is
+    /// cut back along its direction, `(u, mu) = start + s (full - start)` for `s = 1/2, 1/4,
+    /// ...`, to the first that lowers it (or the smallest tried). The consistent tangent of a
+    /// layer that yielded under the normal load is much softer than its elastic unloading at
+    /// the onset of slip: a full step overshoots into the plastic branch. Returns the residual
+    /// of the accepted point, whose force and tangent are in the trial buffers.
+    fn backtrack(
+        &mut self,
+        (u_start, lam_start): (&[f64], &[f64]),
+        (u, mu): (&mut Vec<f64>, &mut Vec<f64>),
+        history: &[PlasticState],
+        force: (&[f64], f64),
+        last: f64,
+    ) -> f64 {
+        let (u_full, mu_full) = (u.clone(), mu.clone());
+        let mut res = f64::INFINITY;
+        let mut s = 1.0;
+        for _ in 0..LINE_SEARCH_CUTS {
+            s *= 0.5;
+            for ((x, a), b) in u.iter_mut().zip(u_start).zip(&u_full) {
+                *x = a + s * (b - a);
+            }
+            for ((x, a), b) in mu.iter_mut().zip(lam_start).zip(&mu_full) {
+                *x = a + s * (b - a);
+            }
+            res = self.residual_at(u, mu, history, force, true);
+            tracing::debug!(s, residual = res, last, "condensed step: line search");
+            if res < last {
+                break;
+            }
+        }
+        res
     }
 
     /// Whether a condensed step that missed the tolerance after `pass` of `passes` stops here

@@ -231,6 +231,30 @@ fn yielding_flat_on_the_shipped_meshes_passes_its_wear_updates_at_8_increments()
     }
 }
 
+/// A flat that yields under the normal load already (yield stress 180 MPa against a largest
+/// von Mises stress of about 0.56 p0 = 185 MPa below the surface, Johnson 1985 ch. 4), on the
+/// shipped meshes, through one gross-slip cycle: every step converges without a cut-back in at
+/// most 15 bulk Newton iterations. At the onset of slip (step 2) the first Newton pass on the
+/// consistent tangent raised the residual from 8e-4 to 0.13 and the iteration diverged at
+/// every cut-back; a pass that raises the residual is now cut back along its direction (line
+/// search), after which Newton converges quadratically.
+#[test]
+fn flat_yielding_under_the_normal_load_converges_at_the_onset_of_slip() {
+    let text = std::fs::read_to_string(CASE)
+        .unwrap()
+        .replace("cycles = 1000", "cycles = 1")
+        .replace("yield_stress = 400.0", "yield_stress = 180.0");
+    let model = mortex::case::parse(&text, "mccoll_j2", Path::new("wear_cases"), "mccoll_j2").unwrap().model;
+    let (state, rec) = run_recorded(&model);
+    eprintln!("yield 180, shipped meshes, 1 cycle: bulk Newton iterations per step {:?}", rec.newton);
+    assert_eq!(state.wear.cycle, 1);
+    assert_eq!(rec.cutbacks, 0, "cut-backs");
+    let worst = rec.newton.iter().copied().max().unwrap();
+    assert!(worst <= MAX_NEWTON, "{worst} Newton iterations in a step");
+    let alpha = state.history.iter().fold(0.0_f64, |a, h| a.max(h.alpha));
+    assert!(alpha > 180.0 / 200_000.0, "largest plastic strain {alpha:.2e}");
+}
+
 /// A body that ratchets more per cycle than the tolerance is computed cycle by cycle: with a
 /// tolerance of 1e-9 every one of 12 cycles is computed, while the same run with the tolerance
 /// at 1 (any ratcheting allowed) jumps.
