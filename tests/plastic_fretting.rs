@@ -192,6 +192,23 @@ fn yielding_flat_converges_without_cutbacks_at_4_and_8_increments() {
     }
 }
 
+/// Runs the shipped case for `cycles` cycles with `edits` (text replacements) and checks that
+/// every step converged without a cut-back in at most `MAX_NEWTON` bulk Newton iterations.
+fn converges_on_the_shipped_meshes(cycles: u64, edits: &[(&str, &str)]) -> mortex::state::SimState {
+    let mut text = std::fs::read_to_string(CASE).unwrap().replace("cycles = 1000", &format!("cycles = {cycles}"));
+    for (from, to) in edits {
+        text = text.replace(from, to);
+    }
+    let model = mortex::case::parse(&text, "mccoll_j2", Path::new("wear_cases"), "mccoll_j2").unwrap().model;
+    let (state, rec) = run_recorded(&model);
+    eprintln!("shipped meshes, {edits:?}, {cycles} cycles: bulk Newton iterations per step {:?}", rec.newton);
+    assert_eq!(state.wear.cycle, cycles);
+    assert_eq!(rec.cutbacks, 0, "{edits:?}: cut-backs");
+    let worst = rec.newton.iter().copied().max().unwrap();
+    assert!(worst <= MAX_NEWTON, "{edits:?}: {worst} Newton iterations in a step");
+    state
+}
+
 /// The yielding flat on the shipped meshes at 8 increments per cycle through its first two wear
 /// updates (3 cycles): every step converges without a cut-back in at most 15 bulk Newton
 /// iterations. Each wear update re-cuts the flat and brings new host faces into the ghost
@@ -203,17 +220,7 @@ fn yielding_flat_converges_without_cutbacks_at_4_and_8_increments() {
 /// each birth force sums to zero in both directions, to round-off: 1e-9 of the largest).
 #[test]
 fn yielding_flat_on_the_shipped_meshes_passes_its_wear_updates_at_8_increments() {
-    let text = std::fs::read_to_string(CASE)
-        .unwrap()
-        .replace("cycles = 1000", "cycles = 3")
-        .replace("increments = 4", "increments = 8");
-    let model = mortex::case::parse(&text, "mccoll_j2", Path::new("wear_cases"), "mccoll_j2").unwrap().model;
-    let (state, rec) = run_recorded(&model);
-    eprintln!("shipped meshes, 8 increments, 3 cycles: bulk Newton iterations per step {:?}", rec.newton);
-    assert_eq!(state.wear.cycle, 3);
-    assert_eq!(rec.cutbacks, 0, "cut-backs");
-    let worst = rec.newton.iter().copied().max().unwrap();
-    assert!(worst <= MAX_NEWTON, "{worst} Newton iterations in a step");
+    let state = converges_on_the_shipped_meshes(3, &[("increments = 4", "increments = 8")]);
     let born: Vec<_> = state.ghost.faces.iter().filter(|(_, f)| f.iter().any(|e| e.1 != 0.0)).collect();
     eprintln!("{} ghost faces tracked, {} born in a deformed state", state.ghost.faces.len(), born.len());
     assert!(!born.is_empty(), "no face was born during the run");
@@ -240,17 +247,7 @@ fn yielding_flat_on_the_shipped_meshes_passes_its_wear_updates_at_8_increments()
 /// search), after which Newton converges quadratically.
 #[test]
 fn flat_yielding_under_the_normal_load_converges_at_the_onset_of_slip() {
-    let text = std::fs::read_to_string(CASE)
-        .unwrap()
-        .replace("cycles = 1000", "cycles = 1")
-        .replace("yield_stress = 400.0", "yield_stress = 180.0");
-    let model = mortex::case::parse(&text, "mccoll_j2", Path::new("wear_cases"), "mccoll_j2").unwrap().model;
-    let (state, rec) = run_recorded(&model);
-    eprintln!("yield 180, shipped meshes, 1 cycle: bulk Newton iterations per step {:?}", rec.newton);
-    assert_eq!(state.wear.cycle, 1);
-    assert_eq!(rec.cutbacks, 0, "cut-backs");
-    let worst = rec.newton.iter().copied().max().unwrap();
-    assert!(worst <= MAX_NEWTON, "{worst} Newton iterations in a step");
+    let state = converges_on_the_shipped_meshes(1, &[("yield_stress = 400.0", "yield_stress = 180.0")]);
     let alpha = state.history.iter().fold(0.0_f64, |a, h| a.max(h.alpha));
     assert!(alpha > 180.0 / 200_000.0, "largest plastic strain {alpha:.2e}");
 }
