@@ -216,6 +216,8 @@ pub struct StaticAnalysis<'m> {
     reuse_key: Option<condensed::ReuseKey>,
     /// Whether the set-up reused the previous model's pattern and symbolic factorisation.
     reused: bool,
+    /// The increment is being retried with the line search (see [`Self::backtrack`]).
+    line_search: bool,
     /// Birth forces of ghost-penalty faces (`(dof, K_F u_birth)` summed, from the state at the
     /// start of each step; see [`crate::state::GhostBirths`]).
     ghost_offset: Vec<(usize, f64)>,
@@ -247,6 +249,10 @@ const STALLED_AFTER: usize = 10;
 
 /// Halvings a yielding body's Newton pass may be cut back by when it raises the residual.
 const LINE_SEARCH_CUTS: usize = 6;
+
+/// Growth of the residual over the elastic predictor's at which a yielding body's plain Newton
+/// is taken to diverge (and the increment retried with the line search).
+const DIVERGED: f64 = 100.0;
 
 /// `C^T lambda` over all DOFs.
 fn constraint_forces(m: &Model, disc: &Discretisation, mult: &[f64], out: &mut [f64]) {
@@ -355,6 +361,7 @@ impl<'m> StaticAnalysis<'m> {
             tangent_values: vec![],
             last_active: 0,
             ghost_offset: vec![],
+            line_search: false,
             last_gross_sliding: None,
             last_sets: None,
             reuse_key: Some(key),
@@ -414,6 +421,7 @@ impl<'m> StaticAnalysis<'m> {
             tangent_values: vec![],
             last_active: 0,
             ghost_offset: vec![],
+            line_search: false,
             last_gross_sliding: None,
             last_sets: None,
             reuse_key: None,
@@ -511,6 +519,7 @@ impl<'m> StaticAnalysis<'m> {
         // stress they had: the trial buffer starts from the converged values.
         self.trial_stress.copy_from_slice(&state.stress);
         self.ghost_offset = state.ghost.offset();
+        self.line_search = false;
         while state.time < t_end || dt == 0.0 {
             let t_try = if state.time + dt >= t_end { t_end } else { state.time + dt };
             match self.newton(state, step, t_try)? {
@@ -524,6 +533,12 @@ impl<'m> StaticAnalysis<'m> {
                 }
                 StepOutcome::NotConverged { iterations: its, residual: res } => {
                     report.iterations += its;
+                    if self.model.has_plasticity() && !self.line_search {
+                        // Yielding bodies: the same increment once more, globalised.
+                        tracing::info!(step, time = t_try, residual = res, "Newton failed; retried with a line search");
+                        self.line_search = true;
+                        continue;
+                    }
                     report.cutbacks += 1;
                     if report.cutbacks > params.max_cutbacks {
                         if let Some(slipping) = self.last_gross_sliding {
@@ -971,7 +986,7 @@ impl<'m> StaticAnalysis<'m> {
             // Check: the equilibrium residual of the recovered state (yielding bodies: with the
             // tangent there, for the next pass).
             let mut res = self.residual_at(&u, &mu, &history, (&f_ext, scale0), plastic);
-            if plastic && pass > 0 && res > last_res {
+            if self.line_search && pass > 0 && res > last_res {
                 res = self.backtrack((&start.u_start, &lam0), (&mut u, &mut mu), &history, (&f_ext, scale0), last_res);
             }
             last_res = res;
@@ -1016,7 +1031,10 @@ impl<'m> StaticAnalysis<'m> {
         }
     }
 
-    /// Yielding bodies: a Newton pass that raised the residual above the last one's (`last`) is
+    /// Yielding bodies, in an increment whose plain Newton failed or diverged (retried before
+    /// it is cut back; converging increments are left to plain Newton, which may raise the
+    /// residual for a pass while its plastic and contact sets change and still converge
+    /// quadratically after it): a pass that raised the residual above the last one's (`last`) is
     /// cut back along its direction, `(u, mu) = start + s (full - start)` for `s = 1/2, 1/4,
     /// ...`, to the first that lowers it (or the smallest tried). The consistent tangent of a
     /// layer that yielded under the normal load is much softer than its elastic unloading at
@@ -1071,7 +1089,10 @@ impl<'m> StaticAnalysis<'m> {
             }
             return Ok(out_of_passes);
         }
-        let stalled = pass >= STALLED_AFTER && res > first;
+        // Plain Newton that multiplies the predictor's residual by DIVERGED has left its basin:
+        // the increment is retried with the line search at once.
+        let diverged = !self.line_search && res > DIVERGED * first;
+        let stalled = diverged || (pass >= STALLED_AFTER && res > first);
         if out_of_passes || stalled {
             self.last_gross_sliding = gross_sliding(status);
             return Ok(true);
