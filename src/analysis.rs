@@ -533,8 +533,8 @@ impl<'m> StaticAnalysis<'m> {
                 }
                 StepOutcome::NotConverged { iterations: its, residual: res } => {
                     report.iterations += its;
-                    if self.model.has_plasticity() && !self.line_search {
-                        // Yielding bodies: the same increment once more, globalised.
+                    if self.model.has_plasticity() && self.condensed.is_some() && !self.line_search {
+                        // Yielding bodies (condensed step): the same increment once more, globalised.
                         tracing::info!(step, time = t_try, residual = res, "Newton failed; retried with a line search");
                         self.line_search = true;
                         continue;
