@@ -773,18 +773,10 @@ impl GhostFace {
 /// displacement component, `h` the edge length, 2 Gauss points). It vanishes for linear fields,
 /// so patch tests stay exact, and it gives nodes with a tiny material support the stiffness of
 /// their neighbours. Returns `(dof_i, dof_j, value)` entries of a constant symmetric matrix in
-/// global DOFs (`node_offset` maps the mesh's nodes to global ones): the sum of
-/// [`ghost_faces`].
-pub fn ghost_penalty(
-    mesh: &Mesh2,
-    adjacency: &CellAdjacency,
-    cut: &CutMesh,
-    node_offset: usize,
-    young: f64,
-    gamma: f64,
-) -> Vec<(usize, usize, f64)> {
+/// global DOFs: the sum of the faces' entries ([`ghost_faces`]).
+pub fn ghost_penalty(faces: Vec<GhostFace>) -> Vec<(usize, usize, f64)> {
     let mut acc: HashMap<(usize, usize), f64> = HashMap::new();
-    for face in ghost_faces(mesh, adjacency, cut, node_offset, young, gamma) {
+    for face in faces {
         for (i, j, x) in face.entries {
             *acc.entry((i, j)).or_insert(0.0) += x;
         }
@@ -794,7 +786,8 @@ pub fn ghost_penalty(
     v
 }
 
-/// The faces of the ghost penalty (see [`ghost_penalty`]), each once, in cell order.
+/// The faces of the ghost penalty (see [`ghost_penalty`]), each once, in cell order;
+/// `node_offset` maps the mesh's nodes to global ones.
 pub fn ghost_faces(
     mesh: &Mesh2,
     adjacency: &CellAdjacency,

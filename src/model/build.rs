@@ -283,14 +283,9 @@ impl ModelBuilder {
             hosts.bands[b] = self.band(b, &adjacency, tie_embeddings, load_path)?;
             if self.ghost_penalty > 0.0 {
                 let young = self.materials[body.material].elastic().young;
-                hosts.penalty_parts[b].extend(crate::cut::ghost_penalty(
-                    &body.mesh,
-                    &adjacency,
-                    &c,
-                    body.node_offset,
-                    young,
-                    self.ghost_penalty,
-                ));
+                let faces =
+                    crate::cut::ghost_faces(&body.mesh, &adjacency, &c, body.node_offset, young, self.ghost_penalty);
+                hosts.penalty_parts[b].extend(crate::cut::ghost_penalty(faces));
             }
             hosts.cuts[b] = Some(c);
         }

@@ -344,7 +344,9 @@ impl Discretisation {
         }
         self.penalty_parts[b] = if model.ghost_penalty > 0.0 {
             let young = model.materials[body.material].elastic().young;
-            crate::cut::ghost_penalty(&body.mesh, &band.adjacency, &cm, body.node_offset, young, model.ghost_penalty)
+            let faces =
+                crate::cut::ghost_faces(&body.mesh, &band.adjacency, &cm, body.node_offset, young, model.ghost_penalty);
+            crate::cut::ghost_penalty(faces)
         } else {
             vec![]
         };
