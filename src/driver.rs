@@ -221,9 +221,9 @@ where
             let u_prev = state.u.clone();
             let report = analysis.advance_to(state, k + 1, m.times[k])?;
             let scene = disc.wear_scene(m);
-            accumulate_step_wear(&scene, &mut state.wear, (&u_prev, &state.u), (None, &state.multipliers));
+            accumulate_step_wear(&scene, &mut state.wear, (&u_prev, &state.u), (None, &state.multipliers), None);
             if k + 1 == ramp_steps {
-                apply_cycle_wear(&scene, &mut state.wear, &state.u, &state.multipliers, count, false, None)?;
+                apply_cycle_wear(&scene, &mut state.wear, count, false)?;
                 if m.has_plasticity() {
                     state.wear.plastic_start = plastic_snapshot(&state.history);
                 }
@@ -340,19 +340,19 @@ fn integrate_step_wear(
     report.cycle = n as usize + 1;
     report.increment = i + 1;
     let scene = disc.wear_scene(m);
-    accumulate_step_wear(&scene, &mut state.wear, (start.0, &state.u), (Some(start.1), &state.multipliers));
+    let sensitivity = match m.wear.scheme {
+        JumpScheme::Implicit => analysis.gap_sensitivity_with_open_rows(),
+        JumpScheme::Explicit => None,
+    };
+    accumulate_step_wear(&scene, &mut state.wear, (start.0, &state.u), (Some(start.1), &state.multipliers), sensitivity);
     state.wear.increment = i + 1;
     if i + 1 == increments {
         let count = m.cycle.map_or(1, |c| c.count as u64);
-        let sensitivity = match m.wear.scheme {
-            JumpScheme::Implicit => analysis.gap_sensitivity_with_open_rows(),
-            JumpScheme::Explicit => None,
-        };
         if m.has_plasticity() {
             (state.wear.cycle_ratcheting, state.wear.cycle_plastic_strain) =
                 cycle_plasticity(&state.wear.plastic_start, &state.history);
         }
-        apply_cycle_wear(&scene, &mut state.wear, &state.u, &state.multipliers, count, true, sensitivity.as_ref())?;
+        apply_cycle_wear(&scene, &mut state.wear, count, true)?;
         if m.has_plasticity() {
             state.wear.plastic_start = plastic_snapshot(&state.history);
         }

@@ -147,6 +147,19 @@ fn kill_minus_nine_then_resume_is_bit_identical() {
 }
 
 /// Every f64 and integer of a checkpoint group (the wear state included), by its bits.
+/// The bits of every dataset under `g` (subgroups too, such as the implicit jump's increment
+/// linearisations), in name order (integers read as f64: exact below 2^53).
+fn group_bits(g: &hdf5::Group, b: &mut Vec<u64>) {
+    let mut names = g.member_names().unwrap();
+    names.sort();
+    for name in names {
+        match g.dataset(&name) {
+            Ok(d) => b.extend(d.read_raw::<f64>().unwrap().iter().map(|v| v.to_bits())),
+            Err(_) => group_bits(&g.group(&name).unwrap(), b),
+        }
+    }
+}
+
 fn checkpoint_bits(file: &Path, step: usize) -> Vec<u64> {
     let f = hdf5::File::open(file).unwrap();
     let c = f.group(&format!("steps/{step:06}/checkpoint")).unwrap();
@@ -158,12 +171,7 @@ fn checkpoint_bits(file: &Path, step: usize) -> Vec<u64> {
         b.extend(d.read_raw::<f64>().unwrap().iter().map(|v| v.to_bits()));
     }
     let w = c.group("wear").unwrap();
-    let mut names = w.member_names().unwrap();
-    names.sort();
-    for name in names {
-        let d = w.dataset(&name).unwrap();
-        b.extend(d.read_raw::<f64>().unwrap().iter().map(|v| v.to_bits()));
-    }
+    group_bits(&w, &mut b);
     for a in ["cycle", "computed_cycles", "increment", "jump", "last_jump", "jump_before"] {
         b.push(w.attr(a).unwrap().read_scalar::<u64>().unwrap());
     }

@@ -153,10 +153,10 @@ fn read_ghost(c: &hdf5::Group, num_dofs: usize) -> Result<crate::state::GhostBir
 }
 
 /// The wear state under `checkpoint/wear`: counters as attributes, per surface `i` the datasets
-/// `vertices_i` `(n, 2)`, `depth_i`, `cycle_volume_i` `(n)`, `cycle_row_work_i`,
-/// `cycle_row_slip_i` (per multiplier node of the pair), per surface `cycle_work`,
+/// `vertices_i` `(n, 2)`, `depth_i`, `cycle_volume_i` `(n)`, per surface `cycle_work`,
 /// `worn_area`, `work`, and the jump controller (`last_rate`, `last_change`, `predicted`, `predicted_area_rate`, attributes
-/// `last_jump`, `jump_before`, `decay`).
+/// `last_jump`, `jump_before`, `decay`), and the implicit jump's linearisation of each
+/// increment of the current cycle (group `increment_jumps`, see [`write_increment_jumps`]).
 fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> {
     let crate::state::WearState {
         cycle,
@@ -167,8 +167,7 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
         depth,
         cycle_volume,
         cycle_work,
-        cycle_row_work,
-        cycle_row_slip,
+        cycle_jumps,
         worn_area,
         work,
         controller,
@@ -200,8 +199,6 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
             .create(format!("vertices_{i}").as_str())?;
         vec1(&format!("depth_{i}"), &depth[i])?;
         vec1(&format!("cycle_volume_{i}"), &cycle_volume[i])?;
-        vec1(&format!("cycle_row_work_{i}"), &cycle_row_work[i])?;
-        vec1(&format!("cycle_row_slip_{i}"), &cycle_row_slip[i])?;
     }
     vec1("cycle_work", cycle_work)?;
     vec1("worn_area", worn_area)?;
@@ -220,7 +217,108 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
     vec1("plastic_start", plastic_start)?;
     super::write_attr(&g, "cycle_ratcheting", cycle_ratcheting)?;
     super::write_attr(&g, "cycle_plastic_strain", cycle_plastic_strain)?;
+    write_increment_jumps(&g, cycle_jumps)
+}
+
+/// The implicit jump's linearisation of the current cycle's increments (see
+/// `IncrementJump`): group `increment_jumps` with attribute `count`, one group `j` per
+/// increment holding `rows`, `closed` (0/1), `stiffness` (`(na, na)`, row-major), `pressure`,
+/// `gap`, `weight`, `all_pressure`, and per wearing surface `b`: `entry_vertex_b`,
+/// `entry_row_b`, `entry_g_b`, `phi_b`, `work_b`, `work_per_pressure_b`.
+fn write_increment_jumps(g: &hdf5::Group, jumps: &[crate::wear::IncrementJump]) -> hdf5::Result<()> {
+    let top = g.create_group("increment_jumps")?;
+    super::write_attr(&top, "count", &(jumps.len() as u64))?;
+    for (i, j) in jumps.iter().enumerate() {
+        let jg = top.create_group(&i.to_string())?;
+        let f64s = |name: &str, v: &[f64]| jg.new_dataset_builder().with_data(&Array1::from(v.to_vec())).create(name);
+        let u64s = |name: &str, v: Vec<u64>| jg.new_dataset_builder().with_data(&Array1::from(v)).create(name);
+        let sens = &j.sensitivity;
+        u64s("rows", sens.rows.iter().map(|&k| k as u64).collect())?;
+        u64s("closed", sens.closed.iter().map(|&c| u64::from(c)).collect())?;
+        let na = sens.rows.len();
+        let stiffness: Vec<f64> = (0..na * na).map(|e| sens.dlambda_dgap[(e / na, e % na)]).collect();
+        f64s("stiffness", &stiffness)?;
+        f64s("pressure", &j.pressure)?;
+        f64s("gap", &j.gap)?;
+        f64s("weight", &j.weight)?;
+        f64s("all_pressure", &j.all_pressure)?;
+        for (b, sf) in j.surfaces.iter().enumerate() {
+            u64s(&format!("entry_vertex_{b}"), sf.entries.iter().map(|e| e.0 as u64).collect())?;
+            u64s(&format!("entry_row_{b}"), sf.entries.iter().map(|e| e.1 as u64).collect())?;
+            f64s(&format!("entry_g_{b}"), &sf.entries.iter().map(|e| e.2).collect::<Vec<_>>())?;
+            f64s(&format!("phi_{b}"), &sf.phi)?;
+            f64s(&format!("work_{b}"), &sf.work)?;
+            f64s(&format!("work_per_pressure_{b}"), &sf.work_per_pressure)?;
+        }
+    }
     Ok(())
+}
+
+/// The increments' linearisations of a checkpoint (none where it has no `increment_jumps`:
+/// written before they were kept, the cycle's jump is then explicit), every index and length
+/// checked against the model.
+fn read_increment_jumps(g: &hdf5::Group, model: &Model) -> Result<Vec<crate::wear::IncrementJump>, String> {
+    let Ok(top) = g.group("increment_jumps") else {
+        return Ok(vec![]);
+    };
+    let count = top
+        .attr("count")
+        .and_then(|a| a.read_scalar::<u64>())
+        .map_err(|e| format!("wear increment_jumps attribute count: {e}"))? as usize;
+    let increments = model.cycle.map_or(0, |c| c.increments);
+    if count > increments {
+        return Err(format!("wear increment_jumps count is {count}, the cycle has {increments} increments"));
+    }
+    let contact_rows = model.initial().contact.rows.len();
+    let vertices: Vec<usize> =
+        model.wear.surfaces.iter().map(|w| model.initial().surfaces[w.surface].vertices.len()).collect();
+    (0..count)
+        .map(|i| {
+            let jg = top.group(&i.to_string()).map_err(|e| format!("wear increment_jumps/{i}: {e}"))?;
+            let err = |name: &str, e: String| format!("wear dataset increment_jumps/{i}/{name}: {e}");
+            let f64s = |name: &str| jg.dataset(name).and_then(|d| d.read_raw::<f64>()).map_err(|e| err(name, e.to_string()));
+            let idx = |name: &str, bound: usize| -> Result<Vec<usize>, String> {
+                let v = jg.dataset(name).and_then(|d| d.read_raw::<u64>()).map_err(|e| err(name, e.to_string()))?;
+                v.into_iter()
+                    .map(|x| {
+                        if (x as usize) < bound {
+                            Ok(x as usize)
+                        } else {
+                            Err(err(name, format!("index {x} not below {bound}")))
+                        }
+                    })
+                    .collect()
+            };
+            let rows = idx("rows", contact_rows)?;
+            let na = rows.len();
+            let closed: Vec<bool> = idx("closed", 2)?.into_iter().map(|c| c == 1).collect();
+            let stiffness = f64s("stiffness")?;
+            let (pressure, gap, weight, all_pressure) =
+                (f64s("pressure")?, f64s("gap")?, f64s("weight")?, f64s("all_pressure")?);
+            let per_row = [closed.len(), pressure.len(), gap.len(), weight.len()];
+            if per_row.iter().any(|&n| n != na) || stiffness.len() != na * na || all_pressure.len() != contact_rows {
+                return Err(err("*", format!("lengths do not match its {na} rows and the model's {contact_rows} contact rows")));
+            }
+            let surfaces = vertices
+                .iter()
+                .enumerate()
+                .map(|(b, &nv)| {
+                    let (vertex, row) = (idx(&format!("entry_vertex_{b}"), nv)?, idx(&format!("entry_row_{b}"), na)?);
+                    let gs = f64s(&format!("entry_g_{b}"))?;
+                    let (phi, work, wpp) =
+                        (f64s(&format!("phi_{b}"))?, f64s(&format!("work_{b}"))?, f64s(&format!("work_per_pressure_{b}"))?);
+                    if row.len() != vertex.len() || gs.len() != vertex.len() || [phi.len(), work.len(), wpp.len()] != [na; 3] {
+                        return Err(err(&format!("surface {b}"), "lengths do not match".into()));
+                    }
+                    let entries = vertex.into_iter().zip(row).zip(gs).map(|((v, r), g)| (v, r, g)).collect();
+                    Ok(crate::wear::IncrementSurface { entries, phi, work, work_per_pressure: wpp })
+                })
+                .collect::<Result<Vec<_>, String>>()?;
+            let dlambda_dgap = nalgebra::DMatrix::from_row_slice(na, na, &stiffness);
+            let sensitivity = crate::wear::GapSensitivity { rows, closed, dlambda_dgap };
+            Ok(crate::wear::IncrementJump { sensitivity, pressure, gap, weight, all_pressure, surfaces })
+        })
+        .collect()
 }
 
 /// The finite-sliding pairing guesses (see `WearState::pairing_guess`): each empty or one
@@ -274,7 +372,6 @@ fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, 
     let n = fresh.vertices.len();
     let (mut vertices, mut depth, mut cycle_volume) =
         (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
-    let (mut cycle_row_work, mut cycle_row_slip) = (Vec::with_capacity(n), Vec::with_capacity(n));
     for (i, expected) in fresh.vertices.iter().enumerate() {
         let flat = vec_f64(&format!("vertices_{i}"))?;
         let d = vec_f64(&format!("depth_{i}"))?;
@@ -289,28 +386,17 @@ fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, 
         vertices.push(flat.chunks_exact(2).map(|p| [p[0], p[1]]).collect());
         depth.push(d);
         cycle_volume.push(vol);
-        let row_work = vec_f64(&format!("cycle_row_work_{i}"))?;
-        let row_slip = vec_f64(&format!("cycle_row_slip_{i}"))?;
-        if row_work.len() != fresh.cycle_row_work[i].len() || row_slip.len() != row_work.len() {
-            return Err(format!(
-                "wear surface {i} has {} multiplier nodes in the checkpoint, the model {}",
-                row_work.len(),
-                fresh.cycle_row_work[i].len()
-            ));
-        }
-        cycle_row_work.push(row_work);
-        cycle_row_slip.push(row_slip);
     }
     let (cycle_work, worn_area, work) = (vec_f64("cycle_work")?, vec_f64("worn_area")?, vec_f64("work")?);
     if cycle_work.len() != n || worn_area.len() != n || work.len() != n {
         return Err(format!("the checkpoint has wear sums for another number of surfaces than the model's {n}"));
     }
     let predicted = vec_f64("predicted")?;
-    if !predicted.is_empty() && predicted.len() != model.initial().contact.rows.len() {
+    let (rows, increments) = (model.initial().contact.rows.len(), model.cycle.map_or(1, |c| c.increments));
+    if !predicted.is_empty() && predicted.len() != rows * increments {
         return Err(format!(
-            "wear dataset predicted has {} contact rows, the model {}",
+            "wear dataset predicted has {} values, the model {rows} contact rows at {increments} increments",
             predicted.len(),
-            model.initial().contact.rows.len()
         ));
     }
     let predicted_area_rate = vec_f64("predicted_area_rate")?;
@@ -342,8 +428,7 @@ fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, 
         depth,
         cycle_volume,
         cycle_work,
-        cycle_row_work,
-        cycle_row_slip,
+        cycle_jumps: read_increment_jumps(&g, model)?,
         worn_area,
         work,
         controller,

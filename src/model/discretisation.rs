@@ -51,18 +51,6 @@ impl Model {
             cycle_volume: verts.iter().map(|v| vec![0.0; v.len()]).collect(),
             vertices: verts,
             cycle_work: vec![0.0; n],
-            cycle_row_work: self
-                .wear
-                .surfaces
-                .iter()
-                .map(|w| vec![0.0; self.initial.contact.pairs[w.contact].multipliers.num_nodes])
-                .collect(),
-            cycle_row_slip: self
-                .wear
-                .surfaces
-                .iter()
-                .map(|w| vec![0.0; self.initial.contact.pairs[w.contact].multipliers.num_nodes])
-                .collect(),
             worn_area: vec![0.0; n],
             work: vec![0.0; n],
             ..Default::default()

@@ -2,9 +2,12 @@
 //!
 //! ```text
 //! each converged increment:  cycle volumes += k int N_i p |ds| (swept along the step)
+//!                            implicit scheme: keep the increment's linearisation (interface
+//!                                 stiffness, pressures, couplings where it is paired)
 //! end of a computed cycle:   rates = filtered volumes / vertex measures
 //!                            dN = jump controller (explicit, or implicit: pressure at the
-//!                                 end of the jump from the interface stiffness)
+//!                                 end of the jump at every increment, from the stacked
+//!                                 linearisations)
 //!                            depth += dN rate; vertices move inward; worn area += dN volume
 //! ```
 //!
@@ -44,10 +47,9 @@ pub struct WearState {
     pub cycle_volume: Vec<Vec<f64>>,
     /// `int p |ds|` (Archard) or `int |q ds|` (energy) of the current cycle, per surface.
     pub cycle_work: Vec<f64>,
-    /// Per surface, per multiplier node of its contact pair: the wear work `W_j` and the
-    /// weighted slip `sum |ds_j|` of the current cycle (the implicit jump's linearisation).
-    pub cycle_row_work: Vec<Vec<f64>>,
-    pub cycle_row_slip: Vec<Vec<f64>>,
+    /// Implicit jump: the linearisation of each converged increment of the current cycle
+    /// (see [`IncrementJump`]); fewer than the cycle's increments: the jump is explicit.
+    pub cycle_jumps: Vec<IncrementJump>,
     /// Worn area (`sum_i depth_i int N_i`) and the time integral of the wear work, per surface
     /// (jumps included): `worn_area = k * work` is the wear balance.
     pub worn_area: Vec<f64>,
@@ -141,13 +143,17 @@ pub struct WearScene<'a> {
 
 /// Adds the wear of the step that just converged (from `u_prev` to `u`; tractions from
 /// `lambda_prev` at its start, if given, and `multipliers` at its end) to the cycle's volumes
-/// and work (see [`swept_step_wear`]).
+/// and work (see [`swept_step_wear`]). With the interface stiffness `sensitivity` of the
+/// converged state, the increment's linearisation is kept for the implicit jump
+/// ([`IncrementJump`]).
 pub fn accumulate_step_wear(
     scene: &WearScene<'_>,
     wear: &mut WearState,
     (u_prev, u): (&[f64], &[f64]),
     (lambda_prev, multipliers): (Option<&[f64]>, &[f64]),
+    sensitivity: Option<GapSensitivity>,
 ) {
+    let mut steps = Vec::with_capacity(scene.model.surfaces.len());
     for (w, ws) in scene.model.surfaces.iter().enumerate() {
         let sw = swept_step_wear(
             scene.contact,
@@ -161,13 +167,100 @@ pub fn accumulate_step_wear(
         for (a, v) in wear.cycle_volume[w].iter_mut().zip(&sw.volume) {
             *a += v;
         }
-        for (a, v) in wear.cycle_row_work[w].iter_mut().zip(&sw.row_work) {
-            *a += v;
-        }
-        for (a, v) in wear.cycle_row_slip[w].iter_mut().zip(&sw.row_slip) {
-            *a += v;
-        }
         wear.cycle_work[w] += sw.work;
+        steps.push(sw);
+    }
+    if let Some(sens) = sensitivity.filter(|s| !s.rows.is_empty()) {
+        if let Some(jump) = IncrementJump::of(scene, sens, u, multipliers, &steps) {
+            wear.cycle_jumps.push(jump);
+        }
+    }
+}
+
+/// One wearing surface's part in an [`IncrementJump`], on the rows of its stiffness.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IncrementSurface {
+    /// `(vertex i, row position r, G_ri = int Phi_r N_i)` where the increment is paired.
+    pub entries: Vec<(usize, usize, f64)>,
+    /// Per row position: `int Phi_r`, the increment's wear work, and its change per unit
+    /// pressure change (the increment's weighted slip `|ds_r|`, Archard; `mu |ds_r|` on
+    /// slipping rows, energy law).
+    pub phi: Vec<f64>,
+    pub work: Vec<f64>,
+    pub work_per_pressure: Vec<f64>,
+}
+
+/// The implicit jump's linearisation at one converged increment of a computed cycle: its
+/// interface stiffness on the rows in contact and the open candidates around them, their
+/// pressures and open gaps, and how each wearing surface's vertices couple to them where the
+/// increment is paired. The jump stacks the increments of the cycle (see
+/// [`implicit_correction`]): the pressure at the end of the jump is linearised at every
+/// stroke position, not at the cycle's last one only.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IncrementJump {
+    pub sensitivity: GapSensitivity,
+    /// Per row of the stiffness: pressure (0 on open rows), open gap (0 on closed rows) and
+    /// `int Phi` of the increment's pairing.
+    pub pressure: Vec<f64>,
+    pub gap: Vec<f64>,
+    pub weight: Vec<f64>,
+    /// The pressure of every contact row (the next computed cycle checks the prediction).
+    pub all_pressure: Vec<f64>,
+    pub surfaces: Vec<IncrementSurface>,
+}
+
+impl IncrementJump {
+    fn of(
+        scene: &WearScene<'_>,
+        sensitivity: GapSensitivity,
+        u: &[f64],
+        multipliers: &[f64],
+        steps: &[super::StepWear],
+    ) -> Option<Self> {
+        let nt = scene.contact.first_multiplier;
+        let pressure_of = |k: usize| (-multipliers[nt + k]).max(0.0);
+        let pressure =
+            sensitivity.rows.iter().zip(&sensitivity.closed).map(|(&k, &c)| if c { pressure_of(k) } else { 0.0 }).collect();
+        let gap = open_row_gaps(scene, &sensitivity, u);
+        let weight = sensitivity.rows.iter().map(|&k| scene.contact.phi[k]).collect();
+        let all_pressure = (0..scene.contact.rows.len()).map(pressure_of).collect();
+        let mut surfaces = Vec::with_capacity(steps.len());
+        for (ws, sw) in scene.model.surfaces.iter().zip(steps) {
+            let x = pairing_position(scene.contact, ws, scene.coords, u, u);
+            let coupling = wear_coupling(scene.contact, &scene.hosts, ws, &scene.surfaces[ws.surface], &x, None)?;
+            let c = &scene.contact.pairs[ws.contact];
+            let mut pos_of = vec![None; c.multipliers.num_nodes];
+            for (r, &k) in sensitivity.rows.iter().enumerate() {
+                if (c.first_row..c.first_row + c.multipliers.num_nodes).contains(&k) {
+                    pos_of[k - c.first_row] = Some(r);
+                }
+            }
+            let na = sensitivity.rows.len();
+            let mut s = IncrementSurface {
+                entries: vec![],
+                phi: vec![0.0; na],
+                work: vec![0.0; na],
+                work_per_pressure: vec![0.0; na],
+            };
+            for &(i, l, v) in &coupling.entries {
+                if let Some(r) = pos_of[l] {
+                    s.entries.push((i, r, v));
+                }
+            }
+            for (l, r) in pos_of.iter().enumerate() {
+                if let Some(r) = *r {
+                    let per_pressure = match ws.law {
+                        WearLaw::Archard => 1.0,
+                        WearLaw::Energy => c.friction_row[l].map_or(0.0, |_| scene.contact.mu[c.first_row + l]),
+                    };
+                    s.phi[r] = coupling.phi[l];
+                    s.work[r] = sw.row_work[l];
+                    s.work_per_pressure[r] = if s.phi[r] > 0.0 { per_pressure * sw.row_slip[l] } else { 0.0 };
+                }
+            }
+            surfaces.push(s);
+        }
+        Some(IncrementJump { sensitivity, pressure, gap, weight, all_pressure, surfaces })
     }
 }
 
@@ -209,29 +302,19 @@ impl CycleRates {
 }
 
 /// Applies the current cycle's wear: the jump `dN` (the controller's, or 1 for the ramp when
-/// `jump` is false), depths, vertices, sums and counters; `count` the run's cycles, `u` and
-/// `multipliers` the state of the cycle's last increment. With the implicit scheme and the
-/// interface stiffness `sensitivity` of that increment, the cycle's wear is taken at the
-/// end-of-jump pressure (see [`implicit_pressure_change`]).
-#[allow(clippy::too_many_arguments)]
-pub fn apply_cycle_wear(
-    scene: &WearScene<'_>,
-    wear: &mut WearState,
-    u: &[f64],
-    multipliers: &[f64],
-    count: u64,
-    jump: bool,
-    sensitivity: Option<&GapSensitivity>,
-) -> Result<(), WearError> {
+/// `jump` is false), depths, vertices, sums and counters; `count` the run's cycles. With the
+/// implicit scheme and every increment of the cycle linearised ([`WearState::cycle_jumps`]),
+/// the cycle's wear is taken at the end-of-jump pressure (see [`implicit_correction`]).
+pub fn apply_cycle_wear(scene: &WearScene<'_>, wear: &mut WearState, count: u64, jump: bool) -> Result<(), WearError> {
     let cycle = CycleRates::of(scene, wear);
-    let sensitivity = sensitivity.filter(|s| jump && scene.model.scheme == JumpScheme::Implicit && !s.rows.is_empty());
-    let scheme = if sensitivity.is_some() { JumpScheme::Implicit } else { JumpScheme::Explicit };
+    let linearised = jump && scene.model.scheme == JumpScheme::Implicit && wear.cycle_jumps.len() == scene.increments;
+    let scheme = if linearised { JumpScheme::Implicit } else { JumpScheme::Explicit };
     // The history advances only in computed cycles, so a jump of dN cycles drops dN times the
     // net plastic strain of the last computed cycle: at most the ratcheting tolerance. A body
     // that ratchets more per cycle than that is not jumped over at all.
     let plastic_cap = ratcheting_cap(wear.cycle_ratcheting, scene.model.ratcheting_tolerance);
     let ratcheting = jump && plastic_cap <= 1;
-    let sensitivity = sensitivity.filter(|_| !ratcheting);
+    let linearised = linearised && !ratcheting;
     let scheme = if ratcheting { JumpScheme::Explicit } else { scheme };
     let mut dn = if jump {
         let resolution = scene
@@ -266,12 +349,16 @@ pub fn apply_cycle_wear(
     }
     // The cycle's wear volumes and work as applied: the computed ones, or (implicit) those at
     // the end-of-jump pressure.
-    let (volumes, works, rates) = match sensitivity {
-        Some(sens) => match implicit_correction(scene, wear, u, multipliers, sens, &cycle, &mut dn) {
+    // A jump of one cycle is the computed cycle itself (the run without jumps): explicit.
+    let linearised = linearised && dn > 1;
+    let (volumes, works, rates) = match linearised {
+        true => match implicit_correction(scene, wear, &cycle, &mut dn) {
             Some((volumes, works)) => {
                 let rates = cycle.of_volumes(&volumes);
                 // What the next computed cycle should find (checked by `prediction_cap`).
-                wear.controller.predicted_area_rate = volumes.iter().map(|v| v.iter().sum()).collect();
+                if dn > 1 {
+                    wear.controller.predicted_area_rate = volumes.iter().map(|v| v.iter().sum()).collect();
+                }
                 (volumes, works, rates)
             }
             None => {
@@ -282,11 +369,12 @@ pub fn apply_cycle_wear(
                 (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates)
             }
         },
-        None => {
+        false => {
             wear.controller.forget_prediction();
             (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates)
         }
     };
+    wear.cycle_jumps.clear();
     for (k, ws) in scene.model.surfaces.iter().enumerate() {
         let measure = &cycle.measures[k];
         let inc = depth_increment(&rates[k], measure, dn);
@@ -313,8 +401,6 @@ pub fn apply_cycle_wear(
         wear.worn_area[k] += dn as f64 * volumes[k].iter().sum::<f64>();
         wear.work[k] += dn as f64 * works[k];
         wear.cycle_volume[k].iter_mut().for_each(|v| *v = 0.0);
-        wear.cycle_row_work[k].iter_mut().for_each(|v| *v = 0.0);
-        wear.cycle_row_slip[k].iter_mut().for_each(|v| *v = 0.0);
         wear.cycle_work[k] = 0.0;
     }
     if jump {
@@ -355,54 +441,36 @@ fn check_something_wears(scene: &WearScene<'_>, rates: &[Vec<f64>], count: u64) 
     })
 }
 
-/// Each wearing surface's part in the implicit jump on the rows of the stiffness (`pos_of`: a
-/// contact row's position among them), and the wear couplings they come from.
-#[allow(clippy::type_complexity)]
-fn jump_surfaces<'a>(
-    scene: &WearScene<'_>,
-    wear: &WearState,
-    u: &[f64],
-    pos_of: &[Option<usize>],
-    cycle: &'a CycleRates,
-) -> Option<(Vec<JumpSurface<'a>>, Vec<super::WearCoupling>)> {
-    let na = pos_of.iter().flatten().count();
-    let (measures, filters, rates) = (&cycle.measures, &cycle.filters, &cycle.rates);
-    let mut couplings = Vec::with_capacity(scene.model.surfaces.len());
-    let mut surfaces = Vec::with_capacity(scene.model.surfaces.len());
-    for (b, ws) in scene.model.surfaces.iter().enumerate() {
-        let x = pairing_position(scene.contact, ws, scene.coords, u, u);
-        let coupling = wear_coupling(scene.contact, &scene.hosts, ws, &scene.surfaces[ws.surface], &x, None)?;
-        let c = &scene.contact.pairs[ws.contact];
-        let nv = measures[b].len();
-        let mut g = DMatrix::zeros(na, nv);
-        let (mut phi, mut work_per_pressure) = (vec![0.0; na], vec![0.0; na]);
-        for &(i, l, v) in &coupling.entries {
-            if let Some(r) = pos_of[c.first_row + l] {
-                g[(r, i)] += v;
+/// Each wearing surface's part in the implicit jump on the stacked rows of the cycle's
+/// increments (increment after increment, each with its own rows and pairing).
+fn jump_surfaces<'a>(jumps: &[IncrementJump], cycle: &'a CycleRates, coefficients: &[f64]) -> Vec<JumpSurface<'a>> {
+    let total: usize = jumps.iter().map(|j| j.sensitivity.rows.len()).sum();
+    (0..cycle.measures.len())
+        .map(|b| {
+            let nv = cycle.measures[b].len();
+            let mut g = DMatrix::zeros(total, nv);
+            let (mut phi, mut work_per_pressure) = (Vec::with_capacity(total), Vec::with_capacity(total));
+            let mut first = 0;
+            for j in jumps {
+                let s = &j.surfaces[b];
+                for &(i, r, v) in &s.entries {
+                    g[(first + r, i)] += v;
+                }
+                phi.extend_from_slice(&s.phi);
+                work_per_pressure.extend_from_slice(&s.work_per_pressure);
+                first += j.sensitivity.rows.len();
             }
-        }
-        for l in 0..c.multipliers.num_nodes {
-            let k = c.first_row + l;
-            let Some(r) = pos_of[k] else { continue };
-            phi[r] = coupling.phi[l];
-            let per_pressure = match ws.law {
-                WearLaw::Archard => 1.0,
-                WearLaw::Energy => c.friction_row[l].map_or(0.0, |_| scene.contact.mu[k]),
-            };
-            work_per_pressure[r] = if phi[r] > 0.0 { per_pressure * wear.cycle_row_slip[b][l] } else { 0.0 };
-        }
-        surfaces.push(JumpSurface {
-            coupling: g,
-            phi,
-            measure: &measures[b],
-            coefficient: ws.coefficient,
-            work_per_pressure,
-            rate: &rates[b],
-            filter: &filters[b],
-        });
-        couplings.push(coupling);
-    }
-    Some((surfaces, couplings))
+            JumpSurface {
+                coupling: g,
+                phi,
+                measure: &cycle.measures[b],
+                coefficient: coefficients[b],
+                work_per_pressure,
+                rate: &cycle.rates[b],
+                filter: &cycle.filters[b],
+            }
+        })
+        .collect()
 }
 
 /// The weighted gap of each row of the stiffness at `u`: zero where the row is closed (the
@@ -422,52 +490,47 @@ fn open_row_gaps(scene: &WearScene<'_>, sens: &GapSensitivity, u: &[f64]) -> Vec
         .collect()
 }
 
-/// The implicit jump's cycle volumes and works per surface (the computed cycle's, each row's
-/// work moved by its change at the end-of-jump pressure, never below zero: the wear balance
-/// holds exactly), and the jump after the controller's pressure-change bound. `None` if the
-/// linearised system is singular.
+/// The implicit jump's cycle volumes and works per surface (the computed cycle's, each
+/// increment's row work moved by its change at the end-of-jump pressure, never below zero: the
+/// wear balance holds exactly), and the jump after the controller's pressure-change bound.
+/// The increments of the cycle are stacked: the interface stiffness is block-diagonal (each
+/// increment's rows held at their gaps), the couplings are each increment's, so the pressure
+/// at the end of the jump is linearised at every stroke position. `None` if the linearised
+/// system is singular.
 fn implicit_correction(
     scene: &WearScene<'_>,
     wear: &mut WearState,
-    u: &[f64],
-    multipliers: &[f64],
-    sens: &GapSensitivity,
     cycle: &CycleRates,
     dn: &mut u64,
 ) -> Option<(Vec<Vec<f64>>, Vec<f64>)> {
-    let nt = scene.contact.first_multiplier;
-    let na = sens.rows.len();
-    let mut pos_of = vec![None; scene.contact.rows.len()];
-    for (r, &k) in sens.rows.iter().enumerate() {
-        pos_of[k] = Some(r);
+    let jumps = std::mem::take(&mut wear.cycle_jumps);
+    let coefficients: Vec<f64> = scene.model.surfaces.iter().map(|ws| ws.coefficient).collect();
+    let surfaces = jump_surfaces(&jumps, cycle, &coefficients);
+    let total: usize = jumps.iter().map(|j| j.sensitivity.rows.len()).sum();
+    let mut stiffness = DMatrix::zeros(total, total);
+    let mut contact = JumpContact { pressure: vec![], gap: vec![], closed: vec![] };
+    let mut weights = Vec::with_capacity(total);
+    let mut first = 0;
+    for j in &jumps {
+        let na = j.sensitivity.rows.len();
+        stiffness.view_mut((first, first), (na, na)).copy_from(&j.sensitivity.dlambda_dgap);
+        contact.pressure.extend_from_slice(&j.pressure);
+        contact.gap.extend_from_slice(&j.gap);
+        contact.closed.extend_from_slice(&j.sensitivity.closed);
+        weights.extend_from_slice(&j.weight);
+        first += na;
     }
-    let (surfaces, couplings) = jump_surfaces(scene, wear, u, &pos_of, cycle)?;
-    let measures = &cycle.measures;
-    let pressure: Vec<f64> = sens
-        .rows
-        .iter()
-        .zip(&sens.closed)
-        .map(|(&k, &c)| if c { (-multipliers[nt + k]).max(0.0) } else { 0.0 })
-        .collect();
-    let weights: Vec<f64> = sens.rows.iter().map(|&k| scene.contact.phi[k]).collect();
-    let gap = open_row_gaps(scene, sens, u);
-    let contact = JumpContact { pressure: pressure.clone(), gap, closed: sens.closed.clone() };
-    let solve = |n: u64| implicit_contact_change(&sens.dlambda_dgap, &surfaces, n, &contact);
+    let solve = |n: u64| implicit_contact_change(&stiffness, &surfaces, n, &contact);
     let mut controller = wear.controller.clone();
-    // The last jump's prediction against this cycle: the pressure of every contact row, the
-    // worn-area rate of each surface.
-    let all_pressure: Vec<f64> = (0..scene.contact.rows.len()).map(|k| (-multipliers[nt + k]).max(0.0)).collect();
+    // The last jump's prediction against this cycle: the pressure of every contact row at
+    // every increment, the worn-area rate of each surface.
+    let all_pressure: Vec<f64> = jumps.iter().flat_map(|j| j.all_pressure.iter().copied()).collect();
     if let JumpPolicy::Adaptive { prediction_tolerance, .. } = scene.model.jump {
         let area_rate: Vec<f64> = wear.cycle_volume.iter().map(|v| v.iter().sum()).collect();
         let (last, ones) = (controller.last_jump, vec![1.0; area_rate.len()]);
-        let pressure_check = prediction_cap(
-            &controller.predicted,
-            &all_pressure,
-            &scene.contact.phi,
-            last,
-            PRESSURE_PREDICTION_TOLERANCE,
-            2,
-        );
+        let phi: Vec<f64> = (0..jumps.len()).flat_map(|_| scene.contact.phi.iter().copied()).collect();
+        let pressure_check =
+            prediction_cap(&controller.predicted, &all_pressure, &phi, last, PRESSURE_PREDICTION_TOLERANCE, 2);
         let area_check =
             prediction_cap(&controller.predicted_area_rate, &area_rate, &ones, last, prediction_tolerance, 1);
         for (what, check) in [("pressure", pressure_check), ("area rate", area_check)] {
@@ -477,10 +540,22 @@ fn implicit_correction(
             }
         }
     }
-    let (n, dp) = bounded_implicit_jump(scene.model.jump, &mut controller, *dn, &pressure, &weights, &solve)?;
+    let (n, dp) = bounded_implicit_jump(scene.model.jump, &mut controller, *dn, &contact.pressure, &weights, &solve)?;
+    if n == 1 {
+        // A jump of one cycle is the computed cycle itself: no correction.
+        controller.forget_prediction();
+        wear.controller = controller;
+        *dn = 1;
+        return Some((wear.cycle_volume.clone(), wear.cycle_work.clone()));
+    }
     controller.predicted = all_pressure;
-    for (r, &k) in sens.rows.iter().enumerate() {
-        controller.predicted[k] += dp[r];
+    let nrows = scene.contact.rows.len();
+    let mut first = 0;
+    for (i, j) in jumps.iter().enumerate() {
+        for (r, &k) in j.sensitivity.rows.iter().enumerate() {
+            controller.predicted[i * nrows + k] += dp[first + r];
+        }
+        first += j.sensitivity.rows.len();
     }
     wear.controller = controller;
     tracing::debug!(
@@ -488,27 +563,34 @@ fn implicit_correction(
         proposed = *dn,
         jump = n,
         pressure_change = (dp.iter().zip(&weights).map(|(d, w)| w * d * d).sum::<f64>()
-            / pressure.iter().zip(&weights).map(|(p, w)| w * p * p).sum::<f64>())
+            / contact.pressure.iter().zip(&weights).map(|(p, w)| w * p * p).sum::<f64>())
         .sqrt(),
-        rows = na,
+        rows = total,
         "implicit wear jump"
     );
     *dn = n;
     let mut volumes = Vec::with_capacity(surfaces.len());
     let mut works = Vec::with_capacity(surfaces.len());
     for (b, ws) in scene.model.surfaces.iter().enumerate() {
-        let c = &scene.contact.pairs[ws.contact];
-        let mut dw = vec![0.0; c.multipliers.num_nodes];
-        for (l, d) in dw.iter_mut().enumerate() {
-            if let Some(r) = pos_of[c.first_row + l] {
-                // W_end = W + c dp >= 0.
-                *d = (surfaces[b].work_per_pressure[r] * dp[r]).max(-wear.cycle_row_work[b][l]);
+        let nv = cycle.measures[b].len();
+        let mut extra = vec![0.0; nv];
+        let mut work = wear.cycle_work[b];
+        let mut first = 0;
+        for j in &jumps {
+            let s = &j.surfaces[b];
+            // W_end = W + c dp >= 0, landing where the increment was paired.
+            let dw: Vec<f64> =
+                (0..s.phi.len()).map(|r| (s.work_per_pressure[r] * dp[first + r]).max(-s.work[r])).collect();
+            for &(i, r, g) in &s.entries {
+                if dw[r] != 0.0 && s.phi[r] > 0.0 {
+                    extra[i] += ws.coefficient * dw[r] * g / s.phi[r];
+                }
             }
+            work += dw.iter().sum::<f64>();
+            first += j.sensitivity.rows.len();
         }
-        let nv = measures[b].len();
-        let extra = couplings[b].volumes(ws.coefficient, &dw, nv);
         volumes.push(wear.cycle_volume[b].iter().zip(&extra).map(|(a, e)| a + e).collect());
-        works.push(wear.cycle_work[b] + dw.iter().sum::<f64>());
+        works.push(work);
     }
     Some((volumes, works))
 }

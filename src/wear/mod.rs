@@ -28,10 +28,18 @@
 //! resolution, and doubles `dN` at most per jump while the rates are steady.
 //!
 //! **Implicit jump** (the default, [`JumpScheme::Implicit`]): the cycle's wear is taken at the
-//! pressure at the *end* of the jump, linearised with the interface stiffness of the cycle's
-//! last converged increment (`dlambda/dg` on the normal rows in contact and the open candidate
-//! rows around them, each held at its gap, which the condensed solve has at hand: one small
-//! dense solve per row); see [`implicit_pressure_change`]. On the Winkler scene it divides the
+//! pressure at the *end* of the jump, linearised at *every* increment of the cycle: each
+//! converged increment keeps its interface stiffness (`dlambda/dg` on the normal rows in
+//! contact and the open candidate rows around them, each held at its gap, which the condensed
+//! solve has at hand: one small dense solve per row), its pressures and the coupling of its
+//! rows with the worn vertices where it is paired. The jump stacks them: a block-diagonal
+//! stiffness, one block per stroke position, sharing the depth change of the jump (see
+//! [`implicit_pressure_change`]). Under finite sliding each stroke position reads the scar
+//! where it is then; a linearisation at one position only (the cycle's last) leaves the wear of
+//! the others explicit, and a scar that is smooth as seen from there grows element-scale
+//! roughness where the stroke ends (measured on McColl at 1,000 cycles: pressures 25-29% off
+//! the run without jumps in L2 with the last increment only, 10-14% stacked). On the Winkler
+//! scene it divides the
 //! deviation by `1 + a dN` per jump: stable for any `dN`. The contact set may change over the
 //! jump ([`implicit_contact_change`]: rows whose end pressure would pull open, open rows whose
 //! end gap would penetrate close), so a scar that deepens widens its contact within the jump:
@@ -58,8 +66,8 @@
 mod cycle;
 
 pub use cycle::{
-    accumulate_step_wear, apply_cycle_wear, cycle_plasticity, plastic_snapshot, GapSensitivity, WearError, WearScene,
-    WearState,
+    accumulate_step_wear, apply_cycle_wear, cycle_plasticity, plastic_snapshot, GapSensitivity, IncrementJump,
+    IncrementSurface, WearError, WearScene, WearState,
 };
 
 use crate::contact::{ContactSet, PairedSide};
@@ -623,8 +631,8 @@ pub enum JumpScheme {
     /// documentation); the adaptive controller keeps `a dN <= 1`.
     Explicit,
     /// Linearised backward Euler, `h += dN r(h + dh)` with the pressure's answer to `dh` from
-    /// the interface stiffness of the cycle's last converged increment ([`implicit_pressure_change`]):
-    /// stable for any `dN`. Needs interface condensation (linear elastic bodies); otherwise the
+    /// the interface stiffness of every converged increment of the cycle
+    /// ([`implicit_pressure_change`] on the stacked increments): stable for any `dN`. Needs interface condensation (linear elastic bodies); otherwise the
     /// explicit jump is used.
     #[default]
     Implicit,
@@ -658,7 +666,9 @@ pub struct JumpSurface<'a> {
 /// For a Winkler foundation (`L = kappa (I - mean)`) this multiplies the pressure deviation by
 /// `1 / (1 + a dN)` per jump, `a = kappa k dS`: stable for any jump, first order, and exact in
 /// the steady state. The contact set is held (see [`implicit_contact_change`] for the jump that
-/// lets it change). `None` if the system is singular.
+/// lets it change). The rows `A` may be those of several increments of a cycle stacked, each
+/// with its own pairing in `G_b`: `L` is then block-diagonal and the depth change `dh_b` is
+/// the one all of them share. `None` if the system is singular.
 pub fn implicit_pressure_change(dlambda_dgap: &DMatrix<f64>, surfaces: &[JumpSurface], dn: u64) -> Option<Vec<f64>> {
     let na = dlambda_dgap.nrows();
     let (a, rhs) = implicit_jump_system(dlambda_dgap, surfaces, dn);
