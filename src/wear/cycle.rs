@@ -16,9 +16,9 @@
 //! state lives in [`WearState`], which a checkpoint saves.
 
 use super::{
-    bounded_implicit_jump, depth_increment, implicit_contact_change, next_jump, pairing_position, prediction_cap,
+    bounded_implicit_jump, depth_increment, next_jump, pairing_position, prediction_cap,
     swept_step_wear, vertex_measure, wear_coupling, wearing_resolution, worn_vertices, ControllerState, JumpContact,
-    JumpPolicy, JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel, PRESSURE_PREDICTION_TOLERANCE,
+    JumpOperator, JumpPolicy, JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel, PRESSURE_PREDICTION_TOLERANCE,
 };
 use crate::contact::ContactSet;
 use crate::fem::material::PlasticState;
@@ -520,7 +520,8 @@ fn implicit_correction(
         weights.extend_from_slice(&j.weight);
         first += na;
     }
-    let solve = |n: u64| implicit_contact_change(&stiffness, &surfaces, n, &contact);
+    let operator = JumpOperator::new(&stiffness, &surfaces);
+    let solve = |n: u64| operator.contact_change(n, &contact);
     let mut controller = wear.controller.clone();
     // The last jump's prediction against this cycle: the pressure of every contact row at
     // every increment, the worn-area rate of each surface.

@@ -670,47 +670,104 @@ pub struct JumpSurface<'a> {
 /// with its own pairing in `G_b`: `L` is then block-diagonal and the depth change `dh_b` is
 /// the one all of them share. `None` if the system is singular.
 pub fn implicit_pressure_change(dlambda_dgap: &DMatrix<f64>, surfaces: &[JumpSurface], dn: u64) -> Option<Vec<f64>> {
-    let na = dlambda_dgap.nrows();
-    let (a, rhs) = implicit_jump_system(dlambda_dgap, surfaces, dn);
-    let dp = DenseLu::new(a)?.solve(&rhs)?;
-    debug_assert_eq!(dp.len(), na);
-    dp.iter().all(|v| v.is_finite()).then(|| dp.iter().copied().collect())
+    JumpOperator::new(dlambda_dgap, surfaces).pressure_change(dn)
 }
 
-/// `I + dN L H` and `-dN L sum_b G_b r_b` of [`implicit_pressure_change`], with
+/// The parts of the implicit jump's system that do not depend on the jump: `L H` and
+/// `L sum_b G_b r_b` of [`implicit_pressure_change`], with
 /// `H = sum_b G_b F_b M_b^{-1} k_b G_b^T Phi^{-1} c_b` (column r: the gap opening per cycle of
-/// a unit pressure change at row r).
-fn implicit_jump_system(
-    dlambda_dgap: &DMatrix<f64>,
-    surfaces: &[JumpSurface],
-    dn: u64,
-) -> (DMatrix<f64>, DVector<f64>) {
-    let na = dlambda_dgap.nrows();
-    let dn = dn as f64;
-    let mut h = DMatrix::<f64>::zeros(na, na);
-    let mut gap_rate = DVector::<f64>::zeros(na);
-    for sf in surfaces {
-        let nv = sf.measure.len();
-        debug_assert_eq!(sf.coupling.nrows(), na);
-        debug_assert_eq!(sf.coupling.ncols(), nv);
-        gap_rate += &sf.coupling * DVector::from_column_slice(sf.rate);
-        for r in 0..na {
-            if sf.work_per_pressure[r] == 0.0 || sf.phi[r] <= 0.0 {
-                continue;
+/// a unit pressure change at row r). Formed once per computed cycle; each trial jump `dN`
+/// is then one dense solve of `I + dN L H`.
+pub struct JumpOperator<'a> {
+    stiffness: &'a DMatrix<f64>,
+    lh: DMatrix<f64>,
+    l_gap_rate: DVector<f64>,
+}
+
+impl<'a> JumpOperator<'a> {
+    pub fn new(dlambda_dgap: &'a DMatrix<f64>, surfaces: &[JumpSurface]) -> Self {
+        let na = dlambda_dgap.nrows();
+        let mut h = DMatrix::<f64>::zeros(na, na);
+        let mut gap_rate = DVector::<f64>::zeros(na);
+        for sf in surfaces {
+            let nv = sf.measure.len();
+            debug_assert_eq!(sf.coupling.nrows(), na);
+            debug_assert_eq!(sf.coupling.ncols(), nv);
+            gap_rate += &sf.coupling * DVector::from_column_slice(sf.rate);
+            for r in 0..na {
+                if sf.work_per_pressure[r] == 0.0 || sf.phi[r] <= 0.0 {
+                    continue;
+                }
+                let scale = sf.coefficient * sf.work_per_pressure[r] / sf.phi[r];
+                let y: Vec<f64> = (0..nv)
+                    .map(|i| if sf.measure[i] > 0.0 { scale * sf.coupling[(r, i)] / sf.measure[i] } else { 0.0 })
+                    .collect();
+                let y = DVector::from_vec(sf.filter.apply(&y));
+                let col = &sf.coupling * y;
+                let mut hc = h.column_mut(r);
+                hc += col;
             }
-            let scale = sf.coefficient * sf.work_per_pressure[r] / sf.phi[r];
-            let y: Vec<f64> = (0..nv)
-                .map(|i| if sf.measure[i] > 0.0 { scale * sf.coupling[(r, i)] / sf.measure[i] } else { 0.0 })
-                .collect();
-            let y = DVector::from_vec(sf.filter.apply(&y));
-            let col = &sf.coupling * y;
-            let mut hc = h.column_mut(r);
-            hc += col;
         }
+        JumpOperator { stiffness: dlambda_dgap, lh: dlambda_dgap * h, l_gap_rate: dlambda_dgap * gap_rate }
     }
-    let a = DMatrix::identity(na, na) + dlambda_dgap * h * dn;
-    let rhs = -(dlambda_dgap * gap_rate) * dn;
-    (a, rhs)
+
+    /// `I + dN L H` and `-dN L sum_b G_b r_b`.
+    fn system(&self, dn: u64) -> (DMatrix<f64>, DVector<f64>) {
+        let dn = dn as f64;
+        let na = self.lh.nrows();
+        (DMatrix::identity(na, na) + &self.lh * dn, &self.l_gap_rate * -dn)
+    }
+
+    /// [`implicit_pressure_change`] of a jump of `dn` cycles.
+    pub fn pressure_change(&self, dn: u64) -> Option<Vec<f64>> {
+        let (a, rhs) = self.system(dn);
+        let dp = DenseLu::new(a)?.solve(&rhs)?;
+        dp.iter().all(|v| v.is_finite()).then(|| dp.iter().copied().collect())
+    }
+
+    /// [`implicit_contact_change`] of a jump of `dn` cycles.
+    pub fn contact_change(&self, dn: u64, contact: &JumpContact) -> Option<Vec<f64>> {
+        let dlambda_dgap = self.stiffness;
+        let na = dlambda_dgap.nrows();
+        debug_assert!(contact.pressure.len() == na && contact.gap.len() == na && contact.closed.len() == na);
+        let (a, b) = self.system(dn);
+        let (p, g) = (&contact.pressure, &contact.gap);
+        let p_max = p.iter().fold(0.0_f64, |m, &v| m.max(v));
+        let g_scale = g.iter().fold(0.0_f64, |m, &v| m.max(v.abs())).max(f64::MIN_POSITIVE);
+        let mut closed = contact.closed.clone();
+        for _ in 0..MAX_JUMP_CONTACT_ITERATIONS {
+            let mut m = DMatrix::<f64>::zeros(na, na);
+            let mut rhs = b.clone();
+            for r in 0..na {
+                if closed[r] {
+                    m.set_column(r, &a.column(r));
+                    rhs -= dlambda_dgap.column(r) * g[r];
+                } else {
+                    m.set_column(r, &(-dlambda_dgap.column(r)));
+                    rhs += a.column(r) * p[r];
+                }
+            }
+            let x = DenseLu::new(m)?.solve(&rhs)?;
+            if x.iter().any(|v| !v.is_finite()) {
+                return None;
+            }
+            let dp: Vec<f64> = (0..na).map(|r| if closed[r] { x[r] } else { -p[r] }).collect();
+            let mut changed = false;
+            for r in 0..na {
+                if closed[r] && p[r] + dp[r] < -1e-12 * p_max {
+                    closed[r] = false;
+                    changed = true;
+                } else if !closed[r] && g[r] + x[r] < -1e-12 * g_scale {
+                    closed[r] = true;
+                    changed = true;
+                }
+            }
+            if !changed {
+                return Some(dp);
+            }
+        }
+        None
+    }
 }
 
 /// The interface at the start of a jump, per row of the stiffness: its pressure `p >= 0` and
@@ -743,45 +800,7 @@ pub fn implicit_contact_change(
     dn: u64,
     contact: &JumpContact,
 ) -> Option<Vec<f64>> {
-    let na = dlambda_dgap.nrows();
-    debug_assert!(contact.pressure.len() == na && contact.gap.len() == na && contact.closed.len() == na);
-    let (a, b) = implicit_jump_system(dlambda_dgap, surfaces, dn);
-    let (p, g) = (&contact.pressure, &contact.gap);
-    let p_max = p.iter().fold(0.0_f64, |m, &v| m.max(v));
-    let g_scale = g.iter().fold(0.0_f64, |m, &v| m.max(v.abs())).max(f64::MIN_POSITIVE);
-    let mut closed = contact.closed.clone();
-    for _ in 0..MAX_JUMP_CONTACT_ITERATIONS {
-        let mut m = DMatrix::<f64>::zeros(na, na);
-        let mut rhs = b.clone();
-        for r in 0..na {
-            if closed[r] {
-                m.set_column(r, &a.column(r));
-                rhs -= dlambda_dgap.column(r) * g[r];
-            } else {
-                m.set_column(r, &(-dlambda_dgap.column(r)));
-                rhs += a.column(r) * p[r];
-            }
-        }
-        let x = DenseLu::new(m)?.solve(&rhs)?;
-        if x.iter().any(|v| !v.is_finite()) {
-            return None;
-        }
-        let dp: Vec<f64> = (0..na).map(|r| if closed[r] { x[r] } else { -p[r] }).collect();
-        let mut changed = false;
-        for r in 0..na {
-            if closed[r] && p[r] + dp[r] < -1e-12 * p_max {
-                closed[r] = false;
-                changed = true;
-            } else if !closed[r] && g[r] + x[r] < -1e-12 * g_scale {
-                closed[r] = true;
-                changed = true;
-            }
-        }
-        if !changed {
-            return Some(dp);
-        }
-    }
-    None
+    JumpOperator::new(dlambda_dgap, surfaces).contact_change(dn, contact)
 }
 
 /// Largest `a * dN` the adaptive controller allows (`1 - a dN >= 0`: the deviation from the
