@@ -706,7 +706,7 @@ fn wear_bad_inputs_give_clear_errors() {
 }
 
 /// A stroke that slides the flat off from under the cylinder (McColl scene, +-2 mm on a 3 mm
-/// flat, finite sliding): a typed error naming the contact and the end of the counter-surface
+/// flat in steps of 2 mm, 4 increments per cycle, finite sliding): a typed error naming the contact and the end of the counter-surface
 /// once the contact rests on the flat's corner, a non-zero exit, no panic, the converged steps
 /// kept, and an earlier result beside it untouched.
 #[test]
@@ -716,8 +716,9 @@ fn a_stroke_off_the_counter_surface_is_a_clear_error() {
     let case = std::fs::read_to_string(root.join("wear_cases/mccoll_fretting.toml"))
         .unwrap()
         .replace("ux = 0.025", "ux = 2.0")
-        .replace("cycles = 18000", "cycles = 2");
-    assert!(case.contains("ux = 2.0"));
+        .replace("cycles = 18000", "cycles = 2")
+        .replace("increments = 8", "increments = 4");
+    assert!(case.contains("ux = 2.0") && case.contains("increments = 4"));
     std::fs::write(d.join("off.toml"), case).unwrap();
     std::fs::write(d.join("out.h5"), b"an earlier result").unwrap();
     let (ok, text) = run(&["run", "off.toml", "--quiet", "-o", "out.h5"], &d);

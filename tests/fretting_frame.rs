@@ -104,7 +104,7 @@ fn finite_sliding_wear(cycles: usize, increments: usize) -> WearEnd {
     let text = std::fs::read_to_string("wear_cases/mccoll_fretting.toml")
         .expect("shipped case")
         .replace("cycles = 18000", &format!("cycles = {cycles}"))
-        .replace("increments = 4", &format!("increments = {increments}"))
+        .replace("increments = 8", &format!("increments = {increments}"))
         .replace("friction = 0.9", "friction = 0.9\nsliding = \"finite\"");
     let case =
         mortex::case::parse(&text, "mccoll", Path::new("wear_cases"), "mccoll").unwrap_or_else(|e| panic!("{e}"));
@@ -186,7 +186,7 @@ fn scar(x: &[f64], d: &[f64]) -> (f64, f64, f64) {
 
 /// The shipped McColl case at 1,000 cycles (its defaults): the depth profiles of both bodies
 /// (x of each vertex, depth), worn areas, and the pressure profiles (x, p) of the multiplier
-/// nodes at the increments of the last computed cycle.
+/// nodes at the four stroke positions of the last computed cycle (+25, 0, -25, 0 um).
 struct EngineRun {
     flat: (Vec<f64>, Vec<f64>),
     cylinder: (Vec<f64>, Vec<f64>),
@@ -201,7 +201,7 @@ fn mccoll_engine(cycles: usize) -> EngineRun {
     let case =
         mortex::case::parse(&text, "mccoll", Path::new("wear_cases"), "mccoll").unwrap_or_else(|e| panic!("{e}"));
     let model = case.model;
-    let increments = 4;
+    let increments = model.cycle.expect("a cyclic case").increments;
     let mut state = StaticAnalysis::initial_state_of(&model);
     let mut profiles = vec![];
     run(&model, &mut state, RunOptions::default(), |_, st, _, d| {
@@ -216,7 +216,8 @@ fn mccoll_engine(cycles: usize) -> EngineRun {
         flat: (xs(0), w.depth[0].clone()),
         cylinder: (xs(1), w.depth[1].clone()),
         worn_area: w.worn_area.clone(),
-        last_cycle: profiles.split_off(profiles.len() - increments),
+        // The four stroke positions (+25, 0, -25, 0 um) of the last cycle.
+        last_cycle: profiles.split_off(profiles.len() - increments).into_iter().skip(increments / 4 - 1).step_by(increments / 4).collect(),
     }
 }
 
@@ -355,7 +356,7 @@ fn weighted_l2(found: &[f64], expected: &[f64], phi: &[f64]) -> f64 {
 
 /// The implicit jump linearised at every stroke position (the shipped McColl case, finite
 /// sliding, defaults, 1,000 cycles): each jump predicts the pressure at the end of its cycles
-/// at each of the four increments of the cycle, from the interface stiffness and the pairing
+/// at each of the eight increments of the cycle, from the interface stiffness and the pairing
 /// of each. The next computed cycle is the reference (the engine's own solve of the jumped
 /// geometry): its pressure at every increment within 5% in the weighted L2 of the prediction
 /// (the controller's own bound, `PRESSURE_PREDICTION_TOLERANCE`: the linearisation's error is
@@ -370,7 +371,7 @@ fn implicit_jump_predicts_the_pressure_at_every_stroke_position() {
     let case =
         mortex::case::parse(&text, "mccoll", Path::new("wear_cases"), "mccoll").unwrap_or_else(|e| panic!("{e}"));
     let model = case.model;
-    let increments = 4;
+    let increments = model.cycle.expect("a cyclic case").increments;
     let mut state = StaticAnalysis::initial_state_of(&model);
     let mut steps: Vec<RecordedStep> = vec![];
     run(&model, &mut state, RunOptions::default(), |report, st, _, d| {
@@ -423,5 +424,5 @@ fn implicit_jump_predicts_the_pressure_at_every_stroke_position() {
         100.0 * worst,
         100.0 * worst_held
     );
-    assert!(checked >= 4 * 10, "at least ten jumps checked ({checked} predictions)");
+    assert!(checked >= increments * 10, "at least ten jumps checked ({checked} predictions)");
 }
