@@ -344,7 +344,13 @@ fn integrate_step_wear(
         JumpScheme::Implicit => analysis.gap_sensitivity_with_open_rows(),
         JumpScheme::Explicit => None,
     };
-    accumulate_step_wear(&scene, &mut state.wear, (start.0, &state.u), (Some(start.1), &state.multipliers), sensitivity);
+    accumulate_step_wear(
+        &scene,
+        &mut state.wear,
+        (start.0, &state.u),
+        (Some(start.1), &state.multipliers),
+        sensitivity,
+    );
     state.wear.increment = i + 1;
     if i + 1 == increments {
         let count = m.cycle.map_or(1, |c| c.count as u64);

@@ -276,7 +276,8 @@ fn read_increment_jumps(g: &hdf5::Group, model: &Model) -> Result<Vec<crate::wea
         .map(|i| {
             let jg = top.group(&i.to_string()).map_err(|e| format!("wear increment_jumps/{i}: {e}"))?;
             let err = |name: &str, e: String| format!("wear dataset increment_jumps/{i}/{name}: {e}");
-            let f64s = |name: &str| jg.dataset(name).and_then(|d| d.read_raw::<f64>()).map_err(|e| err(name, e.to_string()));
+            let f64s =
+                |name: &str| jg.dataset(name).and_then(|d| d.read_raw::<f64>()).map_err(|e| err(name, e.to_string()));
             let idx = |name: &str, bound: usize| -> Result<Vec<usize>, String> {
                 let v = jg.dataset(name).and_then(|d| d.read_raw::<u64>()).map_err(|e| err(name, e.to_string()))?;
                 v.into_iter()
@@ -297,7 +298,10 @@ fn read_increment_jumps(g: &hdf5::Group, model: &Model) -> Result<Vec<crate::wea
                 (f64s("pressure")?, f64s("gap")?, f64s("weight")?, f64s("all_pressure")?);
             let per_row = [closed.len(), pressure.len(), gap.len(), weight.len()];
             if per_row.iter().any(|&n| n != na) || stiffness.len() != na * na || all_pressure.len() != contact_rows {
-                return Err(err("*", format!("lengths do not match its {na} rows and the model's {contact_rows} contact rows")));
+                return Err(err(
+                    "*",
+                    format!("lengths do not match its {na} rows and the model's {contact_rows} contact rows"),
+                ));
             }
             let surfaces = vertices
                 .iter()
@@ -305,9 +309,15 @@ fn read_increment_jumps(g: &hdf5::Group, model: &Model) -> Result<Vec<crate::wea
                 .map(|(b, &nv)| {
                     let (vertex, row) = (idx(&format!("entry_vertex_{b}"), nv)?, idx(&format!("entry_row_{b}"), na)?);
                     let gs = f64s(&format!("entry_g_{b}"))?;
-                    let (phi, work, wpp) =
-                        (f64s(&format!("phi_{b}"))?, f64s(&format!("work_{b}"))?, f64s(&format!("work_per_pressure_{b}"))?);
-                    if row.len() != vertex.len() || gs.len() != vertex.len() || [phi.len(), work.len(), wpp.len()] != [na; 3] {
+                    let (phi, work, wpp) = (
+                        f64s(&format!("phi_{b}"))?,
+                        f64s(&format!("work_{b}"))?,
+                        f64s(&format!("work_per_pressure_{b}"))?,
+                    );
+                    if row.len() != vertex.len()
+                        || gs.len() != vertex.len()
+                        || [phi.len(), work.len(), wpp.len()] != [na; 3]
+                    {
                         return Err(err(&format!("surface {b}"), "lengths do not match".into()));
                     }
                     let entries = vertex.into_iter().zip(row).zip(gs).map(|((v, r), g)| (v, r, g)).collect();

@@ -16,9 +16,9 @@
 //! state lives in [`WearState`], which a checkpoint saves.
 
 use super::{
-    bounded_implicit_jump, depth_increment, next_jump, pairing_position, prediction_cap,
-    swept_step_wear, vertex_measure, wear_coupling, wearing_resolution, worn_vertices, ControllerState, JumpContact,
-    JumpOperator, JumpPolicy, JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel, PRESSURE_PREDICTION_TOLERANCE,
+    bounded_implicit_jump, depth_increment, next_jump, pairing_position, prediction_cap, swept_step_wear,
+    vertex_measure, wear_coupling, wearing_resolution, worn_vertices, ControllerState, JumpContact, JumpOperator,
+    JumpPolicy, JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel, PRESSURE_PREDICTION_TOLERANCE,
 };
 use crate::contact::ContactSet;
 use crate::fem::material::PlasticState;
@@ -219,8 +219,12 @@ impl IncrementJump {
     ) -> Option<Self> {
         let nt = scene.contact.first_multiplier;
         let pressure_of = |k: usize| (-multipliers[nt + k]).max(0.0);
-        let pressure =
-            sensitivity.rows.iter().zip(&sensitivity.closed).map(|(&k, &c)| if c { pressure_of(k) } else { 0.0 }).collect();
+        let pressure = sensitivity
+            .rows
+            .iter()
+            .zip(&sensitivity.closed)
+            .map(|(&k, &c)| if c { pressure_of(k) } else { 0.0 })
+            .collect();
         let gap = open_row_gaps(scene, &sensitivity, u);
         let weight = sensitivity.rows.iter().map(|&k| scene.contact.phi[k]).collect();
         let all_pressure = (0..scene.contact.rows.len()).map(pressure_of).collect();

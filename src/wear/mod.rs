@@ -37,7 +37,7 @@
 //! [`implicit_pressure_change`]). Under finite sliding each stroke position reads the scar
 //! where it is then; a linearisation at one position only (the cycle's last) leaves the wear of
 //! the others explicit, and a scar that is smooth as seen from there grows element-scale
-//! roughness where the stroke ends (measured on McColl at 1,000 cycles: pressures 25-29% off
+//! roughness where the stroke ends (measured on McColl at 1,000 cycles, 4 increments: 25-29% off
 //! the run without jumps in L2 with the last increment only, 10-14% stacked). On the Winkler
 //! scene it divides the
 //! deviation by `1 + a dN` per jump: stable for any `dN`. The contact set may change over the
