@@ -230,8 +230,6 @@ impl IncrementJump {
         let all_pressure = (0..scene.contact.rows.len()).map(pressure_of).collect();
         let mut surfaces = Vec::with_capacity(steps.len());
         for (ws, sw) in scene.model.surfaces.iter().zip(steps) {
-            let x = pairing_position(scene.contact, ws, scene.coords, u, u);
-            let coupling = wear_coupling(scene.contact, &scene.hosts, ws, &scene.surfaces[ws.surface], &x, None)?;
             let c = &scene.contact.pairs[ws.contact];
             let mut pos_of = vec![None; c.multipliers.num_nodes];
             for (r, &k) in sensitivity.rows.iter().enumerate() {
@@ -239,6 +237,12 @@ impl IncrementJump {
                     pos_of[k - c.first_row] = Some(r);
                 }
             }
+            // Only the stiffness's rows are paired (every segment their hats cover is visited,
+            // so their entries are those of the whole coupling).
+            let held: Vec<bool> = pos_of.iter().map(Option::is_some).collect();
+            let x = pairing_position(scene.contact, ws, scene.coords, u, u);
+            let coupling =
+                wear_coupling(scene.contact, &scene.hosts, ws, &scene.surfaces[ws.surface], &x, Some(&held))?;
             let na = sensitivity.rows.len();
             let mut s = IncrementSurface {
                 entries: vec![],
