@@ -315,15 +315,15 @@ impl CycleRates {
 /// the cycle's wear is taken at the end-of-jump pressure (see [`implicit_correction`]).
 pub fn apply_cycle_wear(scene: &WearScene<'_>, wear: &mut WearState, count: u64, jump: bool) -> Result<(), WearError> {
     let cycle = CycleRates::of(scene, wear);
-    let linearised = jump && scene.model.scheme == JumpScheme::Implicit && wear.cycle_jumps.len() == scene.increments;
-    let scheme = if linearised { JumpScheme::Implicit } else { JumpScheme::Explicit };
     // The history advances only in computed cycles, so a jump of dN cycles drops dN times the
     // net plastic strain of the last computed cycle: at most the ratcheting tolerance. A body
     // that ratchets more per cycle than that is not jumped over at all.
     let plastic_cap = ratcheting_cap(wear.cycle_ratcheting, scene.model.ratcheting_tolerance);
     let ratcheting = jump && plastic_cap <= 1;
-    let linearised = linearised && !ratcheting;
-    let scheme = if ratcheting { JumpScheme::Explicit } else { scheme };
+    // Implicit where the scheme asks for it and every increment of the cycle was linearised.
+    let linearised =
+        jump && !ratcheting && scene.model.scheme == JumpScheme::Implicit && wear.cycle_jumps.len() == scene.increments;
+    let scheme = if linearised { JumpScheme::Implicit } else { JumpScheme::Explicit };
     let mut dn = if jump {
         let resolution = scene
             .model
@@ -356,11 +356,10 @@ pub fn apply_cycle_wear(scene: &WearScene<'_>, wear: &mut WearState, count: u64,
         check_something_wears(scene, &cycle.rates, count)?;
     }
     // The cycle's wear volumes and work as applied: the computed ones, or (implicit) those at
-    // the end-of-jump pressure.
-    // A jump of one cycle is the computed cycle itself (the run without jumps): explicit.
-    let linearised = linearised && dn > 1;
-    let (volumes, works, rates) = match linearised {
-        true => match implicit_correction(scene, wear, &cycle, &mut dn) {
+    // the end-of-jump pressure. A jump of one cycle is the computed cycle itself (the run
+    // without jumps): no correction.
+    let (volumes, works, rates) = if linearised && dn > 1 {
+        match implicit_correction(scene, wear, &cycle, &mut dn) {
             Some((volumes, works)) => {
                 let rates = cycle.of_volumes(&volumes);
                 // What the next computed cycle should find (checked by `prediction_cap`).
@@ -376,11 +375,10 @@ pub fn apply_cycle_wear(scene: &WearScene<'_>, wear: &mut WearState, count: u64,
                 wear.controller.forget_prediction();
                 (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates)
             }
-        },
-        false => {
-            wear.controller.forget_prediction();
-            (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates)
         }
+    } else {
+        wear.controller.forget_prediction();
+        (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates)
     };
     wear.cycle_jumps.clear();
     for (k, ws) in scene.model.surfaces.iter().enumerate() {
