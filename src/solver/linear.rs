@@ -231,7 +231,11 @@ impl SparseSolver {
             }
         }
         // Per supernode, only its own columns: gathered, solved with the diagonal block,
-        // pushed to the rows below by one product, scattered back.
+        // pushed to the rows below by one product, scattered back. Its rows of W are then
+        // final (every descendant has pushed its update), so the Gram product `W^T W` is
+        // accumulated supernode by supernode over its own columns only: a column reaches a
+        // few dozen of the supernodes, and the dense product did eight times the work.
+        let mut out = Mat::<f64>::zeros(nb, nb - from);
         for s in (0..ns).filter(|&s| !cols_of[s].is_empty()) {
             let node = factor.supernode(s);
             let size = end[s] - begin[s];
@@ -239,9 +243,14 @@ impl SparseSolver {
             let (l_top, l_bot) = node.val().split_at_row(size);
             let mut block = Mat::<f64>::from_fn(size, js.len(), |i, k| w[(offset[s] + i, js[k])]);
             solve_lower_triangular_in_place(l_top, block.as_mut(), Par::Seq);
-            for (k, &j) in js.iter().enumerate() {
-                for i in 0..size {
-                    w[(offset[s] + i, j)] = block[(i, k)];
+            let k0 = js.partition_point(|&j| j < from);
+            if k0 < js.len() {
+                let mut gram = Mat::<f64>::zeros(js.len(), js.len() - k0);
+                matmul(gram.as_mut(), Accum::Replace, block.transpose(), block.as_ref().subcols(k0, js.len() - k0), 1.0, Par::Seq);
+                for (b, &jb) in js[k0..].iter().enumerate() {
+                    for (a, &ja) in js.iter().enumerate() {
+                        out[(ja, jb - from)] += gram[(a, b)];
+                    }
                 }
             }
             let pattern = node.pattern();
@@ -257,8 +266,6 @@ impl SparseSolver {
                 }
             }
         }
-        let mut out = Mat::<f64>::zeros(nb, nb - from);
-        matmul(out.as_mut(), Accum::Replace, w.transpose(), w.as_ref().subcols(from, nb - from), 1.0, Par::Seq);
         tracing::debug!(
             n,
             rows = nb,
