@@ -43,6 +43,20 @@ impl DenseLu {
         Some(DenseLu { n, lu, perm, perm_inv })
     }
 
+    /// `A^{-1} B` for the columns of `B`; `None` if the result is not finite.
+    pub fn solve_columns(&self, b: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+        assert_eq!(b.nrows(), self.n, "right-hand side rows");
+        let mut x = b.clone();
+        let (n, k) = (self.n, b.ncols());
+        let lu = MatRef::from_column_major_slice(self.lu.as_slice(), n, n);
+        let perm = PermRef::new_checked(&self.perm, &self.perm_inv, n);
+        let req = solve::solve_in_place_scratch::<usize, f64>(n, k, Par::Seq);
+        let mut buf = MemBuffer::new(req);
+        let rhs = MatMut::from_column_major_slice_mut(x.as_mut_slice(), n, k);
+        solve::solve_in_place_with_conj(lu, lu, perm, Conj::No, rhs, Par::Seq, MemStack::new(&mut buf));
+        x.iter().all(|v| v.is_finite()).then_some(x)
+    }
+
     /// `A^{-1} b`; `None` if the result is not finite.
     pub fn solve(&self, b: &DVector<f64>) -> Option<DVector<f64>> {
         assert_eq!(b.len(), self.n, "right-hand side length");

@@ -246,7 +246,14 @@ impl SparseSolver {
             let k0 = js.partition_point(|&j| j < from);
             if k0 < js.len() {
                 let mut gram = Mat::<f64>::zeros(js.len(), js.len() - k0);
-                matmul(gram.as_mut(), Accum::Replace, block.transpose(), block.as_ref().subcols(k0, js.len() - k0), 1.0, Par::Seq);
+                matmul(
+                    gram.as_mut(),
+                    Accum::Replace,
+                    block.transpose(),
+                    block.as_ref().subcols(k0, js.len() - k0),
+                    1.0,
+                    Par::Seq,
+                );
                 for (b, &jb) in js[k0..].iter().enumerate() {
                     for (a, &ja) in js.iter().enumerate() {
                         out[(ja, jb - from)] += gram[(a, b)];

@@ -526,7 +526,8 @@ fn implicit_correction(
         weights.extend_from_slice(&j.weight);
         first += na;
     }
-    let operator = JumpOperator::new(&stiffness, &surfaces);
+    let blocks: Vec<usize> = jumps.iter().map(|j| j.sensitivity.rows.len()).collect();
+    let operator = JumpOperator::with_blocks(&stiffness, &blocks, &surfaces);
     let solve = |n: u64| operator.contact_change(n, &contact);
     let mut controller = wear.controller.clone();
     // The last jump's prediction against this cycle: the pressure of every contact row at

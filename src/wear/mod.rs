@@ -673,27 +673,67 @@ pub fn implicit_pressure_change(dlambda_dgap: &DMatrix<f64>, surfaces: &[JumpSur
     JumpOperator::new(dlambda_dgap, surfaces).pressure_change(dn)
 }
 
-/// The parts of the implicit jump's system that do not depend on the jump: `L H` and
-/// `L sum_b G_b r_b` of [`implicit_pressure_change`], with
-/// `H = sum_b G_b F_b M_b^{-1} k_b G_b^T Phi^{-1} c_b` (column r: the gap opening per cycle of
-/// a unit pressure change at row r). Formed once per computed cycle; each trial jump `dN`
-/// is then one dense solve of `I + dN L H`.
+/// The parts of the implicit jump's system that do not depend on the jump, in factored form:
+/// `H = sum_b G_b F_b M_b^{-1} k_b G_b^T Phi^{-1} c_b = U V` of [`implicit_pressure_change`]
+/// (column r: the gap opening per cycle of a unit pressure change at row r), `U` the
+/// couplings `G_b` on the vertices any row touches, `V` the filtered depth change per cycle of
+/// a unit pressure change at each row on those vertices; `L U` and `L sum_b G_b r_b`. Formed
+/// once per computed cycle.
+///
+/// The rank of `H` is the number of touched vertices `k`, well below the stacked rows `n` (on
+/// McColl a few hundred against up to 1,200), and `L` is block-diagonal (one block per
+/// increment), so a trial jump solves `(B + dN L U V D_C) x = rhs` (`B` block-diagonal: unit
+/// columns on the closed rows, `-L` on the open ones; `D_C` the closed rows) by the
+/// Sherman-Morrison-Woodbury identity, a `k x k` system, instead of an `n x n` one. The block
+/// factors and `V D_C B^{-1} L U` depend on the contact set only and are kept for the next
+/// trial `dN`. A singular block falls back to the dense system.
 pub struct JumpOperator<'a> {
     stiffness: &'a DMatrix<f64>,
-    lh: DMatrix<f64>,
+    /// Row ranges of the diagonal blocks of `L`.
+    blocks: Vec<std::ops::Range<usize>>,
+    /// `L U`, `n x k`.
+    l_coupling: DMatrix<f64>,
+    /// `V`, `k x n`.
+    depth_per_pressure: DMatrix<f64>,
     l_gap_rate: DVector<f64>,
+    factored: std::cell::RefCell<Option<ContactSetFactor>>,
+}
+
+/// What a trial jump needs of the contact set `closed`: `B`'s block factors (`None`: a unit
+/// block, every row closed), `Y = B^{-1} L U` and `V D_C Y`.
+struct ContactSetFactor {
+    closed: Vec<bool>,
+    blocks: Vec<Option<DenseLu>>,
+    y: DMatrix<f64>,
+    vy: DMatrix<f64>,
 }
 
 impl<'a> JumpOperator<'a> {
+    /// The operator of one stiffness block (`L` dense).
     pub fn new(dlambda_dgap: &'a DMatrix<f64>, surfaces: &[JumpSurface]) -> Self {
+        Self::with_blocks(dlambda_dgap, &[dlambda_dgap.nrows()], surfaces)
+    }
+
+    /// The operator of a block-diagonal `L` whose diagonal blocks have the sizes `blocks` (in
+    /// order; entries outside them are not read).
+    pub fn with_blocks(dlambda_dgap: &'a DMatrix<f64>, blocks: &[usize], surfaces: &[JumpSurface]) -> Self {
         let na = dlambda_dgap.nrows();
-        let mut h = DMatrix::<f64>::zeros(na, na);
+        let mut ranges = Vec::with_capacity(blocks.len());
+        let mut first = 0;
+        for &b in blocks {
+            ranges.push(first..first + b);
+            first += b;
+        }
+        assert_eq!(first, na, "stiffness blocks cover the rows");
         let mut gap_rate = DVector::<f64>::zeros(na);
+        let (mut u_cols, mut v_rows): (Vec<DVector<f64>>, Vec<DVector<f64>>) = (vec![], vec![]);
         for sf in surfaces {
             let nv = sf.measure.len();
             debug_assert_eq!(sf.coupling.nrows(), na);
             debug_assert_eq!(sf.coupling.ncols(), nv);
             gap_rate += &sf.coupling * DVector::from_column_slice(sf.rate);
+            let touched: Vec<usize> = (0..nv).filter(|&i| sf.coupling.column(i).iter().any(|&g| g != 0.0)).collect();
+            let mut v = DMatrix::<f64>::zeros(touched.len(), na);
             for r in 0..na {
                 if sf.work_per_pressure[r] == 0.0 || sf.phi[r] <= 0.0 {
                     continue;
@@ -702,52 +742,172 @@ impl<'a> JumpOperator<'a> {
                 let y: Vec<f64> = (0..nv)
                     .map(|i| if sf.measure[i] > 0.0 { scale * sf.coupling[(r, i)] / sf.measure[i] } else { 0.0 })
                     .collect();
-                let y = DVector::from_vec(sf.filter.apply(&y));
-                let col = &sf.coupling * y;
-                let mut hc = h.column_mut(r);
-                hc += col;
+                let y = sf.filter.apply(&y);
+                for (t, &i) in touched.iter().enumerate() {
+                    v[(t, r)] = y[i];
+                }
             }
+            u_cols.extend(touched.iter().map(|&i| sf.coupling.column(i).into_owned()));
+            v_rows.extend(v.row_iter().map(|row| row.transpose()));
         }
-        JumpOperator { stiffness: dlambda_dgap, lh: dlambda_dgap * h, l_gap_rate: dlambda_dgap * gap_rate }
+        let k = u_cols.len();
+        let u = if k > 0 { DMatrix::from_columns(&u_cols) } else { DMatrix::zeros(na, 0) };
+        let depth_per_pressure = if k > 0 { DMatrix::from_columns(&v_rows).transpose() } else { DMatrix::zeros(0, na) };
+        let mut l_coupling = DMatrix::<f64>::zeros(na, k);
+        let mut l_gap_rate = DVector::<f64>::zeros(na);
+        for r in &ranges {
+            let l = dlambda_dgap.view((r.start, r.start), (r.len(), r.len()));
+            l_coupling.rows_mut(r.start, r.len()).copy_from(&(l * u.rows(r.start, r.len())));
+            l_gap_rate.rows_mut(r.start, r.len()).copy_from(&(l * gap_rate.rows(r.start, r.len())));
+        }
+        JumpOperator {
+            stiffness: dlambda_dgap,
+            blocks: ranges,
+            l_coupling,
+            depth_per_pressure,
+            l_gap_rate,
+            factored: std::cell::RefCell::new(None),
+        }
     }
 
-    /// `I + dN L H` and `-dN L sum_b G_b r_b`.
-    fn system(&self, dn: u64) -> (DMatrix<f64>, DVector<f64>) {
-        let dn = dn as f64;
-        let na = self.lh.nrows();
-        (DMatrix::identity(na, na) + &self.lh * dn, &self.l_gap_rate * -dn)
+    /// The factors of the contact set `closed` (see [`ContactSetFactor`]); `None` if a block
+    /// of `B` is singular.
+    fn factor_set(&self, closed: &[bool]) -> Option<ContactSetFactor> {
+        let (na, k) = self.l_coupling.shape();
+        let mut blocks = Vec::with_capacity(self.blocks.len());
+        let mut y = self.l_coupling.clone();
+        for r in &self.blocks {
+            if closed[r.clone()].iter().all(|&c| c) {
+                blocks.push(None);
+                continue;
+            }
+            let mut b = DMatrix::<f64>::identity(r.len(), r.len());
+            for (c, row) in r.clone().enumerate() {
+                if !closed[row] {
+                    b.set_column(c, &(-self.stiffness.column(row).rows(r.start, r.len())));
+                }
+            }
+            let lu = DenseLu::new(b)?;
+            let yb = lu.solve_columns(&y.rows(r.start, r.len()).into_owned())?;
+            y.rows_mut(r.start, r.len()).copy_from(&yb);
+            blocks.push(Some(lu));
+        }
+        let mut v_closed = self.depth_per_pressure.clone();
+        for (r, &c) in closed.iter().enumerate() {
+            if !c {
+                v_closed.column_mut(r).fill(0.0);
+            }
+        }
+        debug_assert_eq!(y.shape(), (na, k));
+        let vy = &v_closed * &y;
+        Some(ContactSetFactor { closed: closed.to_vec(), blocks, y, vy })
+    }
+
+    /// `B^{-1} x` by blocks.
+    fn solve_base(&self, f: &ContactSetFactor, x: &DVector<f64>) -> Option<DVector<f64>> {
+        let mut z = x.clone();
+        for (r, lu) in self.blocks.iter().zip(&f.blocks) {
+            if let Some(lu) = lu {
+                let zb = lu.solve(&x.rows(r.start, r.len()).into_owned())?;
+                z.rows_mut(r.start, r.len()).copy_from(&zb);
+            }
+        }
+        Some(z)
+    }
+
+    /// `x` with `(B + dN L U V D_C) x = rhs` for the contact set `closed` (`B`, `D_C` of
+    /// [`JumpOperator`]).
+    fn solve(&self, dn: f64, closed: &[bool], rhs: &DVector<f64>) -> Option<DVector<f64>> {
+        let mut cache = self.factored.borrow_mut();
+        if cache.as_ref().is_none_or(|f| f.closed != closed) {
+            *cache = self.factor_set(closed);
+        }
+        let Some(f) = cache.as_ref() else { return self.solve_dense(dn, closed, rhs) };
+        let z = self.solve_base(f, rhs)?;
+        let k = f.vy.nrows();
+        if k == 0 {
+            return Some(z);
+        }
+        let mut vz = DVector::<f64>::zeros(k);
+        for (r, &c) in closed.iter().enumerate() {
+            if c && z[r] != 0.0 {
+                vz.axpy(dn * z[r], &self.depth_per_pressure.column(r), 1.0);
+            }
+        }
+        let s = DMatrix::<f64>::identity(k, k) + &f.vy * dn;
+        let w = DenseLu::new(s)?.solve(&vz)?;
+        let x = z - &f.y * w;
+        x.iter().all(|v| v.is_finite()).then_some(x)
+    }
+
+    /// [`Self::solve`] by one dense `n x n` system (the form before the factored one; for a
+    /// contact set whose `B` is singular).
+    fn solve_dense(&self, dn: f64, closed: &[bool], rhs: &DVector<f64>) -> Option<DVector<f64>> {
+        let na = rhs.len();
+        let mut v_closed = self.depth_per_pressure.clone() * dn;
+        let mut m = DMatrix::<f64>::zeros(na, na);
+        for (r, &c) in closed.iter().enumerate() {
+            if c {
+                m[(r, r)] = 1.0;
+            } else {
+                v_closed.column_mut(r).fill(0.0);
+                m.set_column(r, &(-self.stiffness.column(r)));
+            }
+        }
+        m += &self.l_coupling * v_closed;
+        DenseLu::new(m)?.solve(rhs)
+    }
+
+    /// `(I + dN L H) x` (`L H = (L U) V`).
+    fn apply_system(&self, dn: f64, x: &DVector<f64>) -> DVector<f64> {
+        x + &self.l_coupling * (&self.depth_per_pressure * x) * dn
     }
 
     /// [`implicit_pressure_change`] of a jump of `dn` cycles.
     pub fn pressure_change(&self, dn: u64) -> Option<Vec<f64>> {
-        let (a, rhs) = self.system(dn);
-        let dp = DenseLu::new(a)?.solve(&rhs)?;
+        let closed = vec![true; self.l_gap_rate.len()];
+        let dp = self.solve(dn as f64, &closed, &(&self.l_gap_rate * -(dn as f64)))?;
         dp.iter().all(|v| v.is_finite()).then(|| dp.iter().copied().collect())
     }
 
     /// [`implicit_contact_change`] of a jump of `dn` cycles.
     pub fn contact_change(&self, dn: u64, contact: &JumpContact) -> Option<Vec<f64>> {
+        self.contact_change_with(dn, contact, false)
+    }
+
+    /// [`Self::contact_change`], each contact set's system solved densely: the reference the
+    /// factored solve is tested against.
+    pub fn contact_change_dense(&self, dn: u64, contact: &JumpContact) -> Option<Vec<f64>> {
+        self.contact_change_with(dn, contact, true)
+    }
+
+    fn contact_change_with(&self, dn: u64, contact: &JumpContact, dense: bool) -> Option<Vec<f64>> {
         let dlambda_dgap = self.stiffness;
         let na = dlambda_dgap.nrows();
         debug_assert!(contact.pressure.len() == na && contact.gap.len() == na && contact.closed.len() == na);
-        let (a, b) = self.system(dn);
+        let dnf = dn as f64;
+        let b = &self.l_gap_rate * -dnf;
         let (p, g) = (&contact.pressure, &contact.gap);
         let p_max = p.iter().fold(0.0_f64, |m, &v| m.max(v));
         let g_scale = g.iter().fold(0.0_f64, |m, &v| m.max(v.abs())).max(f64::MIN_POSITIVE);
         let mut closed = contact.closed.clone();
         for _ in 0..MAX_JUMP_CONTACT_ITERATIONS {
-            let mut m = DMatrix::<f64>::zeros(na, na);
-            let mut rhs = b.clone();
+            // rhs = b - L[:, C] G_C + (I + dN L H)[:, O] p_O
+            let (mut g_closed, mut p_open) = (DVector::<f64>::zeros(na), DVector::<f64>::zeros(na));
             for r in 0..na {
                 if closed[r] {
-                    m.set_column(r, &a.column(r));
-                    rhs -= dlambda_dgap.column(r) * g[r];
+                    g_closed[r] = g[r];
                 } else {
-                    m.set_column(r, &(-dlambda_dgap.column(r)));
-                    rhs += a.column(r) * p[r];
+                    p_open[r] = p[r];
                 }
             }
-            let x = DenseLu::new(m)?.solve(&rhs)?;
+            let mut l_g = DVector::<f64>::zeros(na);
+            for r in &self.blocks {
+                let l = dlambda_dgap.view((r.start, r.start), (r.len(), r.len()));
+                l_g.rows_mut(r.start, r.len()).copy_from(&(l * g_closed.rows(r.start, r.len())));
+            }
+            let rhs = &b - l_g + self.apply_system(dnf, &p_open);
+            let x = if dense { self.solve_dense(dnf, &closed, &rhs)? } else { self.solve(dnf, &closed, &rhs)? };
             if x.iter().any(|v| !v.is_finite()) {
                 return None;
             }
