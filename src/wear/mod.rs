@@ -686,7 +686,8 @@ pub fn implicit_pressure_change(dlambda_dgap: &DMatrix<f64>, surfaces: &[JumpSur
 /// columns on the closed rows, `-L` on the open ones; `D_C` the closed rows) by the
 /// Sherman-Morrison-Woodbury identity, a `k x k` system, instead of an `n x n` one. The block
 /// factors and `V D_C B^{-1} L U` depend on the contact set only and are kept for the next
-/// trial `dN`. A singular block falls back to the dense system.
+/// trial `dN` (a trial starts from the cycle's contact set, and an iteration changes few
+/// blocks). A singular block falls back to the dense system.
 pub struct JumpOperator<'a> {
     stiffness: &'a DMatrix<f64>,
     /// Row ranges of the diagonal blocks of `L`.
@@ -696,17 +697,22 @@ pub struct JumpOperator<'a> {
     /// `V`, `k x n`.
     depth_per_pressure: DMatrix<f64>,
     l_gap_rate: DVector<f64>,
-    factored: std::cell::RefCell<Option<ContactSetFactor>>,
+    /// Per diagonal block, its factors for the last few contact sets of its rows.
+    factored: std::cell::RefCell<Vec<Vec<BlockFactor>>>,
 }
 
-/// What a trial jump needs of the contact set `closed`: `B`'s block factors (`None`: a unit
-/// block, every row closed), `Y = B^{-1} L U` and `V D_C Y`.
-struct ContactSetFactor {
+/// What a trial jump needs of one diagonal block `R` for a contact set `closed` of its rows:
+/// the factor of `B_R` (`None`: a unit block, every row closed), `Y_R = B_R^{-1} (L U)_R` and
+/// `V_R D_C Y_R` (its share of `V D_C B^{-1} L U`).
+struct BlockFactor {
     closed: Vec<bool>,
-    blocks: Vec<Option<DenseLu>>,
+    lu: Option<DenseLu>,
     y: DMatrix<f64>,
     vy: DMatrix<f64>,
 }
+
+/// Contact sets kept per block.
+const KEPT_BLOCK_SETS: usize = 4;
 
 impl<'a> JumpOperator<'a> {
     /// The operator of one stiffness block (`L` dense).
@@ -766,77 +772,90 @@ impl<'a> JumpOperator<'a> {
             l_coupling,
             depth_per_pressure,
             l_gap_rate,
-            factored: std::cell::RefCell::new(None),
+            factored: std::cell::RefCell::new(Vec::new()),
         }
     }
 
-    /// The factors of the contact set `closed` (see [`ContactSetFactor`]); `None` if a block
-    /// of `B` is singular.
-    fn factor_set(&self, closed: &[bool]) -> Option<ContactSetFactor> {
-        let (na, k) = self.l_coupling.shape();
-        let mut blocks = Vec::with_capacity(self.blocks.len());
-        let mut y = self.l_coupling.clone();
-        for r in &self.blocks {
-            if closed[r.clone()].iter().all(|&c| c) {
-                blocks.push(None);
-                continue;
-            }
-            let mut b = DMatrix::<f64>::identity(r.len(), r.len());
+    /// The factors of block `b` for the contact set `closed` of its rows (see
+    /// [`BlockFactor`]); `None` if `B_R` is singular.
+    fn factor_block(&self, b: usize, closed: &[bool]) -> Option<BlockFactor> {
+        let r = self.blocks[b].clone();
+        let mut y = self.l_coupling.rows(r.start, r.len()).into_owned();
+        let lu = if closed.iter().all(|&c| c) {
+            None
+        } else {
+            let mut m = DMatrix::<f64>::identity(r.len(), r.len());
             for (c, row) in r.clone().enumerate() {
-                if !closed[row] {
-                    b.set_column(c, &(-self.stiffness.column(row).rows(r.start, r.len())));
+                if !closed[c] {
+                    m.set_column(c, &(-self.stiffness.column(row).rows(r.start, r.len())));
                 }
             }
-            let lu = DenseLu::new(b)?;
-            let yb = lu.solve_columns(&y.rows(r.start, r.len()).into_owned())?;
-            y.rows_mut(r.start, r.len()).copy_from(&yb);
-            blocks.push(Some(lu));
-        }
-        let mut v_closed = self.depth_per_pressure.clone();
-        for (r, &c) in closed.iter().enumerate() {
-            if !c {
-                v_closed.column_mut(r).fill(0.0);
+            let lu = DenseLu::new(m)?;
+            y = lu.solve_columns(&y)?;
+            Some(lu)
+        };
+        let mut v_closed = self.depth_per_pressure.columns(r.start, r.len()).into_owned();
+        for (c, &closed) in closed.iter().enumerate() {
+            if !closed {
+                v_closed.column_mut(c).fill(0.0);
             }
         }
-        debug_assert_eq!(y.shape(), (na, k));
-        let vy = &v_closed * &y;
-        Some(ContactSetFactor { closed: closed.to_vec(), blocks, y, vy })
-    }
-
-    /// `B^{-1} x` by blocks.
-    fn solve_base(&self, f: &ContactSetFactor, x: &DVector<f64>) -> Option<DVector<f64>> {
-        let mut z = x.clone();
-        for (r, lu) in self.blocks.iter().zip(&f.blocks) {
-            if let Some(lu) = lu {
-                let zb = lu.solve(&x.rows(r.start, r.len()).into_owned())?;
-                z.rows_mut(r.start, r.len()).copy_from(&zb);
-            }
-        }
-        Some(z)
+        let vy = v_closed * &y;
+        Some(BlockFactor { closed: closed.to_vec(), lu, y, vy })
     }
 
     /// `x` with `(B + dN L U V D_C) x = rhs` for the contact set `closed` (`B`, `D_C` of
     /// [`JumpOperator`]).
     fn solve(&self, dn: f64, closed: &[bool], rhs: &DVector<f64>) -> Option<DVector<f64>> {
         let mut cache = self.factored.borrow_mut();
-        if cache.as_ref().is_none_or(|f| f.closed != closed) {
-            *cache = self.factor_set(closed);
+        cache.resize_with(self.blocks.len(), Vec::new);
+        let mut at = Vec::with_capacity(self.blocks.len());
+        for (b, r) in self.blocks.iter().enumerate() {
+            let set = &closed[r.clone()];
+            let i = match cache[b].iter().position(|f| f.closed == set) {
+                Some(i) => i,
+                None => {
+                    let Some(f) = self.factor_block(b, set) else {
+                        drop(cache);
+                        return self.solve_dense(dn, closed, rhs);
+                    };
+                    if cache[b].len() == KEPT_BLOCK_SETS {
+                        cache[b].remove(0);
+                    }
+                    cache[b].push(f);
+                    cache[b].len() - 1
+                }
+            };
+            at.push(i);
         }
-        let Some(f) = cache.as_ref() else { return self.solve_dense(dn, closed, rhs) };
-        let z = self.solve_base(f, rhs)?;
-        let k = f.vy.nrows();
+        let factors: Vec<&BlockFactor> = at.iter().enumerate().map(|(b, &i)| &cache[b][i]).collect();
+        let mut z = rhs.clone();
+        for (r, f) in self.blocks.iter().zip(&factors) {
+            if let Some(lu) = &f.lu {
+                let zb = lu.solve(&rhs.rows(r.start, r.len()).into_owned())?;
+                z.rows_mut(r.start, r.len()).copy_from(&zb);
+            }
+        }
+        let k = self.depth_per_pressure.nrows();
         if k == 0 {
             return Some(z);
         }
+        let mut s = DMatrix::<f64>::identity(k, k);
         let mut vz = DVector::<f64>::zeros(k);
+        for f in &factors {
+            s += &f.vy * dn;
+        }
         for (r, &c) in closed.iter().enumerate() {
             if c && z[r] != 0.0 {
                 vz.axpy(dn * z[r], &self.depth_per_pressure.column(r), 1.0);
             }
         }
-        let s = DMatrix::<f64>::identity(k, k) + &f.vy * dn;
         let w = DenseLu::new(s)?.solve(&vz)?;
-        let x = z - &f.y * w;
+        let mut x = z;
+        for (r, f) in self.blocks.iter().zip(&factors) {
+            let mut xb = x.rows_mut(r.start, r.len());
+            xb -= &f.y * &w;
+        }
         x.iter().all(|v| v.is_finite()).then_some(x)
     }
 
