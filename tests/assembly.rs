@@ -249,7 +249,7 @@ fn assembler_geometry_follows_changed_rule_points() {
     let (_, _, _, mut asm) = assemble(&model, model.initial(), &u, true);
     let r = model.elements.rule[0];
     let mut disc = model.initial().clone();
-    disc.rules[r].points[0][0] *= 0.5;
+    std::sync::Arc::make_mut(&mut disc.rules)[r].points[0][0] *= 0.5;
     let reused = assemble_with(&mut asm, &model, &disc, &u, true);
     let (values, f, new, _) = assemble(&model, &disc, &u, true);
     assert_eq!(reused, (values, f, new));

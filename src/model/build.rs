@@ -131,9 +131,9 @@ impl ModelBuilder {
         let linear_solver =
             if constraints.is_empty() && contact.rows.is_empty() { linear_solver } else { LinearSolverKind::Lu };
         let initial = Discretisation {
-            rules: elements.rules,
+            rules: std::sync::Arc::new(elements.rules),
             dofs: dofs.map,
-            cuts: hosts.cuts,
+            cuts: std::sync::Arc::new(hosts.cuts),
             held: dofs.held,
             penalty: hosts.penalty_parts.iter().flatten().copied().collect(),
             penalty_parts: hosts.penalty_parts,

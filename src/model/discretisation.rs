@@ -15,12 +15,13 @@ use super::*;
 /// again from the model and the checkpointed state (time and wear state).
 #[derive(Debug, Clone)]
 pub struct Discretisation {
-    /// Quadrature rule table (band cells: fixed points, weights of the current cut).
-    pub rules: Vec<QuadratureRule>,
+    /// Quadrature rule table (band cells: fixed points, weights of the current cut). Shared
+    /// with the re-pairings of a surface position (a re-pairing changes the contact rows only).
+    pub rules: std::sync::Arc<Vec<QuadratureRule>>,
     /// Free and constrained DOFs: prescribed ones, and nodes switched off for lack of material.
     pub dofs: DofMap,
     /// Cut state of each body's cells (`None`: not cut by any surface).
-    pub cuts: Vec<Option<CutMesh>>,
+    pub cuts: std::sync::Arc<Vec<Option<CutMesh>>>,
     /// Per body: DOFs switched off (no material in their support), held at their last value.
     pub held: Vec<Vec<usize>>,
     /// Ghost-penalty entries per body; `penalty` is their concatenation.
@@ -328,7 +329,7 @@ impl Discretisation {
                     _ => report.unfitted_cells += 1,
                 }
             }
-            self.rules[r] = rule;
+            std::sync::Arc::make_mut(&mut self.rules)[r] = rule;
         }
         self.penalty_parts[b] = if model.ghost_penalty > 0.0 {
             let young = model.materials[body.material].elastic().young;
@@ -339,7 +340,7 @@ impl Discretisation {
             vec![]
         };
         self.held[b] = held_dofs(&cm, body.node_offset, &model.prescribed, &self.penalty_parts[b]);
-        self.cuts[b] = Some(cm);
+        std::sync::Arc::make_mut(&mut self.cuts)[b] = Some(cm);
         Ok(())
     }
 
