@@ -771,8 +771,9 @@ impl Condensed {
     }
 
     /// The interface stiffness of a converged state with sets `active` / `status` (see
-    /// [`GapSensitivity`]): one dense solve of the step's interface system per held normal
-    /// row, the gap row's `dw_a = -dg_a` moved to the right-hand side. Held rows: the active
+    /// [`GapSensitivity`]): the step's interface system solved for every held normal row at
+    /// once (one factor, a column per row), the gap row's `dw_a = -dg_a` moved to the
+    /// right-hand side. Held rows: the active
     /// ones, and with `open_rows` also every inactive candidate row of the interface set that
     /// is paired (`int Phi > 0`), held at its gap.
     pub fn gap_sensitivity(
@@ -810,17 +811,13 @@ impl Condensed {
                 i >= nt && i < nt + active.len() && active[i - nt] && matches!(laws[a], Law::Gap(_))
             })
             .collect();
-        let mut out = DMatrix::zeros(cols.len(), cols.len());
-        for (c, &a) in cols.iter().enumerate() {
-            let mut rhs = DVector::zeros(nl);
-            for e in 0..nl {
-                rhs[e] = if e == a { 1.0 } else { 0.0 } - self.rho[a] * self.d[(e, a)];
-            }
-            let x = lu.solve(&rhs)?;
-            for (r, &b) in cols.iter().enumerate() {
-                out[(r, c)] = x[b];
-            }
-        }
+        let rhs = DMatrix::from_fn(nl, cols.len(), |e, c| {
+            let a = cols[c];
+            let unit = if e == a { 1.0 } else { 0.0 };
+            unit - self.rho[a] * self.d[(e, a)]
+        });
+        let x = lu.solve_columns(&rhs)?;
+        let out = DMatrix::from_fn(cols.len(), cols.len(), |r, c| x[(cols[r], c)]);
         let rows: Vec<usize> = cols.iter().map(|&a| self.live[a] - nt).collect();
         let closed = rows.iter().map(|&k| was_active[k]).collect();
         Some(GapSensitivity { rows, closed, dlambda_dgap: out })
