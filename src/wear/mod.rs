@@ -681,7 +681,7 @@ pub fn implicit_pressure_change(dlambda_dgap: &DMatrix<f64>, surfaces: &[JumpSur
 /// once per computed cycle.
 ///
 /// The rank of `H` is the number of touched vertices `k`, well below the stacked rows `n` (on
-/// McColl a few hundred against up to 1,200), and `L` is block-diagonal (one block per
+/// McColl about 165 against about 600), and `L` is block-diagonal (one block per
 /// increment), so a trial jump solves `(B + dN L U V D_C) x = rhs` (`B` block-diagonal: unit
 /// columns on the closed rows, `-L` on the open ones; `D_C` the closed rows) by the
 /// Sherman-Morrison-Woodbury identity, a `k x k` system, instead of an `n x n` one. The block
