@@ -4,6 +4,7 @@
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::matmul::matmul;
+use faer::linalg::matmul::triangular::{self, BlockStructure};
 use faer::linalg::solvers::Solve;
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
@@ -216,35 +217,60 @@ impl SparseSolver {
                 cols_of[s] = own;
             }
         }
-        // Compact row numbering: reached supernodes in order, their columns contiguous.
-        let mut offset = vec![usize::MAX; ns];
-        let mut m = 0;
-        for s in (0..ns).filter(|&s| !cols_of[s].is_empty()) {
-            offset[s] = m;
-            m += end[s] - begin[s];
-        }
-        let compact = |r: usize| offset[super_of[r]] + (r - begin[super_of[r]]);
-        let mut w = Mat::<f64>::zeros(m, nb);
+        // W by supernode blocks: rows of the supernode, its own columns only (a column reaches
+        // a few dozen of the supernodes, so a dense `reached rows x columns` W would be mostly
+        // zeros to clear and carry).
+        let mut blocks: Vec<Option<Mat<f64>>> = (0..ns)
+            .map(|s| (!cols_of[s].is_empty()).then(|| Mat::<f64>::zeros(end[s] - begin[s], cols_of[s].len())))
+            .collect();
+        let m: usize = (0..ns).filter(|&s| !cols_of[s].is_empty()).map(|s| end[s] - begin[s]).sum();
         for (j, col) in cols.iter().enumerate() {
             for &(e, c) in col {
-                w[(compact(inv[e]), j)] += c;
+                let r = inv[e];
+                let t = super_of[r];
+                // Every supernode a column touches has it in its set, and is reached.
+                if let (Ok(k), Some(block)) = (cols_of[t].binary_search(&j), blocks[t].as_mut()) {
+                    block[(r - begin[t], k)] += c;
+                }
             }
         }
-        // Per supernode, only its own columns: gathered, solved with the diagonal block,
-        // pushed to the rows below by one product, scattered back. Its rows of W are then
-        // final (every descendant has pushed its update), so the Gram product `W^T W` is
-        // accumulated supernode by supernode over its own columns only: a column reaches a
-        // few dozen of the supernodes, and the dense product did eight times the work.
+        // Per supernode: solved with the diagonal block, pushed to the rows below by one
+        // product, scattered into the blocks of the supernodes those rows belong to. Its rows
+        // of W are then final (every descendant has pushed its update), so the Gram product
+        // `W^T W` is accumulated supernode by supernode over its own columns only (the dense
+        // product did eight times the work).
         let mut out = Mat::<f64>::zeros(nb, nb - from);
-        for s in (0..ns).filter(|&s| !cols_of[s].is_empty()) {
+        let mut position = Vec::new();
+        for s in 0..ns {
+            let Some(mut block) = blocks[s].take() else { continue };
             let node = factor.supernode(s);
             let size = end[s] - begin[s];
             let js = &cols_of[s];
             let (l_top, l_bot) = node.val().split_at_row(size);
-            let mut block = Mat::<f64>::from_fn(size, js.len(), |i, k| w[(offset[s] + i, js[k])]);
             solve_lower_triangular_in_place(l_top, block.as_mut(), Par::Seq);
             let k0 = js.partition_point(|&j| j < from);
-            if k0 < js.len() {
+            if from == 0 {
+                // The whole operator: symmetric, its lower half only.
+                let mut gram = Mat::<f64>::zeros(js.len(), js.len());
+                triangular::matmul(
+                    gram.as_mut(),
+                    BlockStructure::TriangularLower,
+                    Accum::Replace,
+                    block.transpose(),
+                    BlockStructure::Rectangular,
+                    block.as_ref(),
+                    BlockStructure::Rectangular,
+                    1.0,
+                    Par::Seq,
+                );
+                for (b, &jb) in js.iter().enumerate() {
+                    out[(jb, jb)] += gram[(b, b)];
+                    for (a, &ja) in js.iter().enumerate().skip(b + 1) {
+                        out[(ja, jb)] += gram[(a, b)];
+                        out[(jb, ja)] += gram[(a, b)];
+                    }
+                }
+            } else if k0 < js.len() {
                 let mut gram = Mat::<f64>::zeros(js.len(), js.len() - k0);
                 matmul(
                     gram.as_mut(),
@@ -266,11 +292,30 @@ impl SparseSolver {
             }
             let mut update = Mat::<f64>::zeros(pattern.len(), js.len());
             matmul(update.as_mut(), Accum::Replace, l_bot, block.as_ref(), 1.0, Par::Seq);
-            let rows: Vec<usize> = pattern.iter().map(|&r| compact(r)).collect();
-            for (k, &j) in js.iter().enumerate() {
-                for (p, &r) in rows.iter().enumerate() {
-                    w[(r, j)] -= update[(p, k)];
+            // The pattern is sorted: its rows come supernode by supernode; the positions of
+            // this supernode's columns in each target's (sorted) set are merged once per target.
+            let mut p = 0;
+            while p < pattern.len() {
+                let t = super_of[pattern[p]];
+                let q = p + pattern[p..].iter().take_while(|&&r| super_of[r] == t).count();
+                let targets = &cols_of[t];
+                position.clear();
+                let mut i = 0;
+                for &j in js {
+                    while i + 1 < targets.len() && targets[i] < j {
+                        i += 1;
+                    }
+                    position.push(i);
                 }
+                // An ancestor of a reached supernode is reached (its set holds these columns).
+                if let Some(target) = blocks[t].as_mut() {
+                    for (k, &pos) in position.iter().enumerate() {
+                        for (pp, &r) in pattern[p..q].iter().enumerate() {
+                            target[(r - begin[t], pos)] -= update[(p + pp, k)];
+                        }
+                    }
+                }
+                p = q;
             }
         }
         tracing::debug!(
