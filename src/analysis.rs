@@ -1337,6 +1337,13 @@ impl<'m> StaticAnalysis<'m> {
         self.condensed.as_ref()?.gap_sensitivity(self.model, self.disc, active, status, false)
     }
 
+    /// [`Self::gap_sensitivity`] times the gap changes `dg(k)` of the rows in contact, in one
+    /// solve: those rows and their multiplier change. `None` as [`Self::gap_sensitivity`].
+    pub fn gap_response(&self, dg: &dyn Fn(usize) -> f64) -> Option<(Vec<usize>, Vec<f64>)> {
+        let (active, status) = self.last_sets.as_ref()?;
+        self.condensed.as_ref()?.gap_response(self.model, self.disc, active, status, dg)
+    }
+
     /// [`Self::gap_sensitivity`] on the rows in contact and the open candidate rows around
     /// them, each held at its gap (what a wear jump needs to let the contact set change).
     pub fn gap_sensitivity_with_open_rows(&self) -> Option<GapSensitivity> {

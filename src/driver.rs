@@ -511,12 +511,12 @@ fn linear_pairing_change(
     analysis: &StaticAnalysis,
     state: &SimState,
 ) -> Option<f64> {
-    let sens = analysis.gap_sensitivity()?;
     let gap = |d: &Discretisation, k: usize| {
         d.contact.g0[k] + d.contact.rows[k].iter().map(|&(dof, c)| c * state.u[dof]).sum::<f64>()
     };
+    let (rows, dlambda) = analysis.gap_response(&|k| gap(next, k) - gap(paired, k))?;
     let mut in_contact = vec![false; paired.contact.rows.len()];
-    for &k in &sens.rows {
+    for &k in &rows {
         in_contact[k] = true;
     }
     let penetrates =
@@ -524,9 +524,6 @@ fn linear_pairing_change(
     if penetrates {
         return None;
     }
-    let dg =
-        nalgebra::DVector::from_iterator(sens.rows.len(), sens.rows.iter().map(|&k| gap(next, k) - gap(paired, k)));
-    let dlambda = &sens.dlambda_dgap * dg;
     let nt = model.constraints.len();
     let p_max = (0..paired.contact.rows.len()).map(|k| -state.multipliers[nt + k]).fold(0.0_f64, f64::max);
     (p_max > 0.0).then(|| dlambda.iter().fold(0.0_f64, |a, d| a.max(d.abs())) / p_max)

@@ -785,8 +785,47 @@ impl Condensed {
         open_rows: bool,
     ) -> Option<GapSensitivity> {
         let nt = m.constraints.len();
+        let (lu, cols, held) = self.held_system(m, disc, active, status, open_rows)?;
+        let x = lu.solve_columns(&self.gap_columns(&cols, &vec![1.0; cols.len()], true))?;
+        let out = DMatrix::from_fn(cols.len(), cols.len(), |r, c| x[(cols[r], c)]);
+        let rows: Vec<usize> = cols.iter().map(|&a| self.live[a] - nt).collect();
+        debug_assert!(rows.iter().all(|&k| held[k]));
+        let closed = rows.iter().map(|&k| active[k]).collect();
+        Some(GapSensitivity { rows, closed, dlambda_dgap: out })
+    }
+
+    /// The multiplier change of the rows in contact (`active`, held at their gap) for gap
+    /// changes `dg(k)` of those rows: [`Self::gap_sensitivity`] times `dg` in one solve.
+    /// Returns the rows (model contact rows) and their `dlambda`.
+    pub fn gap_response(
+        &self,
+        m: &Model,
+        disc: &Discretisation,
+        active: &[bool],
+        status: &[FrictionStatus],
+        dg: &dyn Fn(usize) -> f64,
+    ) -> Option<(Vec<usize>, Vec<f64>)> {
+        let nt = m.constraints.len();
+        let (lu, cols, _) = self.held_system(m, disc, active, status, false)?;
+        let rows: Vec<usize> = cols.iter().map(|&a| self.live[a] - nt).collect();
+        let weights: Vec<f64> = rows.iter().map(|&k| dg(k)).collect();
+        let x = lu.solve_columns(&self.gap_columns(&cols, &weights, false))?;
+        Some((rows, cols.iter().map(|&a| x[(a, 0)]).collect()))
+    }
+
+    /// The factored interface law of a converged state with the rows `held` (the active ones,
+    /// and with `open_rows` every paired candidate row of the set) at their gap, slipping
+    /// rows free of shear, and the live positions of the held normal rows.
+    fn held_system(
+        &self,
+        m: &Model,
+        disc: &Discretisation,
+        active: &[bool],
+        status: &[FrictionStatus],
+        open_rows: bool,
+    ) -> Option<(DenseLu, Vec<usize>, Vec<bool>)> {
+        let nt = m.constraints.len();
         let nl = self.live.len();
-        let was_active = active;
         let mut held = active.to_vec();
         if open_rows {
             for &i in &self.live {
@@ -795,8 +834,7 @@ impl Condensed {
                 }
             }
         }
-        let active = &held[..];
-        let row_law = row_laws(&disc.contact, active, status);
+        let row_law = row_laws(&disc.contact, &held, status);
         let zeros = vec![0.0; row_law.len().max(nl)];
         // Slipping rows keep their shear (the normal-only interface stiffness: symmetric
         // positive definite, so the implicit jump's operator has no negative mode; the
@@ -808,19 +846,24 @@ impl Condensed {
         let cols: Vec<usize> = (0..nl)
             .filter(|&a| {
                 let i = self.live[a];
-                i >= nt && i < nt + active.len() && active[i - nt] && matches!(laws[a], Law::Gap(_))
+                i >= nt && i < nt + held.len() && held[i - nt] && matches!(laws[a], Law::Gap(_))
             })
             .collect();
-        let rhs = DMatrix::from_fn(nl, cols.len(), |e, c| {
-            let a = cols[c];
-            let unit = if e == a { 1.0 } else { 0.0 };
-            unit - self.rho[a] * self.d[(e, a)]
-        });
-        let x = lu.solve_columns(&rhs)?;
-        let out = DMatrix::from_fn(cols.len(), cols.len(), |r, c| x[(cols[r], c)]);
-        let rows: Vec<usize> = cols.iter().map(|&a| self.live[a] - nt).collect();
-        let closed = rows.iter().map(|&k| was_active[k]).collect();
-        Some(GapSensitivity { rows, closed, dlambda_dgap: out })
+        Some((lu, cols, held))
+    }
+
+    /// Right-hand sides of held gap rows `cols` (live positions) with weights `w`: the gap
+    /// row's `dw_a = -dg_a` moved to the right, `e_a - rho_a D[:, a]`; one column per row
+    /// (`separate`) or their weighted sum.
+    fn gap_columns(&self, cols: &[usize], w: &[f64], separate: bool) -> DMatrix<f64> {
+        let nl = self.live.len();
+        let mut rhs = DMatrix::zeros(nl, if separate { cols.len() } else { 1 });
+        for (c, (&a, &wa)) in cols.iter().zip(w).enumerate() {
+            let mut col = rhs.column_mut(if separate { c } else { 0 });
+            col[a] += wa;
+            col.axpy(-wa * self.rho[a], &self.d.column(a), 1.0);
+        }
+        rhs
     }
 
     /// Adds multipliers `new` (model order, not yet in the set) with regularisation weight
