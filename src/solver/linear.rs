@@ -248,75 +248,14 @@ impl SparseSolver {
             let js = &cols_of[s];
             let (l_top, l_bot) = node.val().split_at_row(size);
             solve_lower_triangular_in_place(l_top, block.as_mut(), Par::Seq);
-            let k0 = js.partition_point(|&j| j < from);
-            if from == 0 {
-                // The whole operator: symmetric, its lower half only.
-                let mut gram = Mat::<f64>::zeros(js.len(), js.len());
-                triangular::matmul(
-                    gram.as_mut(),
-                    BlockStructure::TriangularLower,
-                    Accum::Replace,
-                    block.transpose(),
-                    BlockStructure::Rectangular,
-                    block.as_ref(),
-                    BlockStructure::Rectangular,
-                    1.0,
-                    Par::Seq,
-                );
-                for (b, &jb) in js.iter().enumerate() {
-                    out[(jb, jb)] += gram[(b, b)];
-                    for (a, &ja) in js.iter().enumerate().skip(b + 1) {
-                        out[(ja, jb)] += gram[(a, b)];
-                        out[(jb, ja)] += gram[(a, b)];
-                    }
-                }
-            } else if k0 < js.len() {
-                let mut gram = Mat::<f64>::zeros(js.len(), js.len() - k0);
-                matmul(
-                    gram.as_mut(),
-                    Accum::Replace,
-                    block.transpose(),
-                    block.as_ref().subcols(k0, js.len() - k0),
-                    1.0,
-                    Par::Seq,
-                );
-                for (b, &jb) in js[k0..].iter().enumerate() {
-                    for (a, &ja) in js.iter().enumerate() {
-                        out[(ja, jb - from)] += gram[(a, b)];
-                    }
-                }
-            }
+            accumulate_gram(&mut out, block.as_ref(), js, from);
             let pattern = node.pattern();
             if pattern.is_empty() {
                 continue;
             }
             let mut update = Mat::<f64>::zeros(pattern.len(), js.len());
             matmul(update.as_mut(), Accum::Replace, l_bot, block.as_ref(), 1.0, Par::Seq);
-            // The pattern is sorted: its rows come supernode by supernode; the positions of
-            // this supernode's columns in each target's (sorted) set are merged once per target.
-            let mut p = 0;
-            while p < pattern.len() {
-                let t = super_of[pattern[p]];
-                let q = p + pattern[p..].iter().take_while(|&&r| super_of[r] == t).count();
-                let targets = &cols_of[t];
-                position.clear();
-                let mut i = 0;
-                for &j in js {
-                    while i + 1 < targets.len() && targets[i] < j {
-                        i += 1;
-                    }
-                    position.push(i);
-                }
-                // An ancestor of a reached supernode is reached (its set holds these columns).
-                if let Some(target) = blocks[t].as_mut() {
-                    for (k, &pos) in position.iter().enumerate() {
-                        for (pp, &r) in pattern[p..q].iter().enumerate() {
-                            target[(r - begin[t], pos)] -= update[(p + pp, k)];
-                        }
-                    }
-                }
-                p = q;
-            }
+            scatter_update(update.as_ref(), pattern, js, (&super_of, begin), &cols_of, &mut blocks, &mut position);
         }
         tracing::debug!(
             n,
@@ -328,6 +267,78 @@ impl SparseSolver {
             "interface operator by forward substitution"
         );
         Some(DMatrix::from_fn(nb, nb - from, |i, j| out[(i, j)]))
+    }
+}
+
+/// Adds the supernode block's share of `W^T W` (its own columns `js`, sorted) to the columns
+/// `from..` of `out`: the lower half only when `from = 0` (the operator is symmetric).
+fn accumulate_gram(out: &mut Mat<f64>, block: faer::MatRef<f64>, js: &[usize], from: usize) {
+    let k0 = js.partition_point(|&j| j < from);
+    if from == 0 {
+        let mut gram = Mat::<f64>::zeros(js.len(), js.len());
+        triangular::matmul(
+            gram.as_mut(),
+            BlockStructure::TriangularLower,
+            Accum::Replace,
+            block.transpose(),
+            BlockStructure::Rectangular,
+            block,
+            BlockStructure::Rectangular,
+            1.0,
+            Par::Seq,
+        );
+        for (b, &jb) in js.iter().enumerate() {
+            out[(jb, jb)] += gram[(b, b)];
+            for (a, &ja) in js.iter().enumerate().skip(b + 1) {
+                out[(ja, jb)] += gram[(a, b)];
+                out[(jb, ja)] += gram[(a, b)];
+            }
+        }
+    } else if k0 < js.len() {
+        let mut gram = Mat::<f64>::zeros(js.len(), js.len() - k0);
+        matmul(gram.as_mut(), Accum::Replace, block.transpose(), block.subcols(k0, js.len() - k0), 1.0, Par::Seq);
+        for (b, &jb) in js[k0..].iter().enumerate() {
+            for (a, &ja) in js.iter().enumerate() {
+                out[(ja, jb - from)] += gram[(a, b)];
+            }
+        }
+    }
+}
+
+/// Subtracts a supernode's `update` (rows: its below-diagonal `pattern`, sorted; columns: its
+/// own `js`) from the blocks of the supernodes those rows belong to. The rows come supernode by
+/// supernode; the positions of `js` in each target's sorted column set are merged once per
+/// target (an ancestor's set holds its descendants' columns).
+fn scatter_update(
+    update: faer::MatRef<f64>,
+    pattern: &[usize],
+    js: &[usize],
+    (super_of, begin): (&[usize], &[usize]),
+    cols_of: &[Vec<usize>],
+    blocks: &mut [Option<Mat<f64>>],
+    position: &mut Vec<usize>,
+) {
+    let mut p = 0;
+    while p < pattern.len() {
+        let t = super_of[pattern[p]];
+        let q = p + pattern[p..].iter().take_while(|&&r| super_of[r] == t).count();
+        let targets = &cols_of[t];
+        position.clear();
+        let mut i = 0;
+        for &j in js {
+            while i + 1 < targets.len() && targets[i] < j {
+                i += 1;
+            }
+            position.push(i);
+        }
+        if let Some(target) = blocks[t].as_mut() {
+            for (k, &pos) in position.iter().enumerate() {
+                for (pp, &r) in pattern[p..q].iter().enumerate() {
+                    target[(r - begin[t], pos)] -= update[(p + pp, k)];
+                }
+            }
+        }
+        p = q;
     }
 }
 
