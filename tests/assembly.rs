@@ -143,12 +143,14 @@ fn sparse_assembly_equals_dense_reference() {
                 thickness: 1.0,
                 state_old: &old[..ns],
                 geometry: None,
+                elastic_ke: None,
             },
             &mut ElementOutput {
                 ke: Some(&mut ke),
                 fe: &mut fe,
                 stress: &mut st[..el.point_offset[e + 1] - el.point_offset[e]],
                 state_new: &mut hn[..ns],
+                elastic: false,
             },
         );
         for i in 0..2 * nn {
@@ -253,6 +255,55 @@ fn assembler_geometry_follows_changed_rule_points() {
     let reused = assemble_with(&mut asm, &model, &disc, &u, true);
     let (values, f, new, _) = assemble(&model, &disc, &u, true);
     assert_eq!(reused, (values, f, new));
+}
+
+/// An assembler keeps the stiffness of every element whose points all stayed elastic and
+/// reuses it while they stay elastic (the tangent of a yielding run is integrated only where
+/// the material flows). Bit for bit the tangent of a fresh assembler: J2 B-bar Quad4 and
+/// elastic Tri3 bent so that part of the points flow, assembled after an elastic assembly
+/// (every stiffness kept), then at the reversed bend from the plastic state; a re-cut weight
+/// (changed rule) drops what was kept.
+#[test]
+fn kept_elastic_stiffnesses_give_the_fresh_tangent_bit_for_bit() {
+    let (model, _) = mixed_model();
+    let disc = model.initial();
+    let bend = |c: f64| -> Vec<f64> {
+        (0..model.num_dofs())
+            .map(|d| {
+                let p = model.coords[d / 2];
+                c * if d % 2 == 0 { p.x * p.y } else { -0.5 * p.x * p.x }
+            })
+            .collect()
+    };
+    let fresh = |d: &mortex::model::Discretisation, u: &[f64], old: &[PlasticState]| {
+        let pattern = SparsityPattern::new(model.num_nodes(), &model.elements, &d.dofs);
+        let mut asm = Assembler::new(pattern, &model.elements);
+        assemble_from(&mut asm, (&model, d), u, old, true, true)
+    };
+    let pattern = SparsityPattern::new(model.num_nodes(), &model.elements, &disc.dofs);
+    let mut kept = Assembler::new(pattern, &model.elements);
+    let virgin = vec![PlasticState::default(); model.elements.num_states()];
+    // Elastic everywhere (strain 1e-5): every element's stiffness is kept.
+    let elastic = bend(1e-5);
+    assert_eq!(assemble_from(&mut kept, (&model, disc), &elastic, &virgin, true, true), fresh(disc, &elastic, &virgin));
+    // Twice the yield strain at the top: part of the points flow.
+    let bent = bend(1e-3);
+    let at_bent = assemble_from(&mut kept, (&model, disc), &bent, &virgin, true, true);
+    let flowing = at_bent.2.iter().zip(&virgin).filter(|(a, b)| a.alpha > b.alpha).count();
+    assert!(flowing > 0 && flowing < virgin.len(), "{flowing} of {} points flow", virgin.len());
+    assert_eq!(at_bent, fresh(disc, &bent, &virgin));
+    let reversed: Vec<f64> = bent.iter().map(|v| -0.6 * v).collect();
+    assert_eq!(
+        assemble_from(&mut kept, (&model, disc), &reversed, &at_bent.2, true, true),
+        fresh(disc, &reversed, &at_bent.2)
+    );
+    let mut recut = disc.clone();
+    let r = model.elements.rule[0];
+    std::sync::Arc::make_mut(&mut recut.rules)[r].weights[0] *= 0.5;
+    assert_eq!(
+        assemble_from(&mut kept, (&model, &recut), &elastic, &virgin, true, true),
+        fresh(&recut, &elastic, &virgin)
+    );
 }
 
 /// The assembled tangent is the derivative of the assembled internal force (the consistent

@@ -222,9 +222,29 @@ pub struct Assembler {
     /// different input (another model, or a re-cut that moved a band cell's points) recomputes
     /// it.
     geometry_of: Option<u64>,
+    /// Per element, its stiffness from an assembly where all its points stayed elastic (if
+    /// `elastic_ke_valid`): reused while they stay elastic (see `ElementInput::elastic_ke`).
+    elastic_ke: Vec<[f64; 64]>,
+    elastic_ke_valid: Vec<bool>,
+    /// Fingerprint of the geometry and rule weights the kept stiffnesses belong to.
+    elastic_ke_of: Option<u64>,
 }
 
 const BLOCK: usize = 512;
+
+/// One parallel job of [`Assembler::assemble`]: its first element, its slices of the element
+/// stiffnesses, kept elastic stiffnesses and their flags, element forces, point stresses and
+/// point histories, and its end.
+type ElementBlock<'a, 'b> = (
+    (
+        (
+            ((((&'b usize, &'a mut [[f64; 64]]), &'a mut [[f64; 64]]), &'a mut [bool]), &'a mut [[f64; 8]]),
+            &'a mut [Stress4],
+        ),
+        &'a mut [PlasticState],
+    ),
+    usize,
+);
 
 /// A hash of every coordinate, element-to-rule link and rule point (their bits, in order):
 /// cheap next to one assembly, and it changes whenever any of them does.
@@ -246,6 +266,18 @@ fn geometry_fingerprint(inp: &AssemblyInput) -> u64 {
         for xi in &r.points {
             mix(xi[0]);
             mix(xi[1]);
+        }
+    }
+    h
+}
+
+/// [`geometry_fingerprint`] extended by every rule weight (a re-cut of a yielding body's band
+/// changes the weights of its fixed points, hence its elements' stiffness).
+fn stiffness_fingerprint(geometry: u64, inp: &AssemblyInput) -> u64 {
+    let mut h = geometry;
+    for r in inp.rules {
+        for w in &r.weights {
+            h = (h ^ w.to_bits()).wrapping_mul(0x0100_0000_01b3).rotate_left(17);
         }
     }
     h
@@ -275,15 +307,18 @@ impl Assembler {
             blocks,
             geometry: Vec::new(),
             geometry_of: None,
+            elastic_ke: vec![[0.0; 64]; ne],
+            elastic_ke_valid: vec![false; ne],
+            elastic_ke_of: None,
         }
     }
 
     /// Fills the per-point geometry table if `inp`'s geometry is not the one it holds.
-    fn ensure_geometry(&mut self, inp: &AssemblyInput, parallel: bool) {
+    fn ensure_geometry(&mut self, inp: &AssemblyInput, parallel: bool) -> u64 {
         let key = geometry_fingerprint(inp);
         let el = inp.elements;
         if self.geometry_of == Some(key) && self.geometry.len() == el.num_points() {
-            return;
+            return key;
         }
         self.geometry = vec![ShapeEval::default(); el.num_points()];
         let ends = self.blocks[1..].to_vec();
@@ -308,24 +343,32 @@ impl Assembler {
             jobs.into_iter().for_each(work);
         }
         self.geometry_of = Some(key);
+        key
     }
 
     /// Evaluates all element kernels (in parallel if `parallel`) and scatters them.
     pub fn assemble(&mut self, inp: &AssemblyInput, out: AssemblyOutput, parallel: bool) {
-        self.ensure_geometry(inp, parallel);
+        let key = self.ensure_geometry(inp, parallel);
         let geometry = &self.geometry;
         let el = inp.elements;
         let with_tangent = out.values.is_some();
+        if with_tangent {
+            let key = stiffness_fingerprint(key, inp);
+            if self.elastic_ke_of != Some(key) || self.elastic_ke_valid.len() != el.len() {
+                self.elastic_ke = vec![[0.0; 64]; el.len()];
+                self.elastic_ke_valid = vec![false; el.len()];
+                self.elastic_ke_of = Some(key);
+            }
+        }
         let ends = self.blocks[1..].to_vec();
         let ke_blocks = split_mut(&mut self.ke, ends.iter().copied());
+        let kept_blocks = split_mut(&mut self.elastic_ke, ends.iter().copied());
+        let valid_blocks = split_mut(&mut self.elastic_ke_valid, ends.iter().copied());
         let fe_blocks = split_mut(&mut self.fe, ends.iter().copied());
         let st_blocks = split_mut(out.stress, ends.iter().map(|&b| el.point_offset[b]));
         let hs_blocks = split_mut(out.state_new, ends.iter().map(|&b| el.state_offset[b]));
         let starts = &self.blocks[..self.blocks.len() - 1];
-        let work = |(((((&b0, ke), fe), st), hs), b1): (
-            ((((&usize, &mut [[f64; 64]]), &mut [[f64; 8]]), &mut [Stress4]), &mut [PlasticState]),
-            usize,
-        )| {
+        let work = |(((((((&b0, ke), kept), valid), fe), st), hs), b1): ElementBlock| {
             let p0 = el.point_offset[b0];
             let s0 = el.state_offset[b0];
             for e in b0..b1 {
@@ -352,19 +395,27 @@ impl Assembler {
                     thickness: el.thickness[e],
                     state_old: &inp.state_old[el.state_offset[e]..el.state_offset[e + 1]],
                     geometry: Some(&geometry[el.point_offset[e]..el.point_offset[e + 1]]),
+                    elastic_ke: (with_tangent && valid[k]).then_some(&kept[k]),
                 };
                 let mut output = ElementOutput {
                     ke: if with_tangent { Some(&mut ke[k]) } else { None },
                     fe: &mut fe[k],
                     stress: &mut st[pa..pb],
                     state_new: &mut hs[sa..sb],
+                    elastic: false,
                 };
                 element_kernel(&input, &mut output);
+                if with_tangent && output.elastic && !valid[k] {
+                    kept[k] = ke[k];
+                    valid[k] = true;
+                }
             }
         };
         let jobs: Vec<_> = starts
             .iter()
             .zip(ke_blocks)
+            .zip(kept_blocks)
+            .zip(valid_blocks)
             .zip(fe_blocks)
             .zip(st_blocks)
             .zip(hs_blocks)

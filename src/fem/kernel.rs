@@ -37,6 +37,11 @@ pub struct ElementInput<'a> {
     /// evaluating `MappedElement::eval` there: the element's geometry does not change between
     /// assemblies of one model, so it is computed once).
     pub geometry: Option<&'a [ShapeEval]>,
+    /// The element's stiffness from a pass whose every point stayed elastic, if the caller
+    /// keeps it (same geometry, rule and material): used as `ke` when every point stays
+    /// elastic again (it is then the same numbers), so that the tangent of a yielding run is
+    /// integrated only where the material yields.
+    pub elastic_ke: Option<&'a [f64; 64]>,
 }
 
 /// The mapped geometry of an element at every point of its rule (what `ElementInput::geometry`
@@ -56,6 +61,9 @@ pub struct ElementOutput<'a> {
     pub stress: &'a mut [Stress4],
     /// Trial history at each point (same length as `state_old`).
     pub state_new: &'a mut [PlasticState],
+    /// Set by the kernel: every point stayed elastic (no plastic flow), so `ke` (if asked)
+    /// is the element's elastic stiffness.
+    pub elastic: bool,
 }
 
 /// Builds the 4 x 2n strain-displacement rows at one point.
@@ -84,6 +92,25 @@ fn b_matrix(ev: &ShapeEval, nn: usize, bbar_vol: Option<&[f64; 8]>, b: &mut [[f6
 
 /// Evaluates one element. Returns the element measure (area times thickness).
 pub fn element_kernel(inp: &ElementInput, out: &mut ElementOutput) -> f64 {
+    if let (Some(cached), true) = (inp.elastic_ke, out.ke.is_some()) {
+        // Stress and force first; the tangent only where a point yields (a second pass from
+        // the same history: the same numbers).
+        let ke = out.ke.take();
+        let measure = kernel_pass(inp, out);
+        out.ke = ke;
+        if out.elastic {
+            if let Some(ke) = out.ke.as_deref_mut() {
+                *ke = *cached;
+            }
+            return measure;
+        }
+    }
+    kernel_pass(inp, out)
+}
+
+/// One pass of [`element_kernel`] over the element's points (the tangent if `out.ke` asks).
+fn kernel_pass(inp: &ElementInput, out: &mut ElementOutput) -> f64 {
+    out.elastic = true;
     let nn = inp.kind.num_nodes();
     let ndof = 2 * nn;
     if inp.rule.weights.iter().all(|&w| w == 0.0) {
@@ -161,7 +188,8 @@ pub fn element_kernel(inp: &ElementInput, out: &mut ElementOutput) -> f64 {
                 sigma = d * eps;
             }
             (Material::J2Plastic(p), _) => {
-                p.update(&eps, &inp.state_old[q], &mut out.state_new[q], &mut sigma, &mut d);
+                let flows = p.update(&eps, &inp.state_old[q], &mut out.state_new[q], &mut sigma, &mut d);
+                out.elastic &= !flows;
             }
             (Material::Elastic(e), None) => {
                 d = e.tangent();
