@@ -773,9 +773,8 @@ impl Condensed {
     /// The interface stiffness of a converged state with sets `active` / `status` (see
     /// [`GapSensitivity`]): the step's interface system solved for every held normal row at
     /// once (one factor, a column per row), the gap row's `dw_a = -dg_a` moved to the
-    /// right-hand side. Held rows: the active
-    /// ones, and with `open_rows` also every inactive candidate row of the interface set that
-    /// is paired (`int Phi > 0`), held at its gap.
+    /// right-hand side. Held rows: the active ones, and with `open_rows` also every inactive
+    /// candidate row of the interface set that is paired (`int Phi > 0`), held at its gap.
     pub fn gap_sensitivity(
         &self,
         m: &Model,
