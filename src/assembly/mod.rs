@@ -246,41 +246,63 @@ type ElementBlock<'a, 'b> = (
     usize,
 );
 
+/// Four interleaved FNV-style lanes over a stream of `f64` bits (independent chains, so the
+/// hash runs at the memory's pace rather than one multiply's latency per value).
+struct Fingerprint {
+    lanes: [u64; 4],
+    next: usize,
+}
+
+impl Fingerprint {
+    fn new(seed: u64) -> Self {
+        Fingerprint { lanes: [seed, seed ^ 1, seed ^ 2, seed ^ 3], next: 0 }
+    }
+
+    #[inline]
+    fn mix(&mut self, v: f64) {
+        let h = &mut self.lanes[self.next & 3];
+        *h = (*h ^ v.to_bits()).wrapping_mul(0x0100_0000_01b3).rotate_left(17);
+        self.next += 1;
+    }
+
+    fn finish(&self) -> u64 {
+        self.lanes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &l| (h ^ l).wrapping_mul(0x0100_0000_01b3).rotate_left(17))
+    }
+}
+
 /// A hash of every coordinate, element-to-rule link and rule point (their bits, in order):
 /// cheap next to one assembly, and it changes whenever any of them does.
 fn geometry_fingerprint(inp: &AssemblyInput) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    let mut mix = |v: f64| {
-        h = (h ^ v.to_bits()).wrapping_mul(0x0100_0000_01b3).rotate_left(17);
-    };
+    let mut h = Fingerprint::new(0xcbf2_9ce4_8422_2325);
     for p in inp.coords {
-        mix(p.x);
-        mix(p.y);
+        h.mix(p.x);
+        h.mix(p.y);
     }
     for (&r, nodes) in inp.elements.rule.iter().zip(&inp.elements.nodes) {
-        mix(r as f64);
-        mix(nodes[0] as f64);
+        h.mix(r as f64);
+        h.mix(nodes[0] as f64);
     }
     for r in inp.rules {
-        mix(r.points.len() as f64);
+        h.mix(r.points.len() as f64);
         for xi in &r.points {
-            mix(xi[0]);
-            mix(xi[1]);
+            h.mix(xi[0]);
+            h.mix(xi[1]);
         }
     }
-    h
+    h.finish()
 }
 
 /// [`geometry_fingerprint`] extended by every rule weight (a re-cut of a yielding body's band
 /// changes the weights of its fixed points, hence its elements' stiffness).
 fn stiffness_fingerprint(geometry: u64, inp: &AssemblyInput) -> u64 {
-    let mut h = geometry;
+    let mut h = Fingerprint::new(geometry);
     for r in inp.rules {
-        for w in &r.weights {
-            h = (h ^ w.to_bits()).wrapping_mul(0x0100_0000_01b3).rotate_left(17);
+        h.mix(r.weights.len() as f64);
+        for &w in &r.weights {
+            h.mix(w);
         }
     }
-    h
+    h.finish()
 }
 
 fn split_mut<'a, T>(mut s: &'a mut [T], bounds: impl Iterator<Item = usize>) -> Vec<&'a mut [T]> {
