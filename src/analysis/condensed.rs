@@ -784,11 +784,10 @@ impl Condensed {
         open_rows: bool,
     ) -> Option<GapSensitivity> {
         let nt = m.constraints.len();
-        let (lu, cols, held) = self.held_system(m, disc, active, status, open_rows)?;
+        let (lu, cols) = self.held_system(m, disc, active, status, open_rows)?;
         let x = lu.solve_columns(&self.gap_columns(&cols, &vec![1.0; cols.len()], true))?;
         let out = DMatrix::from_fn(cols.len(), cols.len(), |r, c| x[(cols[r], c)]);
         let rows: Vec<usize> = cols.iter().map(|&a| self.live[a] - nt).collect();
-        debug_assert!(rows.iter().all(|&k| held[k]));
         let closed = rows.iter().map(|&k| active[k]).collect();
         Some(GapSensitivity { rows, closed, dlambda_dgap: out })
     }
@@ -805,7 +804,7 @@ impl Condensed {
         dg: &dyn Fn(usize) -> f64,
     ) -> Option<(Vec<usize>, Vec<f64>)> {
         let nt = m.constraints.len();
-        let (lu, cols, _) = self.held_system(m, disc, active, status, false)?;
+        let (lu, cols) = self.held_system(m, disc, active, status, false)?;
         let rows: Vec<usize> = cols.iter().map(|&a| self.live[a] - nt).collect();
         let weights: Vec<f64> = rows.iter().map(|&k| dg(k)).collect();
         let x = lu.solve_columns(&self.gap_columns(&cols, &weights, false))?;
@@ -822,7 +821,7 @@ impl Condensed {
         active: &[bool],
         status: &[FrictionStatus],
         open_rows: bool,
-    ) -> Option<(DenseLu, Vec<usize>, Vec<bool>)> {
+    ) -> Option<(DenseLu, Vec<usize>)> {
         let nt = m.constraints.len();
         let nl = self.live.len();
         let mut held = active.to_vec();
@@ -848,7 +847,7 @@ impl Condensed {
                 i >= nt && i < nt + held.len() && held[i - nt] && matches!(laws[a], Law::Gap(_))
             })
             .collect();
-        Some((lu, cols, held))
+        Some((lu, cols))
     }
 
     /// Right-hand sides of held gap rows `cols` (live positions) with weights `w`: the gap
