@@ -15,6 +15,7 @@ use crate::solver::dense::DenseLu;
 use crate::solver::linear::{LinearSolverError, SparseSolver};
 use crate::solver::newton::NewtonError;
 use crate::state::SimState;
+use nalgebra::DMatrix;
 
 pub use crate::contact::FrictionStatus;
 use crate::contact::{
@@ -41,6 +42,31 @@ enum StepOutcome {
 /// its Coulomb status; with the weighted gaps and slips they were decided from. Slip is the
 /// increment of the weighted tangential relative displacement since the last converged state
 /// (objective under cyclic loading).
+/// One monolithic Newton system ([`StaticAnalysis::newton_system`]).
+#[derive(Debug, Clone)]
+pub struct NewtonSystem {
+    /// Right-hand side: the free equations' force residual, then one entry per multiplier.
+    pub rhs: Vec<f64>,
+    /// The matrix Newton factors (bulk tangent, contact rows by their laws), dense.
+    pub matrix: DMatrix<f64>,
+    /// Scale of the multiplier unknowns (`mu = alpha x_mu`).
+    pub alpha: f64,
+    pub num_free: usize,
+    /// The contact sets the laws were chosen from (frozen by a later call).
+    sets: ContactSets,
+}
+
+impl NewtonSystem {
+    /// Counts of (active normal rows, sticking rows, slipping rows).
+    pub fn contact_sets(&self) -> (usize, usize, usize) {
+        let active = self.sets.active.iter().filter(|&&a| a).count();
+        let stick = self.sets.status.iter().filter(|&&s| s == FrictionStatus::Stick).count();
+        let slip = self.sets.status.iter().filter(|s| matches!(s, FrictionStatus::Slip(_))).count();
+        (active, stick, slip)
+    }
+}
+
+#[derive(Debug, Clone)]
 struct ContactSets {
     active: Vec<bool>,
     status: Vec<FrictionStatus>,
@@ -65,18 +91,23 @@ impl ContactSets {
     /// Gaps and slips at `u` (slips from `u_start`), then the sets; whether they changed since
     /// the previous iteration (the first iteration counts as a change when there is contact).
     fn update(&mut self, c: &ContactSet, u: &[f64], u_start: &[f64], mu: &[f64], first: bool) -> bool {
-        for (k, gap) in self.gaps.iter_mut().enumerate() {
-            *gap = c.g0[k] + c.rows[k].iter().map(|&(d, v)| v * u[d]).sum::<f64>();
-        }
-        for (j, slip) in self.slip.iter_mut().enumerate() {
-            *slip = c.friction_rows[j].iter().map(|&(d, v)| v * (u[d] - u_start[d])).sum();
-        }
+        self.measure(c, u, u_start);
         update_sets(c, mu, &self.gaps, &self.slip, first, &mut self.active, &mut self.status);
         let changed = self.prev_active.as_ref().map(|pa| pa != &self.active).unwrap_or(!self.active.is_empty())
             || self.prev_status != self.status;
         self.prev_status.clone_from(&self.status);
         self.prev_active = Some(self.active.clone());
         changed
+    }
+
+    /// Gaps and slips at `u` (slips from `u_start`), the sets unchanged.
+    fn measure(&mut self, c: &ContactSet, u: &[f64], u_start: &[f64]) {
+        for (k, gap) in self.gaps.iter_mut().enumerate() {
+            *gap = c.g0[k] + c.rows[k].iter().map(|&(d, v)| v * u[d]).sum::<f64>();
+        }
+        for (j, slip) in self.slip.iter_mut().enumerate() {
+            *slip = c.friction_rows[j].iter().map(|&(d, v)| v * (u[d] - u_start[d])).sum();
+        }
     }
 
     fn log(&self, step: usize, it: usize, changed: bool) {
@@ -344,7 +375,9 @@ impl<'m> StaticAnalysis<'m> {
         reuse: Option<SolverReuse>,
         compliance: bool,
     ) -> Result<Self, AnalysisError> {
-        let (assembler, solver, values, cd, key, reused) = condensed::setup(model, disc, true, reuse, compliance)?;
+        let (mut assembler, solver, values, cd, key, reused) = condensed::setup(model, disc, true, reuse, compliance)?;
+        // A yielding run's elastic bodies: force from their kept stiffness (stresses at commit).
+        assembler.set_elastic_force_from_kept(model.has_plasticity());
         Ok(StaticAnalysis {
             model,
             disc,
@@ -408,7 +441,11 @@ impl<'m> StaticAnalysis<'m> {
         Ok(StaticAnalysis {
             model,
             disc,
-            assembler: Assembler::new(pattern, &model.elements),
+            assembler: {
+                let mut assembler = Assembler::new(pattern, &model.elements);
+                assembler.set_elastic_force_from_kept(model.has_plasticity());
+                assembler
+            },
             solver,
             values: vec![0.0; nnz],
             alpha,
@@ -659,6 +696,65 @@ impl<'m> StaticAnalysis<'m> {
         Ok(StepOutcome::NotConverged { iterations: p.max_iterations, residual: res })
     }
 
+    /// The monolithic Newton system at `(u, mu)` from the converged `state` (its history and
+    /// start-of-step displacements) at time `t`: the right-hand side `r` that Newton solves
+    /// `K dx = r` for (then `u += dx_u` on the free equations, `mu += alpha dx_mu`) and the
+    /// matrix `K`, dense. The contact laws are those of `frozen` (an earlier system) or, without
+    /// it, the semi-smooth update's at `(u, mu)`. With the laws fixed, `K = -dr/dx` for
+    /// `x = (u_free, mu / alpha)`: what a finite-difference check of the algorithmic tangent
+    /// (bulk, contact and friction rows together) compares. `None` for a condensed analysis,
+    /// whose matrix holds no contact rows.
+    pub fn newton_system(
+        &mut self,
+        state: &SimState,
+        t: f64,
+        (u, mu): (&[f64], &[f64]),
+        frozen: Option<&NewtonSystem>,
+    ) -> Option<NewtonSystem> {
+        if self.condensed.is_some() {
+            return None;
+        }
+        let (m, disc) = (self.model, self.disc);
+        let (nc, nfr) = (disc.contact.rows.len(), disc.contact.friction_rows.len());
+        let nf = disc.dofs.num_free;
+        let nm = m.constraints.len() + nc + nfr;
+        self.ghost_offset = state.ghost.offset();
+        let sets = match frozen {
+            Some(f) => {
+                let mut sets = f.sets.clone();
+                sets.measure(&disc.contact, u, &state.u);
+                sets
+            }
+            None => {
+                let mut sets = ContactSets::new(nc, nfr);
+                sets.update(&disc.contact, u, &state.u, mu, false);
+                sets
+            }
+        };
+        let mut f_ext = vec![0.0; disc.dofs.num_dofs];
+        m.external_force(t, &mut f_ext);
+        self.assemble_trial(u, &state.history, true);
+        let laws = row_laws(&disc.contact, &sets.active, &sets.status);
+        let mut rhs = vec![0.0; nf + nm];
+        let mut ct_mu = vec![0.0; disc.dofs.num_dofs];
+        self.constraint_residual(u, mu, &sets, &laws, &mut rhs[nf..], &mut ct_mu);
+        if !disc.contact.rows.is_empty() {
+            self.scatter_contact_tangent(&laws);
+        }
+        for (i, &g) in disc.dofs.free.iter().enumerate() {
+            rhs[i] = f_ext[g] - self.trial_f_int[g] - ct_mu[g];
+        }
+        let pattern = &self.assembler.pattern.symbolic;
+        let (cp, ri) = (pattern.col_ptr(), pattern.row_idx());
+        let mut matrix = DMatrix::zeros(nf + nm, nf + nm);
+        for j in 0..nf + nm {
+            for p in cp[j]..cp[j + 1] {
+                matrix[(ri[p], j)] = self.values[p];
+            }
+        }
+        Some(NewtonSystem { rhs, matrix, alpha: self.alpha, num_free: nf, sets })
+    }
+
     /// Residual of the constraint rows into `r` (one entry per multiplier: ties and active
     /// contact rows `-alpha g`, stick rows `-alpha ds`, free rows `-lambda / alpha`, slip rows
     /// `-(lambda_t - coef lambda_n) / alpha`, by the laws of `src/contact`), and the constraint
@@ -822,6 +918,18 @@ impl<'m> StaticAnalysis<'m> {
         state.load_factor = m.curve_factor(0, t);
         std::mem::swap(&mut state.history, &mut self.trial_history);
         self.trial_history.copy_from_slice(&state.history);
+        if m.has_plasticity() {
+            // The elastic elements' stresses, which the Newton passes left unwritten.
+            let input = AssemblyInput {
+                coords: &m.coords,
+                elements: &m.elements,
+                materials: &m.materials,
+                rules: &disc.rules,
+                u: &state.u,
+                state_old: &state.history,
+            };
+            self.assembler.elastic_stresses(&input, &mut self.trial_stress);
+        }
         state.stress.copy_from_slice(&self.trial_stress);
         state.f_int.copy_from_slice(&self.trial_f_int);
     }

@@ -263,3 +263,151 @@ fn serial_and_parallel_plastic_runs_are_identical() {
     // Bit-identical: the scatter order never depends on threads.
     assert_eq!(par, ser);
 }
+
+/// Scene of [`algorithmic_tangent_of_contact_and_j2_equals_finite_differences`]: an elastic
+/// block (Tri3) pressed by 50 MPa onto the virtual surface `y = 2.13` cut through a J2 host
+/// (Quad4 B-bar, yield 20 MPa, so it yields under the normal load), then sheared by a
+/// prescribed `ux` of its top (0 -> 20 um over `t = 1 .. 2`) under mu = 0.3. Monolithic
+/// augmented Lagrangian (no condensation), small sliding.
+///
+/// ```text
+///     ->  [ block ]   <- p = 50 MPa, top moved by ux
+///   ______________    <- virtual surface (MorteX) inside the host
+///  |   J2 host    |
+///  |______________|   clamped
+/// ```
+const TANGENT_SCENE: &str = r#"
+[problem]
+hypothesis = "plane_strain"
+
+[[materials]]
+name = "steel"
+model = "elastic"
+young = 210000.0
+poisson = 0.3
+
+[[materials]]
+name = "soft"
+model = "j2_plastic"
+young = 210000.0
+poisson = 0.3
+yield_stress = 20.0
+isotropic_hardening = 2000.0
+
+[[bodies]]
+name = "host"
+material = "soft"
+formulation = "b_bar"
+mesh = { type = "rectangle", size = [4.0, 3.0], divisions = [8, 6] }
+
+[[bodies]]
+name = "block"
+material = "steel"
+mesh = { type = "rectangle", origin = [0.5, 2.13], size = [3.0, 1.0], divisions = [7, 3], cell = "tri3" }
+
+[[cuts]]
+name = "surface"
+body = "host"
+points = [[-1.0, 2.13], [5.0, 2.13]]
+keep = "right"
+
+[[contacts]]
+name = "interface"
+mortar = "block"
+mortar_surface = ["bottom"]
+other = "host"
+other_cut = "surface"
+friction = 0.3
+sliding = "small"
+
+[[curves]]
+name = "shear"
+path = [[0.0, 0.0], [1.0, 0.0], [2.0, 1.0]]
+
+[[bcs]]
+body = "host"
+set = "bottom"
+ux = 0.0
+uy = 0.0
+
+[[bcs]]
+body = "block"
+set = "top"
+ux = 0.02
+curve = "shear"
+
+[[loads]]
+body = "block"
+set = "top"
+pressure = 50.0
+
+[steps]
+path = [[0.0, 0.0], [1.0, 1.0], [2.0, 1.0]]
+times = [0.25, 0.5, 0.75, 1.0]
+"#;
+
+/// The algorithmic tangent of the monolithic contact + J2 system (bulk consistent tangent,
+/// contact rows, Coulomb rows by their laws) against central finite differences of the
+/// residual, all unknowns (displacements and multipliers), with the contact laws held as the
+/// semi-smooth update chose them at the converged state and the history of the start of the
+/// increment (so the yielding points are in plastic loading). Checked at three converged
+/// states: the end of the normal load (contact sticking), part-way into the shear (stick and
+/// slip), and gross slip. Bound 1e-6 relative in the Frobenius norm of the whole matrix (the
+/// target's): the return mapping is smooth inside each yield branch, so central differences
+/// of step `h = 1e-7` times the displacement scale err by `O(h^2)` plus the round-off
+/// `eps |r| / h`, about 1e-8 here.
+#[test]
+fn algorithmic_tangent_of_contact_and_j2_equals_finite_differences() {
+    use mortex::analysis::StaticAnalysis;
+    let model = mortex::case::parse(TANGENT_SCENE, "tangent", std::path::Path::new("."), "tangent").unwrap().model;
+    let disc = model.initial();
+    let mut analysis = StaticAnalysis::with_condensation(&model, disc, false).unwrap();
+    let mut state = analysis.initial_state();
+    // The normal load in 4 increments, the shear in 20 (small enough for no cut-back).
+    let times: Vec<f64> = (1..=4).map(|k| 0.25 * k as f64).chain((1..=20).map(|k| 1.0 + 0.05 * k as f64)).collect();
+    let checked = [1.0, 1.3, 2.0];
+    let mut seen = (false, false, false);
+    for (step, &t) in times.iter().enumerate() {
+        let start = state.clone();
+        let report = analysis.advance_to(&mut state, step + 1, t).unwrap();
+        if !checked.iter().any(|c| (c - t).abs() < 1e-12) {
+            continue;
+        }
+        assert_eq!(report.cutbacks, 0, "t = {t}: the check needs the increment's start state");
+        let (u, mu) = (state.u.clone(), state.multipliers.clone());
+        let sys = analysis.newton_system(&start, t, (&u, &mu), None).unwrap();
+        let (active, stick, slip) = sys.contact_sets();
+        assert!(active > 0, "t = {t}: no contact");
+        let yielding = analysis_yielding_points(&start, &state);
+        let nf = sys.num_free;
+        let n = sys.rhs.len();
+        let u_scale = u.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let h = 1e-7 * u_scale;
+        let mut fd = nalgebra::DMatrix::<f64>::zeros(n, n);
+        for k in 0..n {
+            let mut at = |s: f64| {
+                let (mut up, mut mp) = (u.clone(), mu.clone());
+                if k < nf {
+                    up[disc.dofs.free[k]] += s * h;
+                } else {
+                    mp[k - nf] += s * h * sys.alpha;
+                }
+                analysis.newton_system(&start, t, (&up, &mp), Some(&sys)).unwrap().rhs
+            };
+            let (plus, minus) = (at(1.0), at(-1.0));
+            for i in 0..n {
+                fd[(i, k)] = -(plus[i] - minus[i]) / (2.0 * h);
+            }
+        }
+        let err = (&fd - &sys.matrix).norm() / sys.matrix.norm();
+        println!("t = {t}: {active} active, {stick} stick, {slip} slip, {yielding} yielding points: {err:.2e}");
+        assert!(err <= 1e-6, "t = {t}: tangent against finite differences {err:.2e}");
+        seen = (seen.0 || (stick > 0 && yielding > 0), seen.1 || slip > 0, seen.2 || (slip > 0 && stick > 0));
+    }
+    assert!(seen.0 && seen.1, "the checks must see stick with yielding points, and slip: {seen:?}");
+}
+
+/// Points whose history the increment from `start` to `end` advanced (they yielded).
+fn analysis_yielding_points(start: &mortex::state::SimState, end: &mortex::state::SimState) -> usize {
+    start.history.iter().zip(&end.history).filter(|(a, b)| a != b).count()
+}

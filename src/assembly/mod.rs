@@ -5,7 +5,7 @@
 //! order never depends on the thread count, serial and parallel assembly are bit-identical.
 
 use crate::fem::element::ShapeEval;
-use crate::fem::kernel::{element_kernel, point_geometry, ElementInput, ElementOutput, Formulation};
+use crate::fem::kernel::{element_kernel, element_stresses, point_geometry, ElementInput, ElementOutput, Formulation};
 use crate::fem::material::{Material, PlasticState, Stress4};
 use crate::fem::quadrature::QuadratureRule;
 use crate::mesh::CellKind;
@@ -228,6 +228,9 @@ pub struct Assembler {
     elastic_ke_valid: Vec<bool>,
     /// Fingerprint of the geometry and rule weights the kept stiffnesses belong to.
     elastic_ke_of: Option<u64>,
+    /// Linear elastic elements with a kept stiffness take their force as `K_e u_e` and leave
+    /// their stresses unwritten (see [`Assembler::set_elastic_force_from_kept`]).
+    elastic_force_from_kept: bool,
 }
 
 const BLOCK: usize = 512;
@@ -332,6 +335,7 @@ impl Assembler {
             elastic_ke: vec![[0.0; 64]; ne],
             elastic_ke_valid: vec![false; ne],
             elastic_ke_of: None,
+            elastic_force_from_kept: false,
         }
     }
 
@@ -368,20 +372,68 @@ impl Assembler {
         key
     }
 
+    /// With `on`, the linear elastic elements of later assemblies take their internal force
+    /// from their kept stiffness, `f_e = K_e u_e` (kept from a tangent assembly of the same
+    /// geometry and rules), and leave their points' stresses as they were: a yielding run's
+    /// elastic bodies then cost a matrix-vector product per Newton pass. The caller fills
+    /// those stresses with [`Assembler::elastic_stresses`] before it reads them.
+    pub fn set_elastic_force_from_kept(&mut self, on: bool) {
+        self.elastic_force_from_kept = on;
+    }
+
+    /// The stresses of the linear elastic elements at `inp.u` into `stress` (point order);
+    /// the points of other materials are left alone.
+    pub fn elastic_stresses(&self, inp: &AssemblyInput, stress: &mut [Stress4]) {
+        let el = inp.elements;
+        for e in 0..el.len() {
+            let material = &inp.materials[el.material[e]];
+            if !matches!(material, Material::Elastic(_)) {
+                continue;
+            }
+            let (kind, nodes) = (el.kind[e], &el.nodes[e]);
+            let mut coords = [Point2::origin(); 4];
+            let mut u = [0.0; 8];
+            for a in 0..kind.num_nodes() {
+                coords[a] = inp.coords[nodes[a]];
+                u[2 * a] = inp.u[2 * nodes[a]];
+                u[2 * a + 1] = inp.u[2 * nodes[a] + 1];
+            }
+            let input = ElementInput {
+                kind,
+                coords,
+                u,
+                rule: &inp.rules[el.rule[e]],
+                formulation: el.formulation[e],
+                material,
+                thickness: el.thickness[e],
+                state_old: &[],
+                geometry: None,
+                elastic_ke: None,
+                elastic_force_from_ke: false,
+            };
+            element_stresses(&input, &mut stress[el.point_offset[e]..el.point_offset[e + 1]]);
+        }
+    }
+
     /// Evaluates all element kernels (in parallel if `parallel`) and scatters them.
     pub fn assemble(&mut self, inp: &AssemblyInput, out: AssemblyOutput, parallel: bool) {
         let key = self.ensure_geometry(inp, parallel);
         let geometry = &self.geometry;
         let el = inp.elements;
         let with_tangent = out.values.is_some();
-        if with_tangent {
+        // The kept stiffnesses serve an assembly of their own geometry and rules only; a
+        // tangent assembly of another starts them anew.
+        let mut kept_usable = false;
+        if with_tangent || self.elastic_force_from_kept {
             let key = stiffness_fingerprint(key, inp);
-            if self.elastic_ke_of != Some(key) || self.elastic_ke_valid.len() != el.len() {
+            if with_tangent && (self.elastic_ke_of != Some(key) || self.elastic_ke_valid.len() != el.len()) {
                 self.elastic_ke = vec![[0.0; 64]; el.len()];
                 self.elastic_ke_valid = vec![false; el.len()];
                 self.elastic_ke_of = Some(key);
             }
+            kept_usable = self.elastic_ke_of == Some(key) && self.elastic_ke_valid.len() == el.len();
         }
+        let from_kept = self.elastic_force_from_kept;
         let ends = self.blocks[1..].to_vec();
         let ke_blocks = split_mut(&mut self.ke, ends.iter().copied());
         let kept_blocks = split_mut(&mut self.elastic_ke, ends.iter().copied());
@@ -417,7 +469,8 @@ impl Assembler {
                     thickness: el.thickness[e],
                     state_old: &inp.state_old[el.state_offset[e]..el.state_offset[e + 1]],
                     geometry: Some(&geometry[el.point_offset[e]..el.point_offset[e + 1]]),
-                    elastic_ke: (with_tangent && valid[k]).then_some(&kept[k]),
+                    elastic_ke: (kept_usable && valid[k]).then_some(&kept[k]),
+                    elastic_force_from_ke: from_kept,
                 };
                 let mut output = ElementOutput {
                     ke: if with_tangent { Some(&mut ke[k]) } else { None },

@@ -42,6 +42,10 @@ pub struct ElementInput<'a> {
     /// elastic again (it is then the same numbers), so that the tangent of a yielding run is
     /// integrated only where the material yields.
     pub elastic_ke: Option<&'a [f64; 64]>,
+    /// A linear elastic element with `elastic_ke` takes its force as `K_e u_e` and writes no
+    /// stress (the caller asks [`element_stresses`] for it when it reads stresses): the
+    /// elastic remainder of a yielding run then costs a matrix-vector product per pass.
+    pub elastic_force_from_ke: bool,
 }
 
 /// The mapped geometry of an element at every point of its rule (what `ElementInput::geometry`
@@ -90,8 +94,23 @@ fn b_matrix(ev: &ShapeEval, nn: usize, bbar_vol: Option<&[f64; 8]>, b: &mut [[f6
     }
 }
 
-/// Evaluates one element. Returns the element measure (area times thickness).
+/// Evaluates one element. Returns the element measure (area times thickness; 0 where the
+/// force came from the kept stiffness, see `ElementInput::elastic_force_from_ke`).
 pub fn element_kernel(inp: &ElementInput, out: &mut ElementOutput) -> f64 {
+    if let (Some(kept), true, Material::Elastic(_)) = (inp.elastic_ke, inp.elastic_force_from_ke, inp.material) {
+        let ndof = 2 * inp.kind.num_nodes();
+        for i in 0..ndof {
+            out.fe[i] = (0..ndof).map(|j| kept[i * 8 + j] * inp.u[j]).sum();
+        }
+        for v in out.fe.iter_mut().skip(ndof) {
+            *v = 0.0;
+        }
+        if let Some(ke) = out.ke.as_deref_mut() {
+            *ke = *kept;
+        }
+        out.elastic = true;
+        return 0.0;
+    }
     if let (Some(cached), true) = (inp.elastic_ke, out.ke.is_some()) {
         // Stress and force first; the tangent only where a point yields (a second pass from
         // the same history: the same numbers).
@@ -228,4 +247,17 @@ fn kernel_pass(inp: &ElementInput, out: &mut ElementOutput) -> f64 {
         }
     }
     measure
+}
+
+/// The stress at each point of a linear elastic element (`sigma = D B u`, B-bar where the
+/// element uses it), into `stress`; other materials are left alone. What
+/// `ElementInput::elastic_force_from_ke` skipped.
+pub fn element_stresses(inp: &ElementInput, stress: &mut [Stress4]) {
+    if !matches!(inp.material, Material::Elastic(_)) {
+        return;
+    }
+    let mut fe = [0.0; 8];
+    let mut out = ElementOutput { ke: None, fe: &mut fe, stress, state_new: &mut [], elastic: true };
+    let plain = ElementInput { state_old: &[], elastic_ke: None, elastic_force_from_ke: false, ..*inp };
+    kernel_pass(&plain, &mut out);
 }

@@ -38,7 +38,42 @@ enum Numeric {
     None,
     /// Values of the Cholesky factor `L` (layout of the symbolic factorisation).
     Llt(Vec<f64>),
+    /// Per independent block of the matrix, its Cholesky factor (see [`Block`]).
+    Blocks(Vec<BlockFactor>),
     Lu(Lu<usize, f64>),
+}
+
+/// Equations coupled to no others (independent bodies: contact couples them only through the
+/// multipliers, which condensation keeps out of the matrix) form blocks factored apart. A
+/// block whose values did not change keeps its factor: a yielding body's tangent changes every
+/// Newton pass, an elastic body's stiffness does not.
+struct Block {
+    /// The block's equations (sorted) in the whole matrix.
+    eqs: Vec<usize>,
+    /// Position in the whole matrix's values of each of the block's entries (its pattern order).
+    positions: Vec<usize>,
+    pattern: SymbolicSparseColMat<usize>,
+    symbolic: SymbolicCholesky<usize>,
+}
+
+/// Blocks of fewer equations than this are factored together with the other small ones (one
+/// block of several components is still block-diagonal): a split pays only for large bodies.
+const MIN_BLOCK_EQUATIONS: usize = 1000;
+
+/// The Cholesky factor of one [`Block`], the values it was factored from, and its share of the
+/// last interface operator ([`SparseSolver::congruence`]) with the columns it came from.
+struct BlockFactor {
+    values: Vec<f64>,
+    l: Vec<f64>,
+    gram: std::sync::Mutex<Option<BlockGram>>,
+}
+
+/// A block's share of `B^T A^{-1} B[:, from..]`: the columns of `B` that touch the block
+/// (global index, entries in block numbering) and `W_b^T W_b` over them.
+struct BlockGram {
+    from: usize,
+    cols: Vec<(usize, Vec<(usize, f64)>)>,
+    gram: Mat<f64>,
 }
 
 /// Factors with fewer non-zeros than this are factored and solved on one thread: measured on
@@ -66,7 +101,107 @@ pub struct SparseSolver {
     pattern: SymbolicSparseColMat<usize>,
     llt_symbolic: Option<SymbolicCholesky<usize>>,
     lu_symbolic: Option<SymbolicLu<usize>>,
+    /// Independent blocks (Cholesky of a matrix with two or more large ones; else empty and the
+    /// matrix is factored whole).
+    blocks: Vec<Block>,
     numeric: Numeric,
+}
+
+/// The connected components of the pattern's graph, as sorted equation lists: the large ones
+/// apart, the small ones merged into one (order: by first equation).
+fn independent_blocks(pattern: &SymbolicSparseColMat<usize>) -> Vec<Vec<usize>> {
+    let n = pattern.nrows();
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    let (cp, ri) = (pattern.col_ptr(), pattern.row_idx());
+    for j in 0..n {
+        for &i in &ri[cp[j]..cp[j + 1]] {
+            let (a, b) = (root(&mut parent, i), root(&mut parent, j));
+            if a != b {
+                parent[a.max(b)] = a.min(b);
+            }
+        }
+    }
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for i in 0..n {
+        let r = root(&mut parent, i);
+        members[r].push(i);
+    }
+    let mut blocks = Vec::new();
+    let mut small = Vec::new();
+    for m in members.into_iter().filter(|m| !m.is_empty()) {
+        if m.len() >= MIN_BLOCK_EQUATIONS {
+            blocks.push(m);
+        } else {
+            small.extend(m);
+        }
+    }
+    if !small.is_empty() {
+        small.sort_unstable();
+        blocks.push(small);
+    }
+    blocks.sort_by_key(|b| b[0]);
+    blocks
+}
+
+/// The sub-pattern of `eqs` (sorted, closed under coupling) in block numbering, with the
+/// position of each of its entries in the whole pattern.
+fn block_pattern(
+    pattern: &SymbolicSparseColMat<usize>,
+    eqs: &[usize],
+    local: &mut [usize],
+) -> (SymbolicSparseColMat<usize>, Vec<usize>) {
+    for (k, &e) in eqs.iter().enumerate() {
+        local[e] = k;
+    }
+    let (cp, ri) = (pattern.col_ptr(), pattern.row_idx());
+    let mut col_ptr = vec![0usize];
+    let (mut row_idx, mut positions) = (Vec::new(), Vec::new());
+    for &j in eqs {
+        for p in cp[j]..cp[j + 1] {
+            row_idx.push(local[ri[p]]);
+            positions.push(p);
+        }
+        col_ptr.push(row_idx.len());
+    }
+    (SymbolicSparseColMat::new_checked(eqs.len(), eqs.len(), col_ptr, None, row_idx), positions)
+}
+
+/// Numeric Cholesky of `mat` into `l_values` (resized).
+fn factor_llt(
+    s: &SymbolicCholesky<usize>,
+    mat: SparseColMatRef<usize, f64>,
+    l_values: &mut Vec<f64>,
+) -> Result<(), LinearSolverError> {
+    let numeric_err = |msg: String| LinearSolverError::Numeric { kind: LinearSolverKind::Cholesky, msg };
+    l_values.resize(s.len_val(), 0.0);
+    let par = parallelism(s);
+    let mut buf = MemBuffer::try_new(s.factorize_numeric_llt_scratch::<f64>(par, Default::default()))
+        .map_err(|e| numeric_err(format!("{e:?}")))?;
+    s.factorize_numeric_llt(
+        l_values,
+        mat,
+        Side::Lower,
+        Default::default(),
+        par,
+        MemStack::new(&mut buf),
+        Default::default(),
+    )
+    .map_err(|e| numeric_err(format!("{e:?}")))?;
+    Ok(())
+}
+
+/// Solves `L L^T x = b` in place for the columns of `b`.
+fn solve_llt(s: &SymbolicCholesky<usize>, l_values: &[f64], b: MatMut<f64>) {
+    let par = parallelism(s);
+    let mut buf = MemBuffer::new(s.solve_in_place_scratch::<f64>(b.ncols(), par));
+    LltRef::new(s, l_values).solve_in_place_with_conj(Conj::No, b, par, MemStack::new(&mut buf));
 }
 
 impl SparseSolver {
@@ -94,7 +229,22 @@ impl SparseSolver {
                 "symbolic Cholesky"
             );
         }
-        Ok(SparseSolver { kind, pattern: pattern.clone(), llt_symbolic, lu_symbolic, numeric: Numeric::None })
+        let mut blocks = Vec::new();
+        if kind == LinearSolverKind::Cholesky {
+            let parts = independent_blocks(pattern);
+            if parts.len() > 1 {
+                let mut local = vec![0usize; n];
+                for eqs in parts {
+                    let (sub, positions) = block_pattern(pattern, &eqs, &mut local);
+                    let symbolic =
+                        factorize_symbolic_cholesky(sub.as_ref(), Side::Lower, Default::default(), Default::default())
+                            .map_err(err)?;
+                    blocks.push(Block { eqs, positions, pattern: sub, symbolic });
+                }
+                tracing::debug!(blocks = blocks.len(), sizes = ?blocks.iter().map(|b| b.eqs.len()).collect::<Vec<_>>(), "independent blocks");
+            }
+        }
+        Ok(SparseSolver { kind, pattern: pattern.clone(), llt_symbolic, lu_symbolic, blocks, numeric: Numeric::None })
     }
 
     pub fn kind(&self) -> LinearSolverKind {
@@ -107,6 +257,28 @@ impl SparseSolver {
         let kind = self.kind;
         let numeric_err = |msg: String| LinearSolverError::Numeric { kind, msg };
         let previous = std::mem::replace(&mut self.numeric, Numeric::None);
+        if !self.blocks.is_empty() {
+            // Block by block; a block whose values are those of its last factor keeps it.
+            let mut kept: Vec<Option<BlockFactor>> = match previous {
+                Numeric::Blocks(f) => f.into_iter().map(Some).collect(),
+                _ => (0..self.blocks.len()).map(|_| None).collect(),
+            };
+            let mut factors = Vec::with_capacity(self.blocks.len());
+            for (b, old) in self.blocks.iter().zip(kept.iter_mut()) {
+                let v: Vec<f64> = b.positions.iter().map(|&p| values[p]).collect();
+                match old.take() {
+                    Some(f) if f.values == v => factors.push(f),
+                    old => {
+                        let mut l = old.map(|f| f.l).unwrap_or_default();
+                        let sub = SparseColMatRef::new(b.pattern.as_ref(), &v);
+                        factor_llt(&b.symbolic, sub, &mut l)?;
+                        factors.push(BlockFactor { values: v, l, gram: std::sync::Mutex::new(None) });
+                    }
+                }
+            }
+            self.numeric = Numeric::Blocks(factors);
+            return Ok(());
+        }
         self.numeric = match (&self.llt_symbolic, &self.lu_symbolic) {
             (Some(s), _) => {
                 // The factor's storage is reused from the previous factorisation.
@@ -114,20 +286,7 @@ impl SparseSolver {
                     Numeric::Llt(v) => v,
                     _ => Vec::new(),
                 };
-                l_values.resize(s.len_val(), 0.0);
-                let par = parallelism(s);
-                let mut buf = MemBuffer::try_new(s.factorize_numeric_llt_scratch::<f64>(par, Default::default()))
-                    .map_err(|e| numeric_err(format!("{e:?}")))?;
-                s.factorize_numeric_llt(
-                    &mut l_values,
-                    mat,
-                    Side::Lower,
-                    Default::default(),
-                    par,
-                    MemStack::new(&mut buf),
-                    Default::default(),
-                )
-                .map_err(|e| numeric_err(format!("{e:?}")))?;
+                factor_llt(s, mat, &mut l_values)?;
                 Numeric::Llt(l_values)
             }
             (None, Some(s)) => {
@@ -158,13 +317,20 @@ impl SparseSolver {
     /// Solves for `ncols` right-hand sides stored column after column in `rhs`.
     pub fn solve_many(&self, rhs: &mut [f64], ncols: usize) -> Result<(), LinearSolverError> {
         let n = rhs.len() / ncols.max(1);
-        let b = MatMut::from_column_major_slice_mut(rhs, n, ncols);
+        let mut b = MatMut::from_column_major_slice_mut(rhs, n, ncols);
         match (&self.numeric, &self.llt_symbolic) {
-            (Numeric::Llt(values), Some(s)) => {
-                let par = parallelism(s);
-                let mut buf = MemBuffer::new(s.solve_in_place_scratch::<f64>(ncols, par));
-                LltRef::new(s, values).solve_in_place_with_conj(Conj::No, b, par, MemStack::new(&mut buf));
+            (Numeric::Blocks(factors), _) => {
+                for (block, f) in self.blocks.iter().zip(factors) {
+                    let mut x = Mat::<f64>::from_fn(block.eqs.len(), ncols, |i, j| b[(block.eqs[i], j)]);
+                    solve_llt(&block.symbolic, &f.l, x.as_mut());
+                    for j in 0..ncols {
+                        for (i, &e) in block.eqs.iter().enumerate() {
+                            b[(e, j)] = x[(i, j)];
+                        }
+                    }
+                }
             }
+            (Numeric::Llt(values), Some(s)) => solve_llt(s, values, b),
             (Numeric::Lu(f), _) => f.solve_in_place(b),
             _ => return Err(LinearSolverError::NotFactored),
         }
@@ -179,95 +345,174 @@ impl SparseSolver {
     /// columns at once. The operation order is fixed (sequential kernels): bit-identical
     /// results on any thread count. `None` for an LU or a simplicial Cholesky factor (the
     /// caller then solves column by column).
+    ///
+    /// Factored by blocks, it is the sum of the blocks' shares, each over the columns touching
+    /// it; a block whose factor and columns are those of the last call adds its kept share.
     pub fn congruence(&self, cols: &[Vec<(usize, f64)>], from: usize) -> Option<DMatrix<f64>> {
-        let (Numeric::Llt(values), Some(symbolic)) = (&self.numeric, &self.llt_symbolic) else { return None };
-        let SymbolicCholeskyRaw::Supernodal(sym) = symbolic.raw() else { return None };
-        let n = sym.nrows();
         let nb = cols.len();
-        let factor = SupernodalLltRef::new(sym, values);
-        let inv: Vec<usize> = match symbolic.perm() {
-            Some(p) => p.arrays().1.to_vec(),
-            None => (0..n).collect(),
-        };
-        let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
-        let ns = sym.n_supernodes();
-        let mut super_of = vec![0usize; n];
-        for s in 0..ns {
-            super_of[begin[s]..end[s]].iter_mut().for_each(|v| *v = s);
-        }
-        // Columns of W non-zero on each supernode: those touching it or any descendant
-        // (W(:, j) is non-zero on the elimination-tree ancestors of column j's equations). In
-        // elimination order a supernode's set is complete before it passes it to its parent,
-        // the supernode of its first below-diagonal row.
-        let mut cols_of: Vec<Vec<usize>> = vec![Vec::new(); ns];
-        for (j, col) in cols.iter().enumerate() {
-            for &(e, _) in col {
-                cols_of[super_of[inv[e]]].push(j);
-            }
-        }
-        for s in 0..ns {
-            if cols_of[s].is_empty() {
-                continue;
-            }
-            cols_of[s].sort_unstable();
-            cols_of[s].dedup();
-            if let Some(&r) = factor.supernode(s).pattern().first() {
-                let own = std::mem::take(&mut cols_of[s]);
-                cols_of[super_of[r]].extend_from_slice(&own);
-                cols_of[s] = own;
-            }
-        }
-        // W by supernode blocks: rows of the supernode, its own columns only (a column reaches
-        // a few dozen of the supernodes, so a dense `reached rows x columns` W would be mostly
-        // zeros to clear and carry).
-        let mut blocks: Vec<Option<Mat<f64>>> = (0..ns)
-            .map(|s| (!cols_of[s].is_empty()).then(|| Mat::<f64>::zeros(end[s] - begin[s], cols_of[s].len())))
-            .collect();
-        let m: usize = (0..ns).filter(|&s| !cols_of[s].is_empty()).map(|s| end[s] - begin[s]).sum();
-        for (j, col) in cols.iter().enumerate() {
-            for &(e, c) in col {
-                let r = inv[e];
-                let t = super_of[r];
-                // Every supernode a column touches has it in its set, and is reached.
-                if let (Ok(k), Some(block)) = (cols_of[t].binary_search(&j), blocks[t].as_mut()) {
-                    block[(r - begin[t], k)] += c;
+        let out = match (&self.numeric, &self.llt_symbolic) {
+            (Numeric::Blocks(factors), _) => {
+                let mut out = Mat::<f64>::zeros(nb, nb - from);
+                let mut local = vec![usize::MAX; self.pattern.nrows()];
+                for (block, f) in self.blocks.iter().zip(factors) {
+                    for (k, &e) in block.eqs.iter().enumerate() {
+                        local[e] = k;
+                    }
+                    let touching: Vec<(usize, Vec<(usize, f64)>)> = cols
+                        .iter()
+                        .enumerate()
+                        .filter_map(|(j, col)| {
+                            let c: Vec<(usize, f64)> = col
+                                .iter()
+                                .filter(|&&(e, _)| local[e] != usize::MAX)
+                                .map(|&(e, c)| (local[e], c))
+                                .collect();
+                            (!c.is_empty()).then_some((j, c))
+                        })
+                        .collect();
+                    for &e in &block.eqs {
+                        local[e] = usize::MAX;
+                    }
+                    let mut kept = f.gram.lock().ok()?;
+                    let fresh = !matches!(kept.as_ref(), Some(g) if g.from == from && g.cols == touching);
+                    tracing::trace!(block = block.eqs[0], kept = !fresh, "interface operator share");
+                    if fresh {
+                        let k0 = touching.partition_point(|(j, _)| *j < from);
+                        let local_cols: Vec<Vec<(usize, f64)>> = touching.iter().map(|(_, c)| c.clone()).collect();
+                        let gram = match supernodal_congruence(&block.symbolic, &f.l, &local_cols, k0) {
+                            Some(gram) => gram,
+                            None => solved_congruence(&block.symbolic, &f.l, &local_cols, k0, block.eqs.len()),
+                        };
+                        *kept = Some(BlockGram { from, cols: touching, gram });
+                    }
+                    let g = kept.as_ref()?;
+                    let k0 = g.cols.partition_point(|(j, _)| *j < from);
+                    for (b, (jb, _)) in g.cols[k0..].iter().enumerate() {
+                        for (a, (ja, _)) in g.cols.iter().enumerate() {
+                            out[(*ja, jb - from)] += g.gram[(a, b)];
+                        }
+                    }
                 }
+                out
             }
-        }
-        // Per supernode: solved with the diagonal block, pushed to the rows below by one
-        // product, scattered into the blocks of the supernodes those rows belong to. Its rows
-        // of W are then final (every descendant has pushed its update), so the Gram product
-        // `W^T W` is accumulated supernode by supernode over its own columns only (the dense
-        // product did eight times the work).
-        let mut out = Mat::<f64>::zeros(nb, nb - from);
-        let mut position = Vec::new();
-        for s in 0..ns {
-            let Some(mut block) = blocks[s].take() else { continue };
-            let node = factor.supernode(s);
-            let size = end[s] - begin[s];
-            let js = &cols_of[s];
-            let (l_top, l_bot) = node.val().split_at_row(size);
-            solve_lower_triangular_in_place(l_top, block.as_mut(), Par::Seq);
-            accumulate_gram(&mut out, block.as_ref(), js, from);
-            let pattern = node.pattern();
-            if pattern.is_empty() {
-                continue;
-            }
-            let mut update = Mat::<f64>::zeros(pattern.len(), js.len());
-            matmul(update.as_mut(), Accum::Replace, l_bot, block.as_ref(), 1.0, Par::Seq);
-            scatter_update(update.as_ref(), pattern, js, (&super_of, begin), &cols_of, &mut blocks, &mut position);
-        }
-        tracing::debug!(
-            n,
-            rows = nb,
-            reached_equations = m,
-            supernodes = ns,
-            reached_supernodes = cols_of.iter().filter(|c| !c.is_empty()).count(),
-            column_visits = cols_of.iter().map(|c| c.len()).sum::<usize>(),
-            "interface operator by forward substitution"
-        );
+            (Numeric::Llt(values), Some(symbolic)) => supernodal_congruence(symbolic, values, cols, from)?,
+            _ => return None,
+        };
         Some(DMatrix::from_fn(nb, nb - from, |i, j| out[(i, j)]))
     }
+}
+
+/// `B^T A^{-1} B[:, from..]` by one solve per column (a simplicial factor of `n` equations).
+fn solved_congruence(
+    symbolic: &SymbolicCholesky<usize>,
+    l: &[f64],
+    cols: &[Vec<(usize, f64)>],
+    from: usize,
+    n: usize,
+) -> Mat<f64> {
+    let mut x = Mat::<f64>::zeros(n, cols.len() - from);
+    for (b, col) in cols[from..].iter().enumerate() {
+        for &(e, c) in col {
+            x[(e, b)] += c;
+        }
+    }
+    solve_llt(symbolic, l, x.as_mut());
+    Mat::from_fn(cols.len(), cols.len() - from, |a, b| cols[a].iter().map(|&(e, c)| c * x[(e, b)]).sum())
+}
+
+/// [`SparseSolver::congruence`] with one supernodal Cholesky factor (`None` if simplicial).
+fn supernodal_congruence(
+    symbolic: &SymbolicCholesky<usize>,
+    values: &[f64],
+    cols: &[Vec<(usize, f64)>],
+    from: usize,
+) -> Option<Mat<f64>> {
+    let SymbolicCholeskyRaw::Supernodal(sym) = symbolic.raw() else { return None };
+    let n = sym.nrows();
+    let nb = cols.len();
+    let factor = SupernodalLltRef::new(sym, values);
+    let inv: Vec<usize> = match symbolic.perm() {
+        Some(p) => p.arrays().1.to_vec(),
+        None => (0..n).collect(),
+    };
+    let (begin, end) = (sym.supernode_begin(), sym.supernode_end());
+    let ns = sym.n_supernodes();
+    let mut super_of = vec![0usize; n];
+    for s in 0..ns {
+        super_of[begin[s]..end[s]].iter_mut().for_each(|v| *v = s);
+    }
+    // Columns of W non-zero on each supernode: those touching it or any descendant
+    // (W(:, j) is non-zero on the elimination-tree ancestors of column j's equations). In
+    // elimination order a supernode's set is complete before it passes it to its parent,
+    // the supernode of its first below-diagonal row.
+    let mut cols_of: Vec<Vec<usize>> = vec![Vec::new(); ns];
+    for (j, col) in cols.iter().enumerate() {
+        for &(e, _) in col {
+            cols_of[super_of[inv[e]]].push(j);
+        }
+    }
+    for s in 0..ns {
+        if cols_of[s].is_empty() {
+            continue;
+        }
+        cols_of[s].sort_unstable();
+        cols_of[s].dedup();
+        if let Some(&r) = factor.supernode(s).pattern().first() {
+            let own = std::mem::take(&mut cols_of[s]);
+            cols_of[super_of[r]].extend_from_slice(&own);
+            cols_of[s] = own;
+        }
+    }
+    // W by supernode blocks: rows of the supernode, its own columns only (a column reaches
+    // a few dozen of the supernodes, so a dense `reached rows x columns` W would be mostly
+    // zeros to clear and carry).
+    let mut blocks: Vec<Option<Mat<f64>>> = (0..ns)
+        .map(|s| (!cols_of[s].is_empty()).then(|| Mat::<f64>::zeros(end[s] - begin[s], cols_of[s].len())))
+        .collect();
+    let m: usize = (0..ns).filter(|&s| !cols_of[s].is_empty()).map(|s| end[s] - begin[s]).sum();
+    for (j, col) in cols.iter().enumerate() {
+        for &(e, c) in col {
+            let r = inv[e];
+            let t = super_of[r];
+            // Every supernode a column touches has it in its set, and is reached.
+            if let (Ok(k), Some(block)) = (cols_of[t].binary_search(&j), blocks[t].as_mut()) {
+                block[(r - begin[t], k)] += c;
+            }
+        }
+    }
+    // Per supernode: solved with the diagonal block, pushed to the rows below by one
+    // product, scattered into the blocks of the supernodes those rows belong to. Its rows
+    // of W are then final (every descendant has pushed its update), so the Gram product
+    // `W^T W` is accumulated supernode by supernode over its own columns only (the dense
+    // product did eight times the work).
+    let mut out = Mat::<f64>::zeros(nb, nb - from);
+    let mut position = Vec::new();
+    for s in 0..ns {
+        let Some(mut block) = blocks[s].take() else { continue };
+        let node = factor.supernode(s);
+        let size = end[s] - begin[s];
+        let js = &cols_of[s];
+        let (l_top, l_bot) = node.val().split_at_row(size);
+        solve_lower_triangular_in_place(l_top, block.as_mut(), Par::Seq);
+        accumulate_gram(&mut out, block.as_ref(), js, from);
+        let pattern = node.pattern();
+        if pattern.is_empty() {
+            continue;
+        }
+        let mut update = Mat::<f64>::zeros(pattern.len(), js.len());
+        matmul(update.as_mut(), Accum::Replace, l_bot, block.as_ref(), 1.0, Par::Seq);
+        scatter_update(update.as_ref(), pattern, js, (&super_of, begin), &cols_of, &mut blocks, &mut position);
+    }
+    tracing::debug!(
+        n,
+        rows = nb,
+        reached_equations = m,
+        supernodes = ns,
+        reached_supernodes = cols_of.iter().filter(|c| !c.is_empty()).count(),
+        column_visits = cols_of.iter().map(|c| c.len()).sum::<usize>(),
+        "interface operator by forward substitution"
+    );
+    Some(out)
 }
 
 /// Adds the supernode block's share of `W^T W` (its own columns `js`, sorted) to the columns
