@@ -1026,6 +1026,16 @@ impl<'m> StaticAnalysis<'m> {
         let passes = if plastic { p.max_iterations.max(MAX_REFINEMENTS) } else { MAX_REFINEMENTS };
         let mut first_res: Option<f64> = None;
         let mut last_res = f64::INFINITY;
+        // Yielding bodies: one force scale for every pass of the step, that of the converged
+        // start (external, internal and constraint forces there). The pass's own start would
+        // count, in the first pass, the elastic predictor's reaction to the whole prescribed
+        // increment: a residual 100 times smaller by scale alone, against which every Newton
+        // pass after it looked divergent.
+        let start_scale = plastic.then(|| {
+            let mut ct = vec![0.0; disc.dofs.num_dofs];
+            constraint_forces(m, disc, &state.multipliers, &mut ct);
+            norm(&f_ext).max(norm(&state.f_int)).max(norm(&ct))
+        });
         for pass in 0..passes {
             // r_u = f - f_int(u0) - C^T lambda0 on the free equations, z = K_rho^{-1} r_u.
             self.pass_operator(cd, (&state.u, &u), &history, pass, step, iterations)?;
@@ -1033,7 +1043,7 @@ impl<'m> StaticAnalysis<'m> {
             constraint_forces(m, disc, &lam0, &mut ct);
             // Force scale of the step: what the start of the step has seen too (a contact that opens
             // leaves the bodies unloaded, where the final forces are all round-off).
-            let scale0 = norm(&f_ext).max(norm(&self.trial_f_int)).max(norm(&ct));
+            let scale0 = start_scale.unwrap_or_else(|| norm(&f_ext).max(norm(&self.trial_f_int)).max(norm(&ct)));
             // Over the equations of K_rho; switched-off DOFs take no load (they stay where they are).
             let mut z: Vec<f64> = cd
                 .equations
@@ -1245,7 +1255,11 @@ impl<'m> StaticAnalysis<'m> {
         let elastic: Vec<Material> = m.materials.iter().map(|mat| Material::Elastic(*mat.elastic())).collect();
         let mut f_du = vec![0.0; disc.dofs.num_dofs];
         // The trial stress and history serve as scratch: the internal force below rewrites
-        // them at every point the elastic assembly wrote.
+        // them at every point the elastic assembly wrote. The yielding bodies' elements stand
+        // in here as elastic ones: their kept stiffnesses exist or not depending on the passes
+        // since the last re-cut, which a restart does not repeat, so the force is integrated
+        // (the same bits however the run got here).
+        self.assembler.set_elastic_force_from_kept(false);
         self.assembler.assemble(
             &AssemblyInput {
                 coords: &m.coords,
@@ -1263,6 +1277,7 @@ impl<'m> StaticAnalysis<'m> {
             },
             self.parallel,
         );
+        self.assembler.set_elastic_force_from_kept(true);
         self.internal_force(u_conv, history);
         for (f, v) in self.trial_f_int.iter_mut().zip(&f_du) {
             *f += v;
