@@ -1026,16 +1026,9 @@ impl<'m> StaticAnalysis<'m> {
         let passes = if plastic { p.max_iterations.max(MAX_REFINEMENTS) } else { MAX_REFINEMENTS };
         let mut first_res: Option<f64> = None;
         let mut last_res = f64::INFINITY;
-        // Yielding bodies: one force scale for every pass of the step, that of the converged
-        // start (external, internal and constraint forces there). The pass's own start would
-        // count, in the first pass, the elastic predictor's reaction to the whole prescribed
-        // increment: a residual 100 times smaller by scale alone, against which every Newton
-        // pass after it looked divergent.
-        let start_scale = plastic.then(|| {
-            let mut ct = vec![0.0; disc.dofs.num_dofs];
-            constraint_forces(m, disc, &state.multipliers, &mut ct);
-            norm(&f_ext).max(norm(&state.f_int)).max(norm(&ct))
-        });
+        // Yielding bodies: one force scale for every pass, the converged start's (see
+        // `force_scale`).
+        let start_scale = plastic.then(|| self.force_scale(state, &f_ext));
         for pass in 0..passes {
             // r_u = f - f_int(u0) - C^T lambda0 on the free equations, z = K_rho^{-1} r_u.
             self.pass_operator(cd, (&state.u, &u), &history, pass, step, iterations)?;
@@ -1123,6 +1116,17 @@ impl<'m> StaticAnalysis<'m> {
             lam0 = mu;
         }
         Ok(StepOutcome::NotConverged { iterations, residual: f64::INFINITY })
+    }
+
+    /// The force scale of the converged `state`: the largest of the external force `f_ext`,
+    /// the internal and the constraint forces there. A yielding step measures every pass
+    /// against it: the first pass's own start, the elastic predictor, holds the reaction to the
+    /// whole prescribed increment, a scale about 100 times larger than the passes after it see,
+    /// against which converging Newton looked divergent.
+    fn force_scale(&self, state: &SimState, f_ext: &[f64]) -> f64 {
+        let mut ct = vec![0.0; self.disc.dofs.num_dofs];
+        constraint_forces(self.model, self.disc, &state.multipliers, &mut ct);
+        norm(f_ext).max(norm(&state.f_int)).max(norm(&ct))
     }
 
     /// Relative equilibrium residual of `(u, mu)` on the free equations (the step's force scale

@@ -187,6 +187,26 @@ fn sparse_assembly_equals_dense_reference() {
     assert!(asym <= 1e-10 * kmax, "asymmetry {asym:e}");
 }
 
+/// `B^T K^{-1} B` of sparse rows `B` over `n` equations, one solve per column.
+fn operator_by_column_solves(
+    solver: &mortex::solver::linear::SparseSolver,
+    rows: &[Vec<(usize, f64)>],
+    n: usize,
+) -> Vec<Vec<f64>> {
+    let mut reference = vec![vec![0.0; rows.len()]; rows.len()];
+    for (j, row) in rows.iter().enumerate() {
+        let mut x = vec![0.0; n];
+        for &(e, c) in row {
+            x[e] += c;
+        }
+        solver.solve(&mut x).unwrap();
+        for (i, r) in rows.iter().enumerate() {
+            reference[i][j] = r.iter().map(|&(e, c)| c * x[e]).sum();
+        }
+    }
+    reference
+}
+
 /// The interface operator `B^T K^{-1} B` of sparse rows `B` by forward substitution on the
 /// elimination-tree ancestors only (`SparseSolver::congruence`) against one full solve per
 /// column: a clamped elastic block (120 x 80 Quad4, 19k DOFs: faer picks a supernodal factor),
@@ -213,17 +233,7 @@ fn interface_operator_by_forward_substitution_equals_column_solves() {
     let rows: Vec<Vec<(usize, f64)>> = (0..60)
         .map(|_| (0..3).map(|_| (((rng.next() * 0.5 + 0.5) * n as f64) as usize % n, rng.next())).collect())
         .collect();
-    let mut reference = vec![vec![0.0; rows.len()]; rows.len()];
-    for (j, row) in rows.iter().enumerate() {
-        let mut x = vec![0.0; n];
-        for &(e, c) in row {
-            x[e] += c;
-        }
-        solver.solve(&mut x).unwrap();
-        for (i, r) in rows.iter().enumerate() {
-            reference[i][j] = r.iter().map(|&(e, c)| c * x[e]).sum();
-        }
-    }
+    let reference = operator_by_column_solves(&solver, &rows, n);
     let scale = reference.iter().flatten().fold(0.0_f64, |m, v| m.max(v.abs()));
     for from in [0, 25] {
         let d = solver.congruence(&rows, from).expect("a supernodal Cholesky factor");
@@ -488,17 +498,7 @@ fn block_factor_of_independent_bodies_equals_the_whole_factor() {
         let x_scale = x_ref.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let err = x.iter().zip(&x_ref).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
         assert!(err <= 1e-12 * x_scale, "solve: {:.1e}", err / x_scale);
-        let mut reference = vec![vec![0.0; rows.len()]; rows.len()];
-        for (j, row) in rows.iter().enumerate() {
-            let mut y = vec![0.0; n];
-            for &(e, c) in row {
-                y[e] += c;
-            }
-            whole.solve(&mut y).unwrap();
-            for (i, r) in rows.iter().enumerate() {
-                reference[i][j] = r.iter().map(|&(e, c)| c * y[e]).sum();
-            }
-        }
+        let reference = operator_by_column_solves(&whole, &rows, n);
         let scale = reference.iter().flatten().fold(0.0_f64, |m, v| m.max(v.abs()));
         let mut worst = 0.0f64;
         for from in [0, 15, 15] {
