@@ -347,7 +347,8 @@ impl SparseSolver {
     /// caller then solves column by column).
     ///
     /// Factored by blocks, it is the sum of the blocks' shares, each over the columns touching
-    /// it; a block whose factor and columns are those of the last call adds its kept share.
+    /// it (a simplicial block's by column solves); a block whose factor and columns are those
+    /// of the last call adds its kept share.
     pub fn congruence(&self, cols: &[Vec<(usize, f64)>], from: usize) -> Option<DMatrix<f64>> {
         let nb = cols.len();
         let out = match (&self.numeric, &self.llt_symbolic) {
