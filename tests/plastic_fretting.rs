@@ -243,7 +243,7 @@ fn yielding_flat_on_the_shipped_meshes_passes_its_wear_updates_at_8_increments()
 /// shipped meshes, through one gross-slip cycle: every step converges without a cut-back in at
 /// most 15 bulk Newton iterations. At the onset of slip (step 2) the elastic predictor leaves a
 /// residual of 0.13 (against the converged start's force scale) and plain Newton raises it pass
-/// by pass (to 0.88 in 10 passes), at every cut-back; such an increment is retried (no cut-back)
+/// by pass (to 0.88 in 10 passes); such an increment is retried (no cut-back)
 /// with a line search that cuts back each pass raising the residual along its direction, after
 /// which Newton converges quadratically. The bound counts the accepted attempt's iterations.
 #[test]
