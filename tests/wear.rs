@@ -618,7 +618,10 @@ fn partial_slip_stick_zone_never_wears() {
 /// over the last 30% of the run it is
 /// below a fifth of that peak (measured 0.096; 0.033 with the tighter controller, whose
 /// depths agree to 2.5%: the late rate is small and jump-sensitive, the bound sits above
-/// both and far below no decay).
+/// both and far below no decay). Since 2026-12-03 (the jump linearised at every stroke
+/// position, most likely) this run measures a rise of 6.6 and a late rate of 0.45 of the
+/// peak: its late transition falls inside the last 30% of the run, and the decay check
+/// fails (docs/validation.md, "Partial slip"; the bound is left as it was).
 #[test]
 #[ignore]
 fn partial_slip_wear_rate_rises_then_decays() {
