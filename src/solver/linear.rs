@@ -40,7 +40,7 @@ enum Numeric {
     Llt(Vec<f64>),
     /// Per independent block of the matrix, its Cholesky factor (see [`Block`]).
     Blocks(Vec<BlockFactor>),
-    Lu(Lu<usize, f64>),
+    Lu(Box<Lu<usize, f64>>),
 }
 
 /// Equations coupled to no others (independent bodies: contact couples them only through the
@@ -289,9 +289,9 @@ impl SparseSolver {
                 factor_llt(s, mat, &mut l_values)?;
                 Numeric::Llt(l_values)
             }
-            (None, Some(s)) => {
-                Numeric::Lu(Lu::try_new_with_symbolic(s.clone(), mat).map_err(|e| numeric_err(format!("{e:?}")))?)
-            }
+            (None, Some(s)) => Numeric::Lu(Box::new(
+                Lu::try_new_with_symbolic(s.clone(), mat).map_err(|e| numeric_err(format!("{e:?}")))?,
+            )),
             (None, None) => return Err(LinearSolverError::NotFactored),
         };
         Ok(())
