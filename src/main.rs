@@ -324,6 +324,7 @@ fn bench_wear(path: PathBuf, at: &[u64]) -> Result<(), String> {
     }
     let _ = std::fs::remove_file(&file);
     let _ = std::fs::remove_file(file.with_extension("xdmf"));
+    let _ = std::fs::remove_file(format!("{}_contact.csv", file.with_extension("").display()));
     Ok(())
 }
 

@@ -7,10 +7,22 @@
 use mortex::io::checkpoint;
 use std::path::{Path, PathBuf};
 
+/// The running test's scratch directory (the harness names each test's thread after the test).
+fn scratch_dir() -> PathBuf {
+    let test = std::thread::current().name().unwrap_or("main").replace("::", "_");
+    std::env::temp_dir().join(format!("mortex-kill-{}-{test}", std::process::id()))
+}
+
 fn tmpfile(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("mortex-kill-{}", std::process::id()));
+    let d = scratch_dir();
     std::fs::create_dir_all(&d).unwrap();
     d.join(name)
+}
+
+/// Removes the running test's scratch files once its checks passed (a failing test keeps
+/// them): each test writes about a gigabyte of checkpoints.
+fn clean_scratch() {
+    let _ = std::fs::remove_dir_all(scratch_dir());
 }
 
 /// Starts `mortex run case -o <name>.h5`, kills it (SIGKILL) after `delay`, then resumes with
@@ -144,6 +156,7 @@ fn kill_minus_nine_then_resume_is_bit_identical() {
     }
     eprintln!("resumed from steps {resumed_from:?} of {k_ref}");
     assert!(resumed_from.len() >= 3, "most kills must land mid-run (resumed from {resumed_from:?})");
+    clean_scratch();
 }
 
 /// Every f64 and integer of a checkpoint group (the wear state included), by its bits.
@@ -268,4 +281,5 @@ fn kill_during_wear(name: &str, cycles_line: &str, cycles: u64, edits: &[(&str, 
     }
     eprintln!("wear run{tag} ({computed} wear updates, {k_ref} steps, {wall:?}): resumed from steps {resumed_from:?}");
     assert!(resumed_from.len() >= 3, "most kills must land mid-run (resumed from {resumed_from:?})");
+    clean_scratch();
 }
