@@ -37,11 +37,6 @@ enum StepOutcome {
     NotConverged { iterations: usize, residual: f64 },
 }
 
-/// The contact sets of a Newton iteration (semi-smooth Newton on the Alart-Curnier conditions):
-/// normal row `k` is active when `lambda_k + eps_n g_k / int Phi_k <= 0`, each friction row has
-/// its Coulomb status; with the weighted gaps and slips they were decided from. Slip is the
-/// increment of the weighted tangential relative displacement since the last converged state
-/// (objective under cyclic loading).
 /// One monolithic Newton system ([`StaticAnalysis::newton_system`]).
 #[derive(Debug, Clone)]
 pub struct NewtonSystem {
@@ -66,6 +61,11 @@ impl NewtonSystem {
     }
 }
 
+/// The contact sets of a Newton iteration (semi-smooth Newton on the Alart-Curnier conditions):
+/// normal row `k` is active when `lambda_k + eps_n g_k / int Phi_k <= 0`, each friction row has
+/// its Coulomb status; with the weighted gaps and slips they were decided from. Slip is the
+/// increment of the weighted tangential relative displacement since the last converged state
+/// (objective under cyclic loading).
 #[derive(Debug, Clone)]
 struct ContactSets {
     active: Vec<bool>,
@@ -635,16 +635,14 @@ impl<'m> StaticAnalysis<'m> {
             self.last_active = sets.active.iter().filter(|&&a| a).count();
             sets.log(step, it, set_changed);
             // 2. Bulk: internal force (and tangent) at u.
-            self.assemble_trial(&u, &state.history, need_tangent);
             // 3. Constraint rows by their laws, their forces C^T mu, and their tangent entries.
-            let laws = row_laws(&disc.contact, &sets.active, &sets.status);
-            let (g_scale, slip_res) = self.constraint_residual(&u, &mu, &sets, &laws, &mut r[nf..], &mut ct_mu);
-            if need_tangent && !disc.contact.rows.is_empty() {
-                self.scatter_contact_tangent(&laws);
-            }
-            for (i, &g) in disc.dofs.free.iter().enumerate() {
-                r[i] = f_ext[g] - self.trial_f_int[g] - ct_mu[g];
-            }
+            let (g_scale, slip_res) = self.monolithic_residual(
+                (&u, &mu),
+                &state.history,
+                (&sets, &f_ext),
+                need_tangent,
+                (&mut r, &mut ct_mu),
+            );
             // 4. Norms: forces, gaps, free multipliers, each against its own scale.
             let norms = self.residual_norms(&r, &f_ext, &ct_mu, &mu, &sets, g_scale, slip_res, &mut step_scale);
             res = norms.residual;
@@ -733,17 +731,9 @@ impl<'m> StaticAnalysis<'m> {
         };
         let mut f_ext = vec![0.0; disc.dofs.num_dofs];
         m.external_force(t, &mut f_ext);
-        self.assemble_trial(u, &state.history, true);
-        let laws = row_laws(&disc.contact, &sets.active, &sets.status);
         let mut rhs = vec![0.0; nf + nm];
         let mut ct_mu = vec![0.0; disc.dofs.num_dofs];
-        self.constraint_residual(u, mu, &sets, &laws, &mut rhs[nf..], &mut ct_mu);
-        if !disc.contact.rows.is_empty() {
-            self.scatter_contact_tangent(&laws);
-        }
-        for (i, &g) in disc.dofs.free.iter().enumerate() {
-            rhs[i] = f_ext[g] - self.trial_f_int[g] - ct_mu[g];
-        }
+        self.monolithic_residual((u, mu), &state.history, (&sets, &f_ext), true, (&mut rhs, &mut ct_mu));
         let pattern = &self.assembler.pattern.symbolic;
         let (cp, ri) = (pattern.col_ptr(), pattern.row_idx());
         let mut matrix = DMatrix::zeros(nf + nm, nf + nm);
@@ -753,6 +743,33 @@ impl<'m> StaticAnalysis<'m> {
             }
         }
         Some(NewtonSystem { rhs, matrix, alpha: self.alpha, num_free: nf, sets })
+    }
+
+    /// The monolithic Newton right-hand side at `(u, mu)` from the converged `history` for the
+    /// contact sets `sets`: the free equations' force residual `f_ext - f_int - C^T mu`, then
+    /// the constraint rows by their laws, into `r`; `C^T mu` into `ct_mu`. With `tangent`, the
+    /// matrix too (bulk tangent, contact entries by the laws). Returns what
+    /// [`Self::constraint_residual`] returns.
+    fn monolithic_residual(
+        &mut self,
+        (u, mu): (&[f64], &[f64]),
+        history: &[PlasticState],
+        (sets, f_ext): (&ContactSets, &[f64]),
+        tangent: bool,
+        (r, ct_mu): (&mut [f64], &mut [f64]),
+    ) -> (f64, f64) {
+        let disc = self.disc;
+        let nf = disc.dofs.num_free;
+        self.assemble_trial(u, history, tangent);
+        let laws = row_laws(&disc.contact, &sets.active, &sets.status);
+        let scales = self.constraint_residual(u, mu, sets, &laws, &mut r[nf..], ct_mu);
+        if tangent && !disc.contact.rows.is_empty() {
+            self.scatter_contact_tangent(&laws);
+        }
+        for (i, &g) in disc.dofs.free.iter().enumerate() {
+            r[i] = f_ext[g] - self.trial_f_int[g] - ct_mu[g];
+        }
+        scales
     }
 
     /// Residual of the constraint rows into `r` (one entry per multiplier: ties and active
@@ -1263,6 +1280,7 @@ impl<'m> StaticAnalysis<'m> {
         // in here as elastic ones: their kept stiffnesses exist or not depending on the passes
         // since the last re-cut, which a restart does not repeat, so the force is integrated
         // (the same bits however the run got here).
+        let from_kept = self.assembler.elastic_force_from_kept();
         self.assembler.set_elastic_force_from_kept(false);
         self.assembler.assemble(
             &AssemblyInput {
@@ -1281,7 +1299,7 @@ impl<'m> StaticAnalysis<'m> {
             },
             self.parallel,
         );
-        self.assembler.set_elastic_force_from_kept(true);
+        self.assembler.set_elastic_force_from_kept(from_kept);
         self.internal_force(u_conv, history);
         for (f, v) in self.trial_f_int.iter_mut().zip(&f_du) {
             *f += v;

@@ -308,6 +308,19 @@ fn stiffness_fingerprint(geometry: u64, inp: &AssemblyInput) -> u64 {
     h.finish()
 }
 
+/// Element `e`'s node coordinates and displacements `[u_x0, u_y0, u_x1, ...]` from `inp`.
+fn element_values(inp: &AssemblyInput, e: usize) -> ([Point2<f64>; 4], [f64; 8]) {
+    let nodes = &inp.elements.nodes[e];
+    let mut coords = [Point2::origin(); 4];
+    let mut u = [0.0; 8];
+    for a in 0..inp.elements.kind[e].num_nodes() {
+        coords[a] = inp.coords[nodes[a]];
+        u[2 * a] = inp.u[2 * nodes[a]];
+        u[2 * a + 1] = inp.u[2 * nodes[a] + 1];
+    }
+    (coords, u)
+}
+
 fn split_mut<'a, T>(mut s: &'a mut [T], bounds: impl Iterator<Item = usize>) -> Vec<&'a mut [T]> {
     let mut out = Vec::new();
     let mut start = 0;
@@ -381,6 +394,11 @@ impl Assembler {
         self.elastic_force_from_kept = on;
     }
 
+    /// Whether [`Self::set_elastic_force_from_kept`] is on.
+    pub fn elastic_force_from_kept(&self) -> bool {
+        self.elastic_force_from_kept
+    }
+
     /// The stresses of the linear elastic elements at `inp.u` into `stress` (point order);
     /// the points of other materials are left alone.
     pub fn elastic_stresses(&self, inp: &AssemblyInput, stress: &mut [Stress4]) {
@@ -390,16 +408,9 @@ impl Assembler {
             if !matches!(material, Material::Elastic(_)) {
                 continue;
             }
-            let (kind, nodes) = (el.kind[e], &el.nodes[e]);
-            let mut coords = [Point2::origin(); 4];
-            let mut u = [0.0; 8];
-            for a in 0..kind.num_nodes() {
-                coords[a] = inp.coords[nodes[a]];
-                u[2 * a] = inp.u[2 * nodes[a]];
-                u[2 * a + 1] = inp.u[2 * nodes[a] + 1];
-            }
+            let (coords, u) = element_values(inp, e);
             let input = ElementInput {
-                kind,
+                kind: el.kind[e],
                 coords,
                 u,
                 rule: &inp.rules[el.rule[e]],
@@ -448,15 +459,7 @@ impl Assembler {
             for e in b0..b1 {
                 let k = e - b0;
                 let kind = el.kind[e];
-                let nn = kind.num_nodes();
-                let nodes = &el.nodes[e];
-                let mut coords = [Point2::origin(); 4];
-                let mut u = [0.0; 8];
-                for a in 0..nn {
-                    coords[a] = inp.coords[nodes[a]];
-                    u[2 * a] = inp.u[2 * nodes[a]];
-                    u[2 * a + 1] = inp.u[2 * nodes[a] + 1];
-                }
+                let (coords, u) = element_values(inp, e);
                 let (pa, pb) = (el.point_offset[e] - p0, el.point_offset[e + 1] - p0);
                 let (sa, sb) = (el.state_offset[e] - s0, el.state_offset[e + 1] - s0);
                 let input = ElementInput {
