@@ -44,6 +44,7 @@ pub mod model;
 pub mod mortar;
 pub mod moving;
 pub mod post;
+pub mod relocation;
 pub mod scenes;
 pub mod solver;
 pub mod state;

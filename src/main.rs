@@ -12,6 +12,7 @@ mod cli {
     pub mod bench;
     pub mod convergence;
     pub mod pareto;
+    pub mod relocation;
     pub mod study;
 }
 
@@ -153,6 +154,10 @@ enum StudyCommand {
         #[command(flatten)]
         runs: StudyRuns,
     },
+    /// Node relocation (the ALE practice of commercial wear codes) against the virtual surface on
+    /// a case wearing a real boundary (a file: `case`, `output`, `cycles_per_update`, `layers`):
+    /// `<output>/relocation.csv`, `.md` and `relocation.png`.
+    Relocation { file: PathBuf },
     /// Gather a study whose runs ran elsewhere (a Slurm job array written by `--slurm`): its
     /// table and chart, as the local study writes them; runs not done yet are an error.
     Gather { file: PathBuf },
@@ -208,6 +213,9 @@ fn main() -> ExitCode {
         }
         Command::Study { study: StudyCommand::Pareto { file, runs } } => study_pareto(&file, study_execution(runs)),
         Command::Study { study: StudyCommand::Gather { file } } => study_gather(&file),
+        Command::Study { study: StudyCommand::Relocation { file } } => cli::relocation::relocation(&file)
+            .map(|md| println!("{}: table {}", file.display(), md.display()))
+            .map_err(|e| e.to_string()),
         Command::Study { study: StudyCommand::Task { runs, index } } => study_task(&runs, index),
         Command::Plot { result, wear: true, output, .. } => {
             let out = output.unwrap_or_else(|| {

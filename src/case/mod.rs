@@ -608,6 +608,19 @@ fn prescribed_stroke(raw: &CaseFile, bodies: &[&String]) -> f64 {
 /// Parses and validates case text; `path` names the file in errors, relative mesh files are
 /// resolved against `base`.
 pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, CaseError> {
+    parse_with_nodes(text, path, base, name, &[])
+}
+
+/// [`parse`], with the nodes of the named bodies at given coordinates (same mesh topology; the
+/// node-relocation baseline moves them, see [`crate::relocation`]). A body whose node count
+/// differs, or whose moved mesh inverts a cell, is an error naming the body.
+pub fn parse_with_nodes(
+    text: &str,
+    path: &str,
+    base: &Path,
+    name: &str,
+    nodes: &[(String, Vec<Point2<f64>>)],
+) -> Result<Case, CaseError> {
     let mut raw: CaseFile =
         toml::from_str(text).map_err(|e| CaseError::Toml { path: path.to_string(), message: e.to_string() })?;
     let cx = Ctx { path };
@@ -615,7 +628,7 @@ pub fn parse(text: &str, path: &str, base: &Path, name: &str) -> Result<Case, Ca
     let mut b = ModelBuilder::new(hyp);
 
     let (mat_names, mat_models) = add_materials(&cx, hyp, &raw.materials, &mut b)?;
-    let body_names = add_bodies(&cx, hyp, &raw.bodies, &mat_names, &mat_models, base, &mut b)?;
+    let body_names = add_bodies(&cx, hyp, &raw.bodies, &mat_names, &mat_models, base, nodes, &mut b)?;
     let curves = add_curves(&cx, &raw.curves, &mut b)?;
     add_rigid_sets(&cx, &raw.rigid, &body_names, &mut b)?;
     add_bcs(&cx, &raw.bcs, &body_names, &curves, &mut b)?;
@@ -731,7 +744,9 @@ fn add_materials<'a>(
     Ok((mat_names, mat_models))
 }
 
-/// `[[bodies]]`: adds each body's mesh, material, thickness and formulation; returns their names.
+#[allow(clippy::too_many_arguments)]
+/// `[[bodies]]`: adds each body's mesh (its nodes moved where `nodes` names it), material,
+/// thickness and formulation; returns their names.
 fn add_bodies<'a>(
     cx: &Ctx,
     hyp: PlaneHypothesis,
@@ -739,6 +754,7 @@ fn add_bodies<'a>(
     mat_names: &[&str],
     mat_models: &[MaterialModel],
     base: &Path,
+    nodes: &[(String, Vec<Point2<f64>>)],
     b: &mut ModelBuilder,
 ) -> Result<Vec<&'a str>, CaseError> {
     if bodies.is_empty() {
@@ -775,7 +791,15 @@ fn add_bodies<'a>(
             None if mat_models[mi] == MaterialModel::J2Plastic => Formulation::BBar,
             None => Formulation::Standard,
         };
-        let mesh = build_mesh(&bs.mesh, base).map_err(|msg| cx.err(k("mesh"), msg))?;
+        let mut mesh = build_mesh(&bs.mesh, base).map_err(|msg| cx.err(k("mesh"), msg))?;
+        if let Some((_, moved)) = nodes.iter().find(|(n, _)| n == &bs.name) {
+            if moved.len() != mesh.num_nodes() {
+                let msg = format!("{} moved nodes given for a mesh of {} nodes", moved.len(), mesh.num_nodes());
+                return Err(cx.err(k("mesh"), msg));
+            }
+            mesh.nodes.clone_from(moved);
+            mesh.validate().map_err(|e| cx.err(k("mesh"), format!("with its nodes moved: {e}")))?;
+        }
         b.add_body(&bs.name, mesh, mi, formulation, thickness);
     }
     Ok(body_names)

@@ -7,6 +7,7 @@
 
 pub mod generate;
 pub mod gmsh;
+pub mod relocate;
 
 use nalgebra::{Point2, Vector2};
 use std::collections::{BTreeMap, HashMap};
