@@ -138,3 +138,16 @@ fn one_layer_relocation_fails_when_the_wear_passes_the_top_cells() {
         max_depth(last)
     );
 }
+
+/// A case the baseline cannot run is an error naming the key: a worn cut (not a real boundary)
+/// has no nodes to move.
+#[test]
+fn a_case_wearing_a_cut_is_refused_with_the_key() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("wear_cases/sliding_wear.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let err = match RelocationCase::new(&text, "sliding_wear.toml", path.parent().unwrap(), "sliding_wear") {
+        Ok(_) => panic!("a worn cut was accepted"),
+        Err(e) => e.to_string(),
+    };
+    assert!(err.contains("sliding_wear.toml") && err.contains("wear[0].body"), "{err}");
+}

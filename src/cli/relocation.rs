@@ -89,6 +89,15 @@ pub fn relocation(file: &Path) -> Result<PathBuf, StudyError> {
     });
     std::fs::create_dir_all(&out).map_err(io_err(&out))?;
 
+    // Runs ended, out of the virtual surface and each relocation domain (on a terminal only).
+    let bar = indicatif::ProgressBar::new(1 + 1 + spec.layers.len() as u64);
+    if let Ok(style) =
+        indicatif::ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} run {pos}/{len} {msg}")
+    {
+        bar.set_style(style);
+    }
+    bar.enable_steady_tick(std::time::Duration::from_millis(200));
+    bar.set_message("virtual surface");
     let run_err = |e: mortex::relocation::RelocationError| StudyError::Io {
         path: case_path.display().to_string(),
         msg: e.to_string(),
@@ -104,6 +113,8 @@ pub fn relocation(file: &Path) -> Result<PathBuf, StudyError> {
     tracing::info!(seconds = runs[0].seconds, "virtual surface run done");
     let domains: Vec<Option<usize>> = std::iter::once(None).chain(spec.layers.iter().map(|&l| Some(l))).collect();
     for layers in domains {
+        bar.inc(1);
+        bar.set_message(format!("relocation, {}", layers.map_or("whole body".into(), |l| format!("{l} layers"))));
         let t = Instant::now();
         let (snapshots, failure) =
             run_relocated(&case, RelocationParams { cycles_per_update: dn, layers }).map_err(run_err)?;
@@ -114,6 +125,7 @@ pub fn relocation(file: &Path) -> Result<PathBuf, StudyError> {
         tracing::info!(%label, seconds = t.elapsed().as_secs_f64(), ?failure, "relocation run done");
         runs.push(MethodRun { label, snapshots, failure, seconds: t.elapsed().as_secs_f64() });
     }
+    bar.finish_and_clear();
     write_csv(&out, &runs)?;
     chart(&out, &runs);
     write_summary(&out, file, &case_path, case.cell_size(), &runs)
@@ -237,7 +249,9 @@ fn chart(out: &Path, runs: &[MethodRun]) {
             })
             .collect()
     };
-    let depth = series(&|s| Some((s.cycle as f64, 1e3 * max_depth(s))), true);
+    // The virtual surface last, so that each relocation run keeps its colour in every panel.
+    let mut depth = series(&|s| Some((s.cycle as f64, 1e3 * max_depth(s))), true);
+    depth.rotate_left(1);
     let error = series(
         &|s| reference_at(runs, s.cycle).map(|v| (1e3 * max_depth(v), 100.0 * (max_depth(s) / max_depth(v) - 1.0))),
         false,
