@@ -345,6 +345,10 @@ fn plot_pressure_over_a_cycle_png() {
     let (ok, text) = run(&["plot", "uw.h5", "--cycle", "7", "--reference", "uw.h5"], &d);
     assert!(ok && text.contains("cycle 7: 4 increments"), "{text}");
     assert_eq!(png_size(&d.join("uw_cycle7.png")), (900, 4 * 380), "IHDR size");
+    // The same chart as SVG beside it, its text in the shipped font's family.
+    let svg = std::fs::read_to_string(d.join("uw_cycle7.svg")).unwrap();
+    assert!(svg.contains("<svg") && svg.contains("width=\"900\"") && svg.contains("height=\"1520\""), "SVG header");
+    assert!(svg.contains("sans-serif") && svg.contains("cycle 7"), "SVG labels");
     let (ok, text) = run(&["plot", "uw.h5", "--wear"], &d);
     assert!(ok, "{text}");
     assert_eq!(png_size(&d.join("uw_wear.png")), (1000, (1 + 2) * 350), "IHDR size");

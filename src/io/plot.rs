@@ -2,9 +2,8 @@
 //! bound `mu p`, stick/slip status, the slip of the step and the accumulated slip along the
 //! interface, read back from a result file for any output step.
 //!
-//! Drawn with plotters' bitmap backend; text needs a TrueType font, looked up in `MORTEX_FONT`
-//! and then in the usual system places (DejaVu Sans, Liberation Sans; `.ci/setup` installs
-//! `fonts-dejavu-core` when none is there).
+//! Drawn with plotters' bitmap backend (study charts also as SVG); the labels use the DejaVu
+//! Sans shipped in `src/io/fonts/` (or the TrueType file `MORTEX_FONT` names).
 
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
@@ -15,7 +14,7 @@ use std::sync::OnceLock;
 pub enum PlotError {
     #[error("{path}: {msg}")]
     Input { path: String, msg: String },
-    #[error("no TrueType font for the plot labels (looked in MORTEX_FONT and {tried:?}); install fonts-dejavu-core or set MORTEX_FONT to a .ttf file")]
+    #[error("no usable TrueType font for the plot labels ({tried:?}): set MORTEX_FONT to a readable .ttf file, or unset it for the shipped DejaVu Sans")]
     NoFont { tried: Vec<String> },
     #[error("{path}: drawing the plot: {msg}")]
     Draw { path: String, msg: String },
@@ -114,36 +113,25 @@ pub fn read_profile(path: &Path, step: Option<usize>, pair: Option<&str>) -> Res
     })
 }
 
-/// Font for the labels, registered once per process.
+/// DejaVu Sans, shipped with the engine (`src/io/fonts/`, Bitstream Vera licence): charts
+/// need no system font.
+const SHIPPED_FONT: &[u8] = include_bytes!("fonts/DejaVuSans.ttf");
+
+/// Font for the labels, registered once per process: the TrueType file `MORTEX_FONT` names if
+/// set, the shipped DejaVu Sans otherwise.
 pub(crate) fn register_font() -> Result<(), PlotError> {
     static FONT: OnceLock<Result<(), Vec<String>>> = OnceLock::new();
     FONT.get_or_init(|| {
-        let mut tried: Vec<String> = vec![];
-        let mut candidates: Vec<PathBuf> = std::env::var_os("MORTEX_FONT").map(PathBuf::from).into_iter().collect();
-        candidates.extend(
-            [
-                "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
-                "/usr/share/fonts/TTF/DejaVuSans.ttf",
-                "/usr/share/fonts/dejavu/DejaVuSans.ttf",
-                "/usr/share/fonts/dejavu-sans-fonts/DejaVuSans.ttf",
-                "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
-                "/Library/Fonts/Arial.ttf",
-                "C:\\Windows\\Fonts\\arial.ttf",
-            ]
-            .iter()
-            .map(PathBuf::from),
-        );
-        for c in candidates {
-            tried.push(c.display().to_string());
-            if let Ok(bytes) = std::fs::read(&c) {
+        let bytes: &'static [u8] = match std::env::var_os("MORTEX_FONT").map(PathBuf::from) {
+            Some(path) => match std::fs::read(&path) {
                 // plotters keeps the font for the whole process.
-                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
-                if plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_ok() {
-                    return Ok(());
-                }
-            }
-        }
-        Err(tried)
+                Ok(bytes) => Box::leak(bytes.into_boxed_slice()),
+                Err(_) => return Err(vec![path.display().to_string()]),
+            },
+            None => SHIPPED_FONT,
+        };
+        plotters::style::register_font("sans-serif", FontStyle::Normal, bytes)
+            .map_err(|_| vec![std::env::var("MORTEX_FONT").unwrap_or_else(|_| "the shipped DejaVu Sans".into())])
     })
     .clone()
     .map_err(|tried| PlotError::NoFont { tried })
@@ -172,10 +160,10 @@ fn span(values: impl Iterator<Item = f64>) -> (f64, f64) {
     (lo - pad, hi + pad)
 }
 
-type Chart<'a, 'b> = ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
-
 /// The legend box of a panel (upper right).
-fn legend<'a, 'b: 'a>(ch: &mut Chart<'a, 'b>) -> Result<(), String> {
+fn legend<'a, DB: DrawingBackend + 'a>(
+    ch: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+) -> Result<(), String> {
     ch.configure_series_labels()
         .background_style(WHITE.mix(0.9))
         .border_style(BLACK)
@@ -403,12 +391,24 @@ pub struct Series {
     pub joined: bool,
 }
 
-/// An XY chart of several series, one panel per `(title, x
-/// label, y label, series)`: the chart of a study. Non-finite points are left out.
+/// An XY chart of several series, one panel per `(title, x label, y label, series)`: the chart
+/// of a study, written as `out` (PNG) and beside it with the extension `.svg`. Non-finite
+/// points are left out.
 pub fn write_xy_png(panels: &[(String, String, String, Vec<Series>)], out: &Path) -> Result<(), PlotError> {
     register_font()?;
+    let size = (900, 380 * panels.len().max(1) as u32);
+    draw_xy(BitMapBackend::new(out, size).into_drawing_area(), panels, out)?;
+    let svg = out.with_extension("svg");
+    draw_xy(SVGBackend::new(&svg, size).into_drawing_area(), panels, &svg)
+}
+
+/// [`write_xy_png`] on any plotters backend.
+fn draw_xy<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    panels: &[(String, String, String, Vec<Series>)],
+    out: &Path,
+) -> Result<(), PlotError> {
     let draw_err = |e: &dyn std::fmt::Display| PlotError::Draw { path: out.display().to_string(), msg: e.to_string() };
-    let root = BitMapBackend::new(out, (900, 380 * panels.len().max(1) as u32)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| draw_err(&e))?;
     let areas = root.split_evenly((panels.len().max(1), 1));
     let palette = PALETTE;
