@@ -515,6 +515,9 @@ fn run(
     if let Some(file) = &restart {
         writer.set_restart_origin(file, state.step).map_err(|e| e.to_string())?;
     }
+    if let Some((pair, r)) = &c.reference {
+        writer.write_reference(pair, r).map_err(|e| e.to_string())?;
+    }
     let first_step = state.step;
     let bar = progress_bar(quiet, wear_cycles, model, &state);
     let started = std::time::Instant::now();
@@ -687,6 +690,18 @@ fn plot(
     });
     plot::write_png(&profile, xlim, &out).map_err(|e| e.to_string())?;
     println!("contact '{}', step {}: {}", profile.pair, profile.step, out.display());
+    if let Some(r) = &profile.reference {
+        let (p, q) = plot::reference_errors(&profile, r);
+        let name = if r.c.is_some() { "Cattaneo-Mindlin" } else { "Hertz" };
+        println!(
+            "  against {name} (p0 = {:.4}, a = {:.5}{}): pressure L2 over |x - x0| < a {:.2}%{}",
+            r.p0,
+            r.a,
+            r.c.map_or(String::new(), |c| format!(", c = {c:.5}")),
+            100.0 * p,
+            q.map_or(String::new(), |q| format!(", shear L2 {:.2}%", 100.0 * q))
+        );
+    }
     Ok(())
 }
 

@@ -129,3 +129,52 @@ pub fn relative_l2_error(samples: &[(f64, f64)], exact: impl Fn(f64) -> f64, lo:
         num.sqrt()
     }
 }
+
+/// An analytical line-contact solution drawn and measured beside a computed profile (Johnson,
+/// *Contact Mechanics*, 1985, sec. 4.3 and 7.1): the Hertz pressure
+/// `p(x) = p0 sqrt(1 - (x - x0)^2 / a^2)` with `a = sqrt(4 P R / (pi E*))`, `p0 = 2 P / (pi a)`,
+/// and under a tangential force `Q < mu P` the Cattaneo-Mindlin shear
+/// `q(x) = mu p0 [sqrt(1 - (x - x0)^2 / a^2) - (c / a) sqrt(1 - (x - x0)^2 / c^2)]` with a stick
+/// zone `|x - x0| <= c = a sqrt(1 - Q / (mu P))` (the second term inside it only).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AnalyticContact {
+    pub p0: f64,
+    pub a: f64,
+    pub x0: f64,
+    /// Cattaneo-Mindlin: the friction coefficient and the stick zone's half-width.
+    pub mu: f64,
+    pub c: Option<f64>,
+}
+
+impl AnalyticContact {
+    /// Hertz line contact under `load` per unit thickness, effective radius `radius`, contact
+    /// modulus `e_star`, centred at `x0`.
+    pub fn hertz(load: f64, radius: f64, e_star: f64, x0: f64) -> Self {
+        let a = (4.0 * load * radius / (std::f64::consts::PI * e_star)).sqrt();
+        AnalyticContact { p0: 2.0 * load / (std::f64::consts::PI * a), a, x0, mu: 0.0, c: None }
+    }
+
+    /// The same contact under a tangential force `tangential` (same units as the load
+    /// `load`) with friction `mu`; `None` in gross slip (`|Q| >= mu P`: no stick zone).
+    pub fn with_tangential(self, load: f64, tangential: f64, mu: f64) -> Option<Self> {
+        let ratio = tangential.abs() / (mu * load);
+        (mu > 0.0 && ratio < 1.0).then(|| AnalyticContact { mu, c: Some(self.a * (1.0 - ratio).sqrt()), ..self })
+    }
+
+    pub fn pressure(&self, x: f64) -> f64 {
+        let s = (x - self.x0) / self.a;
+        if s.abs() < 1.0 {
+            self.p0 * (1.0 - s * s).sqrt()
+        } else {
+            0.0
+        }
+    }
+
+    /// Magnitude of the Cattaneo-Mindlin shear (`None` without a stick zone).
+    pub fn shear(&self, x: f64) -> Option<f64> {
+        let c = self.c?;
+        let s = (x - self.x0) / c;
+        let stick = if s.abs() < 1.0 { c / self.a * (1.0 - s * s).sqrt() } else { 0.0 };
+        Some(self.mu * (self.pressure(x) - self.p0 * stick))
+    }
+}

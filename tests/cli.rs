@@ -315,7 +315,20 @@ fn plot_contact_profile_png() {
         let (ok, text) = run(&args, &d);
         assert!(ok, "{args:?}: {text}");
         assert_eq!(png_size(&d.join(png)), (1000, 700), "{png}: IHDR size");
+        // The case's [reference]: p0 and a of its header, c = a sqrt(1 - Q / (mu P)).
+        assert!(text.contains("against Cattaneo-Mindlin (p0 = 857.06") && text.contains("a = 0.0742"), "{text}");
+        assert!(text.contains("c = 0.0525"), "{text}");
     }
+    let (_, text) = run(&["plot", "cm.h5"], &d);
+    let figure = |label: &str| -> f64 {
+        let at = text.find(label).unwrap_or_else(|| panic!("{label}: {text}")) + label.len();
+        text[at..].trim_start().split('%').next().unwrap().parse().unwrap()
+    };
+    // Half-space theory against the finite cylinders' discretisation: 2% for the pressure
+    // (the Hertz case meets 1%), 5% for the shear, whose stick-zone edge carries its kink
+    // between two nodes (tests/cases.rs checks the stick zone's width to 3%).
+    let (p, q) = (figure("pressure L2 over |x - x0| < a"), figure("shear L2"));
+    assert!(p < 2.0 && q < 5.0, "pressure {p}%, shear {q}%");
     std::fs::write(d.join("good.toml"), GOOD).unwrap();
     assert!(run(&["run", "good.toml", "--quiet", "-o", "plain.h5"], &d).0);
     for (args, needle) in [
@@ -593,6 +606,39 @@ pressure = 10.0
     std::fs::write(d.join("open.toml"), case(r#"["left", "bottom", "right"]"#)).unwrap();
     let (ok, text) = run(&["run", "open.toml", "--quiet"], &d);
     assert!(ok, "{text}");
+}
+
+/// `[reference]` errors: a tangential force at or above `mu P` (no stick zone), an unknown
+/// contact, a tangential force on a Hertz reference, a negative radius. Each a clear error
+/// naming the file and key, before anything runs.
+#[test]
+fn reference_bad_inputs_give_clear_errors() {
+    let d = tmpdir("reference_bad");
+    let good = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("wear_cases/cattaneo_mindlin.toml"))
+        .unwrap();
+    let sub = |from: &str, to: &str| {
+        assert!(good.contains(from), "{from}");
+        good.replace(from, to)
+    };
+    expect_error(
+        &d,
+        "gross",
+        &sub("tangential = 15.0", "tangential = 30.0"),
+        &["gross.toml", "reference.tangential", "gross slip"],
+    );
+    expect_error(
+        &d,
+        "nope",
+        &sub("kind = \"cattaneo_mindlin\"", "kind = \"cattaneo_mindlin\"\ncontact = \"nope\""),
+        &["nope.toml", "reference.contact", "nope"],
+    );
+    expect_error(
+        &d,
+        "hertz_q",
+        &sub("kind = \"cattaneo_mindlin\"", "kind = \"hertz\""),
+        &["hertz_q.toml", "reference.tangential"],
+    );
+    expect_error(&d, "neg_r", &sub("radius = 5.0", "radius = -5.0"), &["neg_r.toml", "reference.radius"]);
 }
 
 /// Wear input errors: negative or NaN coefficient, a wearing cut in contact with nothing, an

@@ -91,6 +91,33 @@ pub struct CaseFile {
     pub wear: Vec<WearSpec>,
     /// Cycle jump of wear runs (default: adaptive).
     pub cycle_jump: Option<CycleJumpSpec>,
+    /// The analytical solution of the case's contact, written to the result file and drawn by
+    /// `mortex plot` beside the computed profile.
+    pub reference: Option<ReferenceSpec>,
+}
+
+/// `[reference]`: Hertz line contact (`kind = "hertz"`: effective `radius`, normal `load` per
+/// unit thickness) or Cattaneo-Mindlin partial slip (`"cattaneo_mindlin"`, also the
+/// `tangential` force below `mu load`, `mu` the contact's friction), centred at `centre` (default
+/// 0), for `contact` (a `[[contacts]]` name; default the first). The contact modulus follows
+/// from the two bodies' materials.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReferenceSpec {
+    pub kind: ReferenceKind,
+    pub contact: Option<String>,
+    pub radius: f64,
+    pub load: f64,
+    pub tangential: Option<f64>,
+    #[serde(default)]
+    pub centre: f64,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum ReferenceKind {
+    Hertz,
+    CattaneoMindlin,
 }
 
 /// A wearing surface: `cut` (a `[[cuts]]` name, the other side of a contact pair), the wear
@@ -495,6 +522,8 @@ pub struct Case {
     pub checkpoint_every: usize,
     /// Full-field interval in output steps (>= 1).
     pub fields_every: usize,
+    /// `[reference]`: the contact pair's name and its analytical solution.
+    pub reference: Option<(String, crate::post::AnalyticContact)>,
 }
 
 /// Contact multipliers when a case does not choose: coarse-grained, never finer than the other
@@ -662,6 +691,10 @@ pub fn parse_with_nodes(
     let model = b
         .build(load_path, times, np, raw.solver.linear)
         .map_err(|e| model_err(&cx, build_error_key(&raw, &wear_cuts, &e), e))?;
+    let reference = match &raw.reference {
+        Some(r) => Some(analytic_reference(&cx, r, &raw.contacts, &model)?),
+        None => None,
+    };
     let output = raw.output.file.clone().unwrap_or_else(|| PathBuf::from("results").join(format!("{name}.h5")));
     Ok(Case {
         name: name.to_string(),
@@ -676,7 +709,67 @@ pub fn parse_with_nodes(
             Some(0) => return Err(cx.err("output.fields_every", "must be at least 1")),
             Some(k) => k,
         },
+        reference,
     })
+}
+
+/// `[reference]`: the contact it names (its pair's name) and its analytical solution, with the
+/// contact modulus `1/E* = sum (1 - nu^2) / E` of the pair's two bodies (plane stress: `1/E`).
+fn analytic_reference(
+    cx: &Ctx,
+    r: &ReferenceSpec,
+    contacts: &[ContactSpec],
+    model: &Model,
+) -> Result<(String, crate::post::AnalyticContact), CaseError> {
+    let names: Vec<String> =
+        contacts.iter().enumerate().map(|(i, c)| c.name.clone().unwrap_or(format!("contact{i}"))).collect();
+    let i = match &r.contact {
+        None if !contacts.is_empty() => 0,
+        None => return Err(cx.err("reference", "the case has no contact to compare")),
+        Some(n) => contacts.iter().position(|c| c.name.as_ref() == Some(n)).ok_or_else(|| {
+            cx.err("reference.contact", format!("no contact named '{n}' (defined: {})", names.join(", ")))
+        })?,
+    };
+    let radius = cx.positive("reference.radius", r.radius)?;
+    let load = cx.positive("reference.load", r.load)?;
+    let centre = cx.finite("reference.centre", r.centre)?;
+    let mut compliance = 0.0;
+    for body in [&contacts[i].mortar, &contacts[i].other] {
+        let Some(b) = model.bodies.iter().find(|b| &b.name == body) else {
+            return Err(cx.err("reference.contact", format!("contact body '{body}' not found")));
+        };
+        let e = model.materials[b.material].elastic();
+        compliance += match e.hypothesis {
+            PlaneHypothesis::PlaneStrain => (1.0 - e.poisson * e.poisson) / e.young,
+            PlaneHypothesis::PlaneStress => 1.0 / e.young,
+        };
+    }
+    let hertz = crate::post::AnalyticContact::hertz(load, radius, 1.0 / compliance, centre);
+    let pair = model.initial().contact.pairs.get(i).map(|p| p.name.clone()).unwrap_or_else(|| names[i].clone());
+    match (r.kind, r.tangential) {
+        (ReferenceKind::Hertz, None) => Ok((pair, hertz)),
+        (ReferenceKind::Hertz, Some(_)) => Err(cx.err(
+            "reference.tangential",
+            "a Hertz reference has no tangential force (use kind = \"cattaneo_mindlin\")",
+        )),
+        (ReferenceKind::CattaneoMindlin, None) => {
+            Err(cx.err("reference.tangential", "missing: Cattaneo-Mindlin needs the tangential force"))
+        }
+        (ReferenceKind::CattaneoMindlin, Some(q)) => {
+            let q = cx.finite("reference.tangential", q)?;
+            let mu = contacts[i].friction;
+            hertz.with_tangential(load, q, mu).map(|h| (pair, h)).ok_or_else(|| {
+                cx.err(
+                    "reference.tangential",
+                    format!(
+                        "|Q| = {} is not below mu P = {} (friction {mu}): gross slip has no stick zone",
+                        q.abs(),
+                        mu * load
+                    ),
+                )
+            })
+        }
+    }
 }
 
 /// `[[materials]]`: adds each material's law; returns their names and models, in order.

@@ -555,6 +555,25 @@ impl ResultWriter {
         self.fields_every = every.max(1);
     }
 
+    /// Records the case's analytical solution for contact pair `pair` under `/reference`
+    /// (attributes `pair`, `p0`, `a`, `x0`, `mu` and, for Cattaneo-Mindlin, `c`), which
+    /// `mortex plot` draws beside the profile.
+    pub fn write_reference(&self, pair: &str, r: &crate::post::AnalyticContact) -> Result<(), OutputError> {
+        let Some(file) = self.file.as_ref() else { return Ok(()) };
+        let res: hdf5::Result<()> = (|| {
+            let g = file.create_group("reference")?;
+            write_str_attr(&g, "pair", pair)?;
+            for (name, v) in [("p0", r.p0), ("a", r.a), ("x0", r.x0), ("mu", r.mu)] {
+                write_attr(&g, name, &v)?;
+            }
+            if let Some(c) = r.c {
+                write_attr(&g, "c", &c)?;
+            }
+            Ok(())
+        })();
+        res.map_err(h5err(&self.partial_path, "writing the analytical reference"))
+    }
+
     /// Records in the file that this run resumed from step `step` of `origin`.
     pub fn set_restart_origin(&self, origin: &Path, step: usize) -> Result<(), OutputError> {
         let Some(file) = self.file.as_ref() else { return Ok(()) };

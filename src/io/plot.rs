@@ -35,6 +35,47 @@ pub struct ContactProfile {
     pub status: Option<Vec<u8>>,
     /// Friction coefficient (files written before it was stored: unknown).
     pub mu: Option<f64>,
+    /// The case's analytical solution for this pair (`[reference]`), if it gave one.
+    pub reference: Option<crate::post::AnalyticContact>,
+}
+
+/// The analytical reference a result file holds for `pair` (`/reference`), if any.
+fn read_reference(file: &hdf5::File, pair: &str) -> Option<crate::post::AnalyticContact> {
+    let g = file.group("reference").ok()?;
+    let name: hdf5::types::VarLenUnicode = g.attr("pair").ok()?.read_scalar().ok()?;
+    if name.as_str() != pair {
+        return None;
+    }
+    let get = |n: &str| g.attr(n).ok().and_then(|a| a.read_scalar::<f64>().ok());
+    Some(crate::post::AnalyticContact { p0: get("p0")?, a: get("a")?, x0: get("x0")?, mu: get("mu")?, c: get("c") })
+}
+
+/// Relative L2 deviation of the computed profile from its reference over `|x - x0| < a`
+/// (trapezoidal over the nodes): the pressure's, and the shear's magnitude for
+/// Cattaneo-Mindlin.
+pub fn reference_errors(p: &ContactProfile, r: &crate::post::AnalyticContact) -> (f64, Option<f64>) {
+    let inside: Vec<usize> = (0..p.x.len()).filter(|&i| (p.x[i] - r.x0).abs() < r.a).collect();
+    let l2 = |computed: &dyn Fn(usize) -> f64, exact: &dyn Fn(f64) -> f64| {
+        let (mut num, mut den) = (0.0, 0.0);
+        for w in inside.windows(2) {
+            let dx = p.x[w[1]] - p.x[w[0]];
+            for &i in w {
+                num += 0.5 * dx * (computed(i) - exact(p.x[i])).powi(2);
+                den += 0.5 * dx * exact(p.x[i]).powi(2);
+            }
+        }
+        if den > 0.0 {
+            (num / den).sqrt()
+        } else {
+            f64::NAN
+        }
+    };
+    let pressure = l2(&|i| p.pressure[i], &|x| r.pressure(x));
+    let shear = match (&p.shear, r.c) {
+        (Some(q), Some(_)) => Some(l2(&|i| q[i].abs(), &|x| r.shear(x).unwrap_or(0.0))),
+        _ => None,
+    };
+    (pressure, shear)
 }
 
 /// Reads the profile of `pair` (the only pair if `None`) at output step `step` (the last one
@@ -99,7 +140,9 @@ pub fn read_profile(path: &Path, step: Option<usize>, pair: Option<&str>) -> Res
         .map(|a| a.iter().copied().collect());
     // Frictionless pairs: the shear and slip series are zeros; draw them only with friction.
     let frictional = mu.is_some_and(|m| m > 0.0);
+    let reference = read_reference(&file, &pair);
     Ok(ContactProfile {
+        reference,
         pair,
         step,
         time,
@@ -209,6 +252,29 @@ pub fn write_png(p: &ContactProfile, xlim: (f64, f64), out: &Path) -> Result<(),
         .map_err(|e| de(&e))?
         .label("pressure p")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE.stroke_width(2)));
+    if let Some(r) = &p.reference {
+        // The analytical solution, sampled finely over the drawn range.
+        let xs: Vec<f64> = (0..=400).map(|k| xlim.0 + (xlim.1 - xlim.0) * k as f64 / 400.0).collect();
+        let (name, dark) = (if r.c.is_some() { "Cattaneo-Mindlin" } else { "Hertz" }, RGBColor(0, 0, 120));
+        ch.draw_series(DashedLineSeries::new(xs.iter().map(|&x| (x, r.pressure(x))), 6, 4, dark.stroke_width(1)))
+            .map_err(|e| de(&e))?
+            .label(format!("{name} pressure"))
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], dark));
+        if r.c.is_some() && friction {
+            // The computed shear's sign: the reference drawn on the same side.
+            let sign = if shear.iter().sum::<f64>() < 0.0 { -1.0 } else { 1.0 };
+            let dark_red = RGBColor(140, 0, 0);
+            ch.draw_series(DashedLineSeries::new(
+                xs.iter().map(|&x| (x, sign * r.shear(x).unwrap_or(0.0))),
+                6,
+                4,
+                dark_red.stroke_width(1),
+            ))
+            .map_err(|e| de(&e))?
+            .label(format!("{name} shear"))
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], dark_red));
+        }
+    }
     if friction {
         ch.draw_series(LineSeries::new(line(shear), RED.stroke_width(2)))
             .map_err(|e| de(&e))?
