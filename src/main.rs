@@ -13,6 +13,7 @@ mod cli {
     pub mod convergence;
     pub mod pareto;
     pub mod relocation;
+    pub mod stability;
     pub mod study;
 }
 
@@ -158,6 +159,13 @@ enum StudyCommand {
     /// a case wearing a real boundary (a file: `case`, `output`, `cycles_per_update`, `layers`):
     /// `<output>/relocation.csv`, `.md` and `relocation.png`.
     Relocation { file: PathBuf },
+    /// Classical against coarse-grained multipliers at growing mesh-density contrast (a tied
+    /// inclusion, Hertz contact with a finer cylinder): `<output>/stability.csv`, `.md`,
+    /// `tying.png` and `curved_contact.png`.
+    Stability {
+        #[arg(short, long, default_value = "results/stability")]
+        output: PathBuf,
+    },
     /// Gather a study whose runs ran elsewhere (a Slurm job array written by `--slurm`): its
     /// table and chart, as the local study writes them; runs not done yet are an error.
     Gather { file: PathBuf },
@@ -213,6 +221,9 @@ fn main() -> ExitCode {
         }
         Command::Study { study: StudyCommand::Pareto { file, runs } } => study_pareto(&file, study_execution(runs)),
         Command::Study { study: StudyCommand::Gather { file } } => study_gather(&file),
+        Command::Study { study: StudyCommand::Stability { output } } => cli::stability::stability(&output)
+            .map(|md| println!("stability: table {}", md.display()))
+            .map_err(|e| e.to_string()),
         Command::Study { study: StudyCommand::Relocation { file } } => cli::relocation::relocation(&file)
             .map(|md| println!("{}: table {}", file.display(), md.display()))
             .map_err(|e| e.to_string()),

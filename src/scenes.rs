@@ -1,6 +1,8 @@
 //! Model scenes shared by the tests, the criterion benches and `mortex bench`: an `n x n`
 //! `Quad4` plane-strain block pressed on top, the Hertz cylinder-on-block scene (with its check
-//! against Hertz' solution), and a fretting-like pair of blocks. Nothing in the library uses
+//! against Hertz' solution), a fretting-like pair of blocks, and the scenes where classical
+//! multipliers fail under density contrast (a tied inclusion, Hertz contact with a finer
+//! cylinder) that the tests and `mortex study stability` share. Nothing in the library uses
 //! them; the timings of `mortex bench` live in the binary.
 
 use crate::fem::kernel::Formulation;
@@ -204,4 +206,135 @@ pub fn fretting_blocks_model(steps: usize) -> Result<Model, crate::model::ModelE
         NewtonParams::default(),
         LinearSolverKind::Cholesky,
     )
+}
+
+/// Solves a one-step model to its end.
+fn solve_to_end(model: &Model) -> Result<crate::state::SimState, String> {
+    let mut analysis = crate::analysis::StaticAnalysis::new(model).map_err(|e| e.to_string())?;
+    let mut state = analysis.initial_state();
+    analysis.run(&mut state, |_, _| Ok(())).map_err(|e| e.to_string())?;
+    Ok(state)
+}
+
+/// Remote load of the tied-inclusion scene ([`tied_inclusion_oscillation`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InclusionLoad {
+    /// Uniform tension 100 MPa.
+    Tension,
+    /// Bending `sigma_xx = 20 (y - 5)` MPa.
+    Bending,
+}
+
+/// Host modulus of the stability scenes (steel, MPa) and Poisson's ratio.
+pub const STABILITY_E: f64 = 210_000.0;
+pub const STABILITY_NU: f64 = 0.3;
+
+/// A circular patch (radius 3 mm, `ratio` times finer than the host) tied into a 10 x 10 mm host
+/// (20 x 20 cells) under remote tension or bending, plane strain, patch modulus `e_patch`: the
+/// traction oscillation along the tie, `max abs(t - t_ref) / mean abs(t_ref)` over the
+/// multiplier nodes, and their count. The reference `t_ref` is the least-squares Fourier series
+/// of the computed traction up to the 4th harmonic (for an infinite host, Eshelby's inclusion
+/// has first harmonics only: Eshelby, Proc. R. Soc. A 241 (1957); the finite host adds smooth
+/// higher ones).
+pub fn tied_inclusion_oscillation(
+    ratio: usize,
+    space: crate::mortar::MultiplierSpace,
+    e_patch: f64,
+    load: InclusionLoad,
+) -> Result<(f64, usize), String> {
+    use nalgebra::{Point2, Vector2};
+    let hyp = PlaneHypothesis::PlaneStrain;
+    let mut b = ModelBuilder::new(hyp);
+    let elastic = |young| Material::Elastic(Elastic { young, poisson: STABILITY_NU, hypothesis: hyp });
+    let mh = b.add_material("host", elastic(STABILITY_E));
+    let mp = b.add_material("patch", elastic(e_patch));
+    let nh: usize = 20;
+    let hh = 10.0 / nh as f64;
+    let host =
+        generate::rectangle(0.0, 0.0, 10.0, 10.0, nh, nh, 1.0, 1.0, CellKind::Quad4).map_err(|e| e.to_string())?;
+    let nodes = host.nodes.clone();
+    let (right, left) = (host.edge_sets["right"].clone(), host.edge_sets["left"].clone());
+    let h = b.add_body("host", host, mh, Formulation::Standard, 1.0);
+    let (radius, c) = (3.0_f64, Point2::new(5.13, 4.91));
+    let nt = ((std::f64::consts::TAU * radius) * ratio as f64 / hh).round() as usize;
+    let nr = (radius * ratio as f64 / hh).round().max(2.0) as usize;
+    let patch = generate::disc(c, radius, nr, nt).map_err(|e| e.to_string())?;
+    let p = b.add_body("patch", patch, mp, Formulation::Standard, 1.0);
+    // Consistent nodal loads of the linear traction on the host's left and right edges.
+    let stress = |y: f64| match load {
+        InclusionLoad::Tension => 100.0,
+        InclusionLoad::Bending => 20.0 * (y - 5.0),
+    };
+    for (edges, sign) in [(&left, -1.0), (&right, 1.0)] {
+        for e in edges.iter() {
+            let (ya, yb) = (nodes[e[0]].y, nodes[e[1]].y);
+            let (len, sa, sb) = ((yb - ya).abs(), stress(ya), stress(yb));
+            b.point_load_node(h, e[0], Vector2::new(sign * len * (2.0 * sa + sb) / 6.0, 0.0));
+            b.point_load_node(h, e[1], Vector2::new(sign * len * (sa + 2.0 * sb) / 6.0, 0.0));
+        }
+    }
+    // Nodes (0, 5) and (10, 5): on the mid-plane, where u_x = 0 in bending.
+    let (n_l, n_r) = ((nh / 2) * (nh + 1), (nh / 2) * (nh + 1) + nh);
+    b.fix_node(h, n_l, 1, 0.0);
+    b.fix_node(h, n_l, 0, 0.0);
+    b.fix_node(h, n_r, if load == InclusionLoad::Tension { 1 } else { 0 }, 0.0);
+    b.add_tie("t", h, p, &["arc".to_string()], space).map_err(|e| e.to_string())?;
+    let model = b
+        .build(
+            LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)]).map_err(|e| e.to_string())?,
+            vec![1.0],
+            NewtonParams::default(),
+            LinearSolverKind::Cholesky,
+        )
+        .map_err(|e| e.to_string())?;
+    let s = solve_to_end(&model)?;
+    let tie = &model.ties[0];
+    let nl = tie.multipliers.num_nodes;
+    let theta: Vec<f64> = tie.multipliers.points.iter().map(|x| (x.y - c.y).atan2(x.x - c.x)).collect();
+    let harmonics = 4;
+    let basis = |t: f64| {
+        let mut v = vec![1.0];
+        for k in 1..=harmonics {
+            v.extend([(k as f64 * t).cos(), (k as f64 * t).sin()]);
+        }
+        v
+    };
+    let a = nalgebra::DMatrix::from_fn(nl, 2 * harmonics + 1, |i, j| basis(theta[i])[j]);
+    let traction = |i: usize, comp: usize| -s.multipliers[tie.first_row + 2 * i + comp];
+    let mut refs = vec![[0.0; 2]; nl];
+    for comp in 0..2 {
+        let t = nalgebra::DVector::from_fn(nl, |i, _| traction(i, comp));
+        let coef = (a.transpose() * &a).lu().solve(&(a.transpose() * &t)).ok_or("singular Fourier fit")?;
+        let fit = &a * coef;
+        refs.iter_mut().zip(fit.iter()).for_each(|(r, f)| r[comp] = *f);
+    }
+    let (mut worst, mut mean) = (0.0f64, 0.0);
+    for (i, r) in refs.iter().enumerate() {
+        worst = worst.max(((traction(i, 0) - r[0]).powi(2) + (traction(i, 1) - r[1]).powi(2)).sqrt());
+        mean += (r[0].powi(2) + r[1].powi(2)).sqrt() / nl as f64;
+    }
+    Ok((worst / mean, nl))
+}
+
+/// Hertz contact of [`hertz_model_with`] (block core elements `h`, cylinder `refine` times
+/// finer, multipliers on the cylinder in `space`): the largest deviation of the nodal pressure
+/// from Hertz over the nodes with `abs(x) <= frac a`, over p0, and the multiplier count.
+pub fn hertz_density_deviation(
+    h: f64,
+    refine: f64,
+    virtual_top: bool,
+    space: crate::mortar::MultiplierSpace,
+    frac: f64,
+) -> Result<(f64, usize), String> {
+    let model = hertz_model_with(h, refine, 0.15, virtual_top, space).map_err(|e| e.to_string())?;
+    let s = solve_to_end(&model)?;
+    let r = crate::post::AnalyticContact::hertz(100.0, 10.0, STABILITY_E / (2.0 * (1.0 - STABILITY_NU.powi(2))), 0.0);
+    let prof = crate::post::contact_profile(model.initial(), &s, 0);
+    let dev = prof
+        .iter()
+        .filter(|n| n.x.x.abs() <= frac * r.a)
+        .map(|n| (n.pressure - r.pressure(n.x.x)).abs())
+        .fold(0.0, f64::max)
+        / r.p0;
+    Ok((dev, model.initial().contact.pairs[0].multipliers.num_nodes))
 }

@@ -2,13 +2,14 @@
 //!
 //! ```text
 //! mesh, solver -> fem -> assembly, surface -> cut -> discretisation, mortar -> contact -> wear
-//!   -> state -> model -> analysis -> driver -> post -> scenes -> io, case
+//!   -> state -> model -> analysis -> driver -> post -> scenes -> io, case -> relocation
 //! ```
 //!
 //! (`wear` is the wear physics: laws, swept integration, rate filter, cycle jump; it knows
 //! neither the model nor the solve. `state` is the one mutable struct, `model` the immutable
 //! problem data, `analysis` the contact solve, `driver` the wear loop around it, `scenes` the
-//! model scenes of the tests and benches, which nothing in the library imports; the binary,
+//! model scenes of the tests and benches, which nothing in the library imports; `relocation` the
+//! node-relocation baseline, which rebuilds cases on moved meshes; the binary,
 //! `main.rs` and `cli/`, sits above every room.)
 //!
 //! The test reads every file under `src/` (comment lines skipped), lists the `crate::<room>`
@@ -35,6 +36,7 @@ const LAYERS: &[&[&str]] = &[
     &["post"],
     &["scenes"],
     &["io", "case"],
+    &["relocation"],
 ];
 
 fn layer_of(room: &str) -> Option<usize> {

@@ -138,77 +138,9 @@ fn tied_patch_test_on_grid_lines_and_nodes() {
 /// reference traction is the least-squares Fourier series of the computed traction up to the
 /// 4th harmonic, and the oscillation is `max |t - t_ref| / mean |t_ref|` over the multiplier nodes.
 fn inclusion_oscillation(ratio: usize, space: MultiplierSpace, e_patch: f64, load: &str) -> (f64, usize) {
-    let hyp = PlaneHypothesis::PlaneStrain;
-    let mut b = ModelBuilder::new(hyp);
-    let mh = b.add_material("host", Material::Elastic(Elastic { young: E, poisson: NU, hypothesis: hyp }));
-    let mp = b.add_material("patch", Material::Elastic(Elastic { young: e_patch, poisson: NU, hypothesis: hyp }));
-    let nh: usize = 20;
-    let hh = 10.0 / nh as f64;
-    let host = generate::rectangle(0.0, 0.0, 10.0, 10.0, nh, nh, 1.0, 1.0, CellKind::Quad4).unwrap();
-    let nodes = host.nodes.clone();
-    let right = host.edge_sets["right"].clone();
-    let left = host.edge_sets["left"].clone();
-    let h = b.add_body("host", host, mh, Formulation::Standard, 1.0);
-    let radius: f64 = 3.0;
-    let nt = ((std::f64::consts::TAU * radius) * ratio as f64 / hh).round() as usize;
-    let nr = (radius * ratio as f64 / hh).round().max(2.0) as usize;
-    let patch = generate::disc(Point2::new(5.13, 4.91), radius, nr, nt).unwrap();
-    let p = b.add_body("patch", patch, mp, Formulation::Standard, 1.0);
-    // Remote load on the host's left and right edges: uniform tension 100 MPa, or bending
-    // sigma_xx = 20 (y - 5) MPa (consistent nodal loads of a linear traction).
-    for (edges, sign) in [(&left, -1.0), (&right, 1.0)] {
-        for e in edges.iter() {
-            let (ya, yb) = (nodes[e[0]].y, nodes[e[1]].y);
-            let len = (yb - ya).abs();
-            let s = |y: f64| if load == "tension" { 100.0 } else { 20.0 * (y - 5.0) };
-            let (sa, sb) = (s(ya), s(yb));
-            b.point_load_node(h, e[0], Vector2::new(sign * len * (2.0 * sa + sb) / 6.0, 0.0));
-            b.point_load_node(h, e[1], Vector2::new(sign * len * (sa + 2.0 * sb) / 6.0, 0.0));
-        }
-    }
-    // Nodes (0, 5) and (10, 5): on the mid-plane, where u_x = 0 in bending.
-    let (n_l, n_r) = ((nh / 2) * (nh + 1), (nh / 2) * (nh + 1) + nh);
-    b.fix_node(h, n_l, 1, 0.0);
-    b.fix_node(h, n_l, 0, 0.0);
-    if load == "tension" {
-        b.fix_node(h, n_r, 1, 0.0);
-    } else {
-        b.fix_node(h, n_r, 0, 0.0);
-    }
-    b.add_tie("t", h, p, &["arc".to_string()], space).unwrap();
-    let model = common::build_one_step(b);
-    let s = solve(&model);
-    let tie = &model.ties[0];
-    let nl = tie.multipliers.num_nodes;
-    let c = Point2::new(5.13, 4.91);
-    let theta: Vec<f64> = tie.multipliers.points.iter().map(|x| (x.y - c.y).atan2(x.x - c.x)).collect();
-    let harmonics = 4;
-    let basis = |t: f64| {
-        let mut v = vec![1.0];
-        for k in 1..=harmonics {
-            v.push((k as f64 * t).cos());
-            v.push((k as f64 * t).sin());
-        }
-        v
-    };
-    let nb = 2 * harmonics + 1;
-    let a = nalgebra::DMatrix::from_fn(nl, nb, |i, j| basis(theta[i])[j]);
-    let mut refs = vec![[0.0; 2]; nl];
-    for comp in 0..2 {
-        let t = nalgebra::DVector::from_fn(nl, |i, _| -s.multipliers[tie.first_row + 2 * i + comp]);
-        let coef = (a.transpose() * &a).lu().solve(&(a.transpose() * &t)).unwrap();
-        let fit = &a * coef;
-        for i in 0..nl {
-            refs[i][comp] = fit[i];
-        }
-    }
-    let (mut worst, mut mean) = (0.0f64, 0.0);
-    for i in 0..nl {
-        let t = [-s.multipliers[tie.first_row + 2 * i], -s.multipliers[tie.first_row + 2 * i + 1]];
-        worst = worst.max(((t[0] - refs[i][0]).powi(2) + (t[1] - refs[i][1]).powi(2)).sqrt());
-        mean += (refs[i][0].powi(2) + refs[i][1].powi(2)).sqrt() / nl as f64;
-    }
-    (worst / mean, nl)
+    use mortex::scenes::InclusionLoad;
+    let load = if load == "tension" { InclusionLoad::Tension } else { InclusionLoad::Bending };
+    mortex::scenes::tied_inclusion_oscillation(ratio, space, e_patch, load).expect("tied inclusion")
 }
 
 /// Density contrast (the failure the stabilisation exists for): host/patch element size ratios
@@ -216,8 +148,8 @@ fn inclusion_oscillation(ratio: usize, space: MultiplierSpace, e_patch: f64, loa
 /// space over-constrains the few blending elements: its oscillation must grow with the ratio;
 /// the coarse-grained space (spacing from the density contrast only) must not grow, and must be
 /// at least ten times smaller than the classical one at every ratio >= 1:5. The full table
-/// (also same-material tension and bending) is printed by `density_contrast_table` (ignored,
-/// ~40 s, with its chart) and recorded in docs/validation.md.
+/// (also same-material tension and bending, and the chart) is `mortex study stability`
+/// (about 1 min), recorded in docs/validation.md.
 #[test]
 fn coarse_grained_multipliers_remove_density_contrast_oscillation() {
     let mut classical = vec![];
@@ -236,46 +168,6 @@ fn coarse_grained_multipliers_remove_density_contrast_oscillation() {
             "coarse-grained not 10x below classical at ratio index {k}: {coarse:?} vs {classical:?}"
         );
     }
-}
-
-/// Stability where the classical space fails, for tying: the circular inclusion's traction
-/// oscillation against the host/patch density ratio (1:1 to 1:20), both spaces, same and stiff
-/// (10x) patch, tension and bending. Prints the table and draws
-/// `results/stability/tying.png` (one panel per load and material).
-#[test]
-#[ignore]
-fn density_contrast_table() {
-    use mortex::io::plot::{write_xy_png, Series};
-    let mut panels = Vec::new();
-    for load in ["tension", "bending"] {
-        for e_patch in [E, 10.0 * E] {
-            let (mut classical, mut coarse) = (Vec::new(), Vec::new());
-            for ratio in [1, 5, 10, 20] {
-                let (c, nc) = inclusion_oscillation(ratio, MultiplierSpace::Classical, e_patch, load);
-                let (g, ng) = inclusion_oscillation(ratio, MultiplierSpace::CoarseGrained, e_patch, load);
-                eprintln!(
-                    "{load} E_p/E_h {:4} ratio 1:{ratio:2}: classical {:.5} ({nc} lm), coarse-grained {:.5} ({ng} lm)",
-                    e_patch / E,
-                    c,
-                    g
-                );
-                classical.push((ratio as f64, c));
-                coarse.push((ratio as f64, g));
-            }
-            panels.push((
-                format!("tied inclusion, {load}, E_patch = {} E_host", e_patch / E),
-                "patch finer than the host by".to_string(),
-                "traction oscillation / mean".to_string(),
-                vec![
-                    Series { label: "classical".into(), points: classical, joined: true },
-                    Series { label: "coarse-grained".into(), points: coarse, joined: true },
-                ],
-            ));
-        }
-    }
-    let out = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("results/stability");
-    std::fs::create_dir_all(&out).unwrap();
-    write_xy_png(&panels, &out.join("tying.png")).unwrap();
 }
 
 /// Cantilever beam 20 x 2 mm (plane strain), clamped at x = 0, shear load 10 N/mm on x = 20.
