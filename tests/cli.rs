@@ -1,7 +1,9 @@
 //! The `mortex` binary on good and bad input: bad input gives a clear message naming the file,
 //! key or element, a non-zero exit code, never a panic, and never damages an earlier result.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 use std::process::Command;
 
 fn bin() -> Command {
@@ -16,11 +18,9 @@ fn png_size(path: &Path) -> (u32, u32) {
     (dim(16), dim(20))
 }
 
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("mortex-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// This test's scratch directory, removed when it passes.
+fn tmpdir(name: &str) -> common::ScratchDir {
+    common::ScratchDir::new("cli", name)
 }
 
 const GOOD: &str = r#"

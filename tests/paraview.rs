@@ -9,6 +9,8 @@
 //! Equality is exact (1e-12 relative: the reader copies the stored doubles). VTK comes with
 //! `.ci/setup` (`pip install vtk`); without it the test says so and skips, except on CI.
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 
@@ -57,8 +59,7 @@ print(json.dumps(res))
 
 #[test]
 fn paraview_shows_the_last_fields_and_the_worn_surfaces_of_a_wear_run() {
-    let d = std::env::temp_dir().join(format!("mortex_paraview_{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
+    let d = common::ScratchDir::new("paraview", "wear");
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let case = std::fs::read_to_string(root.join("wear_cases/mccoll_fretting.toml"))
         .unwrap()

@@ -10,6 +10,8 @@
 //!  |  J2 flat  |
 //! ```
 
+mod common;
+
 use mortex::analysis::StaticAnalysis;
 use mortex::driver::{run, RunOptions};
 use std::path::Path;
@@ -273,8 +275,7 @@ fn a_ratcheting_flat_is_refused_cycle_jumps() {
 /// never yield it is a clear error with a non-zero exit.
 #[test]
 fn plot_plastic_strain_of_the_flat() {
-    let dir = std::env::temp_dir().join(format!("mortex_plastic_plot_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::ScratchDir::new("plastic", "plot");
     let text = coarse(1);
     let case = dir.join("j2.toml");
     std::fs::write(&case, &text).unwrap();
@@ -321,8 +322,7 @@ fn plot_plastic_strain_of_the_flat() {
 /// strain, contact tractions and wear depths as the uninterrupted run, to the last bit.
 #[test]
 fn yielding_wear_run_resumes_bit_for_bit() {
-    let dir = std::env::temp_dir().join(format!("mortex_plastic_restart_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::ScratchDir::new("plastic", "restart");
     let mortex = |args: &[&std::ffi::OsStr]| {
         let out = std::process::Command::new(env!("CARGO_BIN_EXE_mortex")).args(args).output().unwrap();
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));

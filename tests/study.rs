@@ -6,6 +6,8 @@
 //! cycles the surface has sunk by w = k p S N (S = 0.4 mm of slip per cycle) over its 4 mm, so
 //! the worn area is 4 w. The sweep varies the coefficient k and the cycles N.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -17,11 +19,9 @@ fn case() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("wear_cases/uniform_wear.toml")
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("mortex-study-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// This test's scratch directory, removed when it passes.
+fn scratch(name: &str) -> common::ScratchDir {
+    common::ScratchDir::new("study", name)
 }
 
 /// A sweep file over `uniform_wear`: the wear coefficient and, when given, the cycles.

@@ -46,6 +46,40 @@ impl Drop for ResultFiles {
     }
 }
 
+/// A scratch directory `mortex-<kind>-<name>-<pid>` in the temp dir, emptied when made and
+/// removed when dropped, unless the test is failing (then it stays, to look at).
+pub struct ScratchDir(pub std::path::PathBuf);
+
+impl ScratchDir {
+    pub fn new(kind: &str, name: &str) -> Self {
+        let d = std::env::temp_dir().join(format!("mortex-{kind}-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        ScratchDir(d)
+    }
+}
+
+impl std::ops::Deref for ScratchDir {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::path::Path> for ScratchDir {
+    fn as_ref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl Drop for ScratchDir {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
 /// Deterministic pseudo-random numbers in [-1, 1] (no external RNG needed).
 pub struct Lcg(pub u64);
 impl Lcg {
