@@ -133,7 +133,7 @@ impl RelocationCase {
         };
         let b = model.bodies.iter().position(|b| b.name == body).unwrap_or(0);
         let mesh = &model.bodies[b].mesh;
-        let on = surface_nodes(mesh, &vertices(&StaticAnalysis::initial_state_of(model)));
+        let on = surface_nodes(mesh, &vertices(&model.initial_wear_state()));
         let touches = |c: &crate::mesh::Cell| c.nodes().iter().any(|n| on.iter().any(|o| o.0 == *n));
         let cell_size = mesh
             .cells
@@ -186,7 +186,7 @@ fn peak(p: &[f64]) -> f64 {
 pub fn run_virtual(case: &RelocationCase, params: RelocationParams) -> Result<Vec<WearSnapshot>, RelocationError> {
     let model = case.build(case.cycles, params.cycles_per_update, &[])?;
     let mut state = StaticAnalysis::initial_state_of(&model);
-    let origin: Vec<Point2<f64>> = vertices(&state);
+    let origin: Vec<Point2<f64>> = vertices(&state.wear);
     let mut out = vec![];
     let (mut high, mut last, mut pressure) = (0.0_f64, 0u64, vec![]);
     let snapshot = |s: &SimState, high: f64, pressure: &[f64]| WearSnapshot {
@@ -234,8 +234,9 @@ fn surface_nodes(mesh: &crate::mesh::Mesh2, v: &[Point2<f64>]) -> Vec<(usize, us
         .collect()
 }
 
-fn vertices(state: &SimState) -> Vec<Point2<f64>> {
-    state.wear.vertices[0].iter().map(|p| Point2::new(p[0], p[1])).collect()
+/// The first wearing surface's vertices in a wear state.
+fn vertices(wear: &crate::state::WearState) -> Vec<Point2<f64>> {
+    wear.vertices[0].iter().map(|p| Point2::new(p[0], p[1])).collect()
 }
 
 /// The baseline: the case run with its worn boundary's nodes relocated at every wear update
@@ -250,7 +251,7 @@ pub fn run_relocated(
     let b = first.bodies.iter().position(|b| b.name == case.body).unwrap_or(0);
     let mesh = first.bodies[b].mesh.clone();
     let mut nodes = mesh.nodes.clone();
-    let origin = vertices(&StaticAnalysis::initial_state_of(&first));
+    let origin = vertices(&first.initial_wear_state());
     let on_surface = surface_nodes(&mesh, &origin);
     if on_surface.len() < 2 {
         let msg = format!("the worn boundary of body '{}' holds fewer than two of its nodes", case.body);
@@ -276,7 +277,7 @@ pub fn run_relocated(
         .map_err(|source| RelocationError::Analysis { cycle, source })?;
         // The depth of this update, per vertex of this model's boundary (the same points of
         // the same nodes' edges, in the same order).
-        let v = vertices(&StaticAnalysis::initial_state_of(&model));
+        let v = vertices(&model.initial_wear_state());
         let worn = crate::wear::worn_vertices(&v, false, &s.wear.depth[0]);
         let moved: Vec<(usize, Vector2<f64>)> = on_surface
             .iter()

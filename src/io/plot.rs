@@ -215,6 +215,31 @@ fn legend<'a, DB: DrawingBackend + 'a>(
         .map_err(|e| e.to_string())
 }
 
+/// The analytical solution `r`, dashed and sampled finely over `xlim`: the pressure, and the
+/// Cattaneo-Mindlin shear times `shear_sign` when given.
+fn draw_reference<'a, DB: DrawingBackend + 'a>(
+    ch: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    r: &crate::post::AnalyticContact,
+    xlim: (f64, f64),
+    shear_sign: Option<f64>,
+) -> Result<(), String> {
+    let xs: Vec<f64> = (0..=400).map(|k| xlim.0 + (xlim.1 - xlim.0) * k as f64 / 400.0).collect();
+    let name = if r.c.is_some() { "Cattaneo-Mindlin" } else { "Hertz" };
+    let mut curves: Vec<(String, RGBColor, Vec<(f64, f64)>)> =
+        vec![(format!("{name} pressure"), RGBColor(0, 0, 120), xs.iter().map(|&x| (x, r.pressure(x))).collect())];
+    if let (Some(sign), Some(_)) = (shear_sign, r.c) {
+        let q = xs.iter().map(|&x| (x, sign * r.shear(x).unwrap_or(0.0))).collect();
+        curves.push((format!("{name} shear"), RGBColor(140, 0, 0), q));
+    }
+    for (label, colour, points) in curves {
+        ch.draw_series(DashedLineSeries::new(points, 6, 4, colour.stroke_width(1)))
+            .map_err(|e| e.to_string())?
+            .label(label)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+    }
+    Ok(())
+}
+
 /// Draws the profile into a PNG at `out` (1000 x 700; with friction a second panel of slips).
 pub fn write_png(p: &ContactProfile, xlim: (f64, f64), out: &Path) -> Result<(), PlotError> {
     register_font()?;
@@ -253,27 +278,9 @@ pub fn write_png(p: &ContactProfile, xlim: (f64, f64), out: &Path) -> Result<(),
         .label("pressure p")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE.stroke_width(2)));
     if let Some(r) = &p.reference {
-        // The analytical solution, sampled finely over the drawn range.
-        let xs: Vec<f64> = (0..=400).map(|k| xlim.0 + (xlim.1 - xlim.0) * k as f64 / 400.0).collect();
-        let (name, dark) = (if r.c.is_some() { "Cattaneo-Mindlin" } else { "Hertz" }, RGBColor(0, 0, 120));
-        ch.draw_series(DashedLineSeries::new(xs.iter().map(|&x| (x, r.pressure(x))), 6, 4, dark.stroke_width(1)))
-            .map_err(|e| de(&e))?
-            .label(format!("{name} pressure"))
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], dark));
-        if r.c.is_some() && friction {
-            // The computed shear's sign: the reference drawn on the same side.
-            let sign = if shear.iter().sum::<f64>() < 0.0 { -1.0 } else { 1.0 };
-            let dark_red = RGBColor(140, 0, 0);
-            ch.draw_series(DashedLineSeries::new(
-                xs.iter().map(|&x| (x, sign * r.shear(x).unwrap_or(0.0))),
-                6,
-                4,
-                dark_red.stroke_width(1),
-            ))
-            .map_err(|e| de(&e))?
-            .label(format!("{name} shear"))
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], dark_red));
-        }
+        // The computed shear's sign: the reference shear drawn on the same side.
+        let shear_sign = friction.then(|| if shear.iter().sum::<f64>() < 0.0 { -1.0 } else { 1.0 });
+        draw_reference(&mut ch, r, xlim, shear_sign).map_err(|e| draw_err(e))?;
     }
     if friction {
         ch.draw_series(LineSeries::new(line(shear), RED.stroke_width(2)))
