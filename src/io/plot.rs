@@ -225,7 +225,9 @@ fn draw_reference<'a, DB: DrawingBackend + 'a>(
 ) -> Result<(), String> {
     let xs: Vec<f64> = (0..=400).map(|k| xlim.0 + (xlim.1 - xlim.0) * k as f64 / 400.0).collect();
     let name = if r.c.is_some() { "Cattaneo-Mindlin" } else { "Hertz" };
-    let mut curves: Vec<(String, RGBColor, Vec<(f64, f64)>)> =
+    // (label, colour, points) of each curve.
+    type Curve = (String, RGBColor, Vec<(f64, f64)>);
+    let mut curves: Vec<Curve> =
         vec![(format!("{name} pressure"), RGBColor(0, 0, 120), xs.iter().map(|&x| (x, r.pressure(x))).collect())];
     if let (Some(sign), Some(_)) = (shear_sign, r.c) {
         let q = xs.iter().map(|&x| (x, sign * r.shear(x).unwrap_or(0.0))).collect();
@@ -280,7 +282,7 @@ pub fn write_png(p: &ContactProfile, xlim: (f64, f64), out: &Path) -> Result<(),
     if let Some(r) = &p.reference {
         // The computed shear's sign: the reference shear drawn on the same side.
         let shear_sign = friction.then(|| if shear.iter().sum::<f64>() < 0.0 { -1.0 } else { 1.0 });
-        draw_reference(&mut ch, r, xlim, shear_sign).map_err(|e| draw_err(e))?;
+        draw_reference(&mut ch, r, xlim, shear_sign).map_err(draw_err)?;
     }
     if friction {
         ch.draw_series(LineSeries::new(line(shear), RED.stroke_width(2)))
