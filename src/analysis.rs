@@ -1346,8 +1346,8 @@ impl<'m> StaticAnalysis<'m> {
     /// The active-set iterations on the live interface rows for the bulk predictor `z`: each
     /// iteration updates the sets from the current interface values, then solves the dense
     /// interface system of their laws for the multiplier and row-value changes `dlam`, `dw`.
-    /// Stops when the sets repeat; fails (cut back, or gross sliding) when they never settle or
-    /// the interface system is singular.
+    /// Stops when the sets repeat; fails (the caller cuts back) when they cycle, do not settle
+    /// within one iteration per live row, or the interface system is singular.
     #[allow(clippy::too_many_arguments)]
     fn interface_iterations(
         &mut self,
@@ -1374,16 +1374,23 @@ impl<'m> StaticAnalysis<'m> {
             .collect();
         let mut dlam = vec![0.0; nl];
         let mut dw = vec![0.0; nl];
-        let mut prev: Option<(Vec<bool>, Vec<FrictionStatus>)> = None;
+        // Every set visited: the next set is a function of the current one alone (the laws of
+        // a set fix the solve), so a set seen before the last one is a cycle that never settles.
+        let mut seen: Vec<(Vec<bool>, Vec<FrictionStatus>)> = vec![];
         let mut mult = lam0.to_vec();
         let mut iterations = 0;
-        // (Yielding bodies: a cut-back, gross sliding or not; see `condensed_step`.)
-        let plastic = m.has_plasticity();
-        let failed = |status: &[FrictionStatus], it: usize| match gross_sliding(status) {
-            Some(slipping) if !plastic => Err(AnalysisError::GrossSliding { step, time: t, slipping }),
-            _ => Ok(InterfaceSolve::Failed(StepOutcome::NotConverged { iterations: it, residual: f64::INFINITY })),
+        // A set that never settles cuts the increment back (the caller reports gross sliding,
+        // every node slipping one way, if the cut-backs run out so): under a prescribed stroke
+        // a smaller increment is what settles it, and a body held only by friction under a
+        // load beyond mu P fails at every size.
+        let failed = |it: usize| {
+            Ok(InterfaceSolve::Failed(StepOutcome::NotConverged { iterations: it, residual: f64::INFINITY }))
         };
-        for it in 0..=p.max_iterations {
+        // The sets of a contact zone that starts too wide shrink by a node or two per side and
+        // iteration (the outermost node in contact takes the tension): allow one iteration per
+        // live row, at least the Newton limit.
+        let max_iterations = p.max_iterations.max(nl);
+        for it in 0..=max_iterations {
             for k in 0..nc {
                 sets.gaps[k] = disc.contact.g0[k] + cd.live_of[nt + k].map_or(start.w_start[k], |a| w0[a] + dw[a]);
             }
@@ -1402,15 +1409,17 @@ impl<'m> StaticAnalysis<'m> {
             for j in (0..nfr).filter(|&j| cd.live_of[nt + nc + j].is_none()) {
                 sets.status[j] = FrictionStatus::Open;
             }
-            if let Some((pa, ps)) = &prev {
+            if let Some((pa, ps)) = seen.last() {
                 if pa == &sets.active && ps == &sets.status {
                     break;
                 }
             }
-            if it == p.max_iterations {
-                return failed(&sets.status, it);
+            let cycling = seen.iter().any(|(pa, ps)| pa == &sets.active && ps == &sets.status);
+            if cycling || it == max_iterations {
+                tracing::debug!(step, t, it, cycling, "interface active set does not settle");
+                return failed(it);
             }
-            prev = Some((sets.active.clone(), sets.status.clone()));
+            seen.push((sets.active.clone(), sets.status.clone()));
             iterations += 1;
             let row_law = row_laws(&disc.contact, &sets.active, &sets.status);
             let laws = cd.laws(m, disc, &row_law, &w0, lam0, &start.slip0);
@@ -1418,7 +1427,7 @@ impl<'m> StaticAnalysis<'m> {
             let rhs = cd.law_rhs(&laws, &cz);
             let Some(x) = DenseLu::new(a_mat).and_then(|lu| lu.solve(&rhs)) else {
                 tracing::warn!(step, t, it, "condensed interface system is singular");
-                return failed(&sets.status, it);
+                return failed(it);
             };
             for (a, law) in laws.iter().enumerate() {
                 match *law {
