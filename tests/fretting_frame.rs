@@ -195,8 +195,12 @@ struct EngineRun {
 }
 
 fn mccoll_engine(cycles: usize) -> EngineRun {
-    let text = std::fs::read_to_string("wear_cases/mccoll_fretting.toml")
-        .expect("shipped case")
+    mccoll_engine_with(cycles, &|text| text)
+}
+
+/// [`mccoll_engine`] on the shipped case edited by `edit`.
+fn mccoll_engine_with(cycles: usize, edit: &dyn Fn(String) -> String) -> EngineRun {
+    let text = edit(std::fs::read_to_string("wear_cases/mccoll_fretting.toml").expect("shipped case"))
         .replace("cycles = 18000", &format!("cycles = {cycles}"));
     let case =
         mortex::case::parse(&text, "mccoll", Path::new("wear_cases"), "mccoll").unwrap_or_else(|e| panic!("{e}"));
@@ -281,57 +285,20 @@ fn l2_against(x: &[f64], v: &[f64], xr: &[f64], vr: &[f64]) -> f64 {
 #[test]
 fn mccoll_against_half_planes() {
     let engine = mccoll_engine(1000);
-    let (k_flat, load, cycles, stroke) = (2.9e-8, 18.5, 1000.0, 0.025);
-    let reference = mccoll_half_planes(16, 0.001);
-    let rigid = reference.run(1000, |_, _, _, _| {});
-    let slip_ratio = engine.worn_area[0] / (k_flat * load * cycles * 4.0 * stroke);
-    let mut calibrated = reference.clone();
-    calibrated.stroke *= slip_ratio;
-    let mut ref_p = vec![];
-    let end = calibrated.run(1000, |c, i, _, st| {
-        // Every eighth of the cycle (the engine's 8 increments); every other one is a stroke
-        // position the comparison below uses.
-        if c == 1000 && i % 2 == 0 {
-            ref_p.push(st.pressure.clone());
-        }
-    });
-    eprintln!("engine slip over the stroke: {slip_ratio:.4}");
-    assert!((0.95..1.0).contains(&slip_ratio), "slip ratio {slip_ratio}");
+    let cmp = against_half_planes(&engine);
+    assert!((0.95..1.0).contains(&cmp.slip_ratio), "slip ratio {}", cmp.slip_ratio);
     let segment = 0.009;
-    for (name, (x, d), (xr, dr), dr_rigid) in [
-        ("flat", &engine.flat, (&end.flat_x, &end.flat_depth), &rigid.flat_depth),
-        ("cylinder", &engine.cylinder, (&end.x, &end.cylinder_depth), &rigid.cylinder_depth),
-    ] {
-        let (e, r) = (scar(x, d), scar(xr, dr));
-        let raw = e.0 / dr_rigid.iter().fold(0.0_f64, |a, &b| a.max(b)) - 1.0;
-        let l2 = l2_against(x, d, xr, dr);
-        eprintln!(
-            "{name}: depth {:.4} um, half-planes {:.4} um ({:+.2}%; full stroke {:+.2}%), width {:.1} / {:.1} um, profile L2 {:.2}%",
-            1e3 * e.0,
-            1e3 * r.0,
-            100.0 * (e.0 / r.0 - 1.0),
-            100.0 * raw,
-            1e3 * e.1,
-            1e3 * r.1,
-            100.0 * l2
-        );
-        assert!(raw.abs() < 0.03, "{name}: depth against the full-stroke half-planes {raw:+.3e}");
-        assert!((e.0 / r.0 - 1.0).abs() < 0.01, "{name}: depth {:.4} against {:.4} um", 1e3 * e.0, 1e3 * r.0);
-        assert!(l2 < 0.04, "{name}: profile L2 {l2:.3e}");
-        assert!((e.1 - r.1).abs() < 2.0 * segment, "{name}: width {:.1} against {:.1} um", 1e3 * e.1, 1e3 * r.1);
-    }
-    for (k, ((x, p), pr)) in engine.last_cycle.iter().zip(ref_p.iter().skip(1).step_by(2)).enumerate() {
-        let pm = p.iter().fold(0.0_f64, |a, &b| a.max(b));
-        let prm = pr.iter().fold(0.0_f64, |a, &b| a.max(b));
-        eprintln!(
-            "cycle 1000, increment {}: p_max {pm:.0}, half-planes {prm:.0} MPa; pressure L2 {:.1}%",
-            k + 1,
-            100.0 * l2_against(x, p, &end.x, pr)
-        );
+    for b in &cmp.bodies {
+        let name = b.name;
+        assert!(b.raw.abs() < 0.03, "{name}: depth against the full-stroke half-planes {:+.3e}", b.raw);
+        assert!(b.depth.abs() < 0.01, "{name}: depth {:+.3e}", b.depth);
+        assert!(b.profile_l2 < 0.04, "{name}: profile L2 {:.3e}", b.profile_l2);
+        assert!((b.width - b.width_ref).abs() < 2.0 * segment, "{name}: width {} against {}", b.width, b.width_ref);
     }
     if let Ok(path) = std::env::var("MORTEX_HALFPLANE_H5") {
-        write_reference(Path::new(&path), &end.x, &ref_p);
+        write_reference(Path::new(&path), &cmp.x, &cmp.reference_pressure);
     }
+    let calibrated = cmp.calibrated;
     let worn = calibrated.state_with(
         &Profile::new(&engine.cylinder.0, &engine.cylinder.1),
         &Profile::new(&engine.flat.0, &engine.flat.1),
@@ -341,6 +308,125 @@ fn mccoll_against_half_planes() {
         "the engine's worn profiles in the half-plane model at the stroke end: p_max {:.0} MPa",
         p.iter().fold(0.0_f64, |a, &b| a.max(b))
     );
+}
+
+/// The McColl scene on contact meshes four times finer (cylinder 640 angular divisions, flat
+/// 480: segments of 0.7-2.3 um over the scars, against 3-9 um shipped; 67k DOFs), defaults
+/// otherwise, at 1,000 cycles against the half-plane reference (as
+/// [`mccoll_against_half_planes`]).
+/// - It runs through: before the interface iterations were bounded by the live rows, the first
+///   increment after the jump to cycle 707 needed 26 active-set iterations against a limit of
+///   25 and stopped with a false "gross sliding" error (every node slides one way in gross
+///   slip; the cylinder is held).
+/// - The scars converge in the mesh: largest depths within 1% given the engine's slip (as on
+///   the shipped mesh: the bodies' finite size); profiles within 1% in L2, a quarter of the
+///   shipped mesh's bound with a quarter of its segments on the flanks (measured 0.41% / 0.41%,
+///   shipped 1.96% / 1.68%); widths within two segments, 4.6 um (measured +2.3 / +0.5 um).
+/// - The pressure at the stroke ends within 25% in L2 (shipped mesh: 32%; measured 21-22%):
+///   what is left is the scar's rim, where the reference rises from 0 to 330 MPa within 5 um
+///   and the engine's contact ends one node (2.2 um) inside it. With jumps of at most 10 cycles
+///   the same mesh gives 12.6% at the stroke ends and 11.3% at the centre (docs/validation.md).
+#[test]
+fn mccoll_on_a_mesh_four_times_finer() {
+    let engine = mccoll_engine_with(1000, &|text| {
+        text.replace("divisions = [30, 160]", "divisions = [30, 640]")
+            .replace("divisions = [120, 30]", "divisions = [480, 30]")
+    });
+    let cmp = against_half_planes(&engine);
+    let segment = 0.0023;
+    for b in &cmp.bodies {
+        let name = b.name;
+        assert!(b.depth.abs() < 0.01, "{name}: depth {:+.3e}", b.depth);
+        assert!(b.profile_l2 < 0.01, "{name}: profile L2 {:.3e}", b.profile_l2);
+        assert!((b.width - b.width_ref).abs() < 2.0 * segment, "{name}: width {} against {}", b.width, b.width_ref);
+    }
+    for k in [0, 2] {
+        assert!(cmp.pressure_l2[k] < 0.25, "stroke end {k}: pressure L2 {:.3}", cmp.pressure_l2[k]);
+    }
+}
+
+/// One body's scar against the half-plane reference at the same cycle.
+struct ScarComparison {
+    name: &'static str,
+    /// Largest depth relative to the reference's given the engine's slip, and to the
+    /// full-stroke reference's; profile L2; scar widths (1% of the largest depth), mm.
+    depth: f64,
+    raw: f64,
+    profile_l2: f64,
+    width: f64,
+    width_ref: f64,
+}
+
+/// An engine run at 1,000 cycles against the half-plane reference given its slip.
+struct HalfPlaneComparison {
+    slip_ratio: f64,
+    bodies: Vec<ScarComparison>,
+    /// Pressure L2 at the four stroke positions of cycle 1,000.
+    pressure_l2: Vec<f64>,
+    /// The reference's panel centres, its pressure at every eighth of cycle 1,000, and the
+    /// model whose stroke is the engine's slip.
+    x: Vec<f64>,
+    reference_pressure: Vec<Vec<f64>>,
+    calibrated: HalfPlaneFretting,
+}
+
+/// Compares `engine` (1,000 cycles) with the half-plane model (16 increments, 1 um panels),
+/// its stroke scaled to the engine's slip (the worn area over `k P 4 delta N`); prints the figures.
+fn against_half_planes(engine: &EngineRun) -> HalfPlaneComparison {
+    let (k_flat, load, cycles, stroke) = (2.9e-8, 18.5, 1000.0, 0.025);
+    let reference = mccoll_half_planes(16, 0.001);
+    let rigid = reference.run(1000, |_, _, _, _| {});
+    let slip_ratio = engine.worn_area[0] / (k_flat * load * cycles * 4.0 * stroke);
+    let mut calibrated = reference.clone();
+    calibrated.stroke *= slip_ratio;
+    let mut ref_p = vec![];
+    let end = calibrated.run(1000, |c, i, _, st| {
+        // Every eighth of the cycle (the engine's 8 increments); every other one is a stroke
+        // position the comparison uses.
+        if c == 1000 && i % 2 == 0 {
+            ref_p.push(st.pressure.clone());
+        }
+    });
+    eprintln!("engine slip over the stroke: {slip_ratio:.4}");
+    let mut bodies = vec![];
+    for (name, (x, d), (xr, dr), dr_rigid) in [
+        ("flat", &engine.flat, (&end.flat_x, &end.flat_depth), &rigid.flat_depth),
+        ("cylinder", &engine.cylinder, (&end.x, &end.cylinder_depth), &rigid.cylinder_depth),
+    ] {
+        let (e, r) = (scar(x, d), scar(xr, dr));
+        let b = ScarComparison {
+            name,
+            depth: e.0 / r.0 - 1.0,
+            raw: e.0 / dr_rigid.iter().fold(0.0_f64, |a, &b| a.max(b)) - 1.0,
+            profile_l2: l2_against(x, d, xr, dr),
+            width: e.1,
+            width_ref: r.1,
+        };
+        eprintln!(
+            "{name}: depth {:.4} um, half-planes {:.4} um ({:+.2}%; full stroke {:+.2}%), width {:.1} / {:.1} um, profile L2 {:.2}%",
+            1e3 * e.0,
+            1e3 * r.0,
+            100.0 * b.depth,
+            100.0 * b.raw,
+            1e3 * e.1,
+            1e3 * r.1,
+            100.0 * b.profile_l2
+        );
+        bodies.push(b);
+    }
+    let mut pressure_l2 = vec![];
+    for (k, ((x, p), pr)) in engine.last_cycle.iter().zip(ref_p.iter().skip(1).step_by(2)).enumerate() {
+        let pm = p.iter().fold(0.0_f64, |a, &b| a.max(b));
+        let prm = pr.iter().fold(0.0_f64, |a, &b| a.max(b));
+        let l2 = l2_against(x, p, &end.x, pr);
+        eprintln!(
+            "cycle 1000, increment {}: p_max {pm:.0}, half-planes {prm:.0} MPa; pressure L2 {:.1}%",
+            k + 1,
+            100.0 * l2
+        );
+        pressure_l2.push(l2);
+    }
+    HalfPlaneComparison { slip_ratio, bodies, pressure_l2, x: end.x, reference_pressure: ref_p, calibrated }
 }
 
 /// One output step of a wear run: its cycle and increment labels, the pressure of every contact
