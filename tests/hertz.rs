@@ -357,10 +357,13 @@ fn dissimilar_explore() {
     }
 }
 
+/// One output step: interface iterations, cut-backs, pressure profile `(x, p)` sorted by x.
+type StepProfile = (usize, usize, Vec<(f64, f64)>);
+
 /// Runs the shipped `hertz` case on a mesh four times finer in the contact (cylinder 800
 /// angular divisions, block 1,280) along the load `path`, one increment per segment: per output
 /// step, the interface iterations, the cut-backs and the pressure profile `(x, p)` sorted by x.
-fn fine_hertz_path(path: &str, increments: usize) -> Vec<(usize, usize, Vec<(f64, f64)>)> {
+fn fine_hertz_path(path: &str, increments: usize) -> Vec<StepProfile> {
     let text = std::fs::read_to_string("wear_cases/hertz.toml")
         .expect("shipped case")
         .replace("divisions = [40, 200]", "divisions = [40, 800]")
