@@ -523,3 +523,25 @@ fn implicit_jump_predicts_the_pressure_at_every_stroke_position() {
     );
     assert!(checked >= increments * 10, "at least ten jumps checked ({checked} predictions)");
 }
+
+/// `wear_cases/mccoll_tractions.toml` (the scene set up for its tractions, see its header and
+/// docs/validation.md) is the shipped McColl case with only the contact meshes refined 8x,
+/// 1,000 cycles and jumps of at most 10 cycles: every other key equal, so that the tractions
+/// documented for it are those of the main case's scene.
+#[test]
+fn tractions_case_is_the_main_scene_refined() {
+    let keys = |text: &str| -> Vec<String> {
+        text.lines().map(|l| l.split('#').next().unwrap_or("").trim().to_string()).filter(|l| !l.is_empty()).collect()
+    };
+    let main = std::fs::read_to_string("wear_cases/mccoll_fretting.toml").expect("shipped case");
+    let refined = main
+        .replace("divisions = [30, 160]", "divisions = [30, 1280]")
+        .replace("divisions = [120, 30]", "divisions = [960, 30]")
+        .replace("cycles = 18000", "cycles = 1000")
+        .replace("[output]", "[cycle_jump]\nmax_jump = 10\n\n[output]");
+    let tractions = std::fs::read_to_string("wear_cases/mccoll_tractions.toml").expect("shipped case");
+    assert_eq!(keys(&tractions), keys(&refined));
+    let case = mortex::case::parse(&tractions, "mccoll_tractions", Path::new("wear_cases"), "mccoll_tractions")
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(case.model.cycle.expect("cyclic").increments, 8);
+}
