@@ -1347,7 +1347,8 @@ impl<'m> StaticAnalysis<'m> {
     /// iteration updates the sets from the current interface values, then solves the dense
     /// interface system of their laws for the multiplier and row-value changes `dlam`, `dw`.
     /// Stops when the sets repeat; fails (the caller cuts back) when they cycle, do not settle
-    /// within one iteration per live row, or the interface system is singular.
+    /// within `max_set_iterations` (default: one per live contact row, at least the Newton
+    /// limit), or the interface system is singular.
     #[allow(clippy::too_many_arguments)]
     fn interface_iterations(
         &mut self,
@@ -1388,8 +1389,10 @@ impl<'m> StaticAnalysis<'m> {
         };
         // The sets of a contact zone that starts too wide shrink by a node or two per side and
         // iteration (the outermost node in contact takes the tension): allow one iteration per
-        // live row, at least the Newton limit.
-        let max_iterations = p.max_iterations.max(nl);
+        // live contact row (normal or friction; tie rows never change their law), at least the
+        // Newton limit, unless the case sets its own.
+        let contact_rows = cd.live.iter().filter(|&&i| (nt..nt + nc + nfr).contains(&i)).count();
+        let max_iterations = p.max_set_iterations.unwrap_or(p.max_iterations.max(contact_rows));
         for it in 0..=max_iterations {
             for k in 0..nc {
                 sets.gaps[k] = disc.contact.g0[k] + cd.live_of[nt + k].map_or(start.w_start[k], |a| w0[a] + dw[a]);

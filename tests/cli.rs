@@ -378,14 +378,15 @@ fn plot_pressure_over_a_cycle_png() {
     }
 }
 
-/// A contact step that cannot converge (two Newton iterations allowed, no cut-back) is a typed
-/// error naming the step, iteration, residual and the size of the active contact set.
+/// A contact step that cannot converge (two Newton and two active-set iterations allowed, no
+/// cut-back) is a typed error naming the step, iteration, residual and the size of the active
+/// contact set.
 #[test]
 fn contact_newton_failure_reports_the_active_set() {
     let d = tmpdir("contact-fail");
     let case = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("wear_cases/cattaneo_mindlin.toml"))
         .unwrap()
-        + "\n[solver.newton]\nmax_iterations = 2\nmax_cutbacks = 0\n";
+        + "\n[solver.newton]\nmax_iterations = 2\nmax_set_iterations = 2\nmax_cutbacks = 0\n";
     std::fs::write(d.join("fail.toml"), case).unwrap();
     let (ok, text) = run(&["run", "fail.toml", "--quiet", "-o", "fail.h5"], &d);
     assert!(!ok && !text.contains("panicked"), "{text}");
@@ -410,6 +411,12 @@ fn more_bad_inputs_give_clear_errors() {
         "rotation_nan",
         &GOOD.replace(mesh, "{ type = \"rectangle\", size = [10.0, 2.0], divisions = [10, 2], rotation = nan }"),
         &["rotation_nan.toml", "bodies[0].mesh", "finite"],
+    );
+    expect_error(
+        &d,
+        "no_set_iterations",
+        &format!("{GOOD}\n[solver.newton]\nmax_set_iterations = 0\n"),
+        &["no_set_iterations.toml", "solver.newton.max_set_iterations", "at least 1"],
     );
     expect_error(
         &d,

@@ -314,7 +314,7 @@ fn mccoll_against_half_planes() {
 /// 480: segments of 0.7-2.3 um over the scars, against 3-9 um shipped; 67k DOFs), defaults
 /// otherwise, at 1,000 cycles against the half-plane reference (as
 /// [`mccoll_against_half_planes`]).
-/// - It runs through: before the interface iterations were bounded by the live rows, the first
+/// - It runs through: before the interface iterations were bounded by the live contact rows, the first
 ///   increment after the jump to cycle 707 needed 26 active-set iterations against a limit of
 ///   25 and stopped with a false "gross sliding" error (every node slides one way in gross
 ///   slip; the cylinder is held).

@@ -392,7 +392,7 @@ fn fine_hertz_path(path: &str, increments: usize) -> Vec<StepProfile> {
 /// from `a` to `a / 4`. The interface iterations start from the loaded contact set (153
 /// multiplier nodes), four times too wide, and release it a node or two per side and iteration
 /// (the outermost node in contact takes the tension): 28 iterations here, more than the Newton
-/// limit (25). They are bounded by the number of live interface rows instead, so the increment
+/// limit (25). They are bounded by the number of live contact rows instead, so the increment
 /// settles without a cut-back (before: one cut-back; under friction with every node slipping
 /// one way, a false "gross sliding" error, which stopped the McColl case on a mesh four times
 /// finer).

@@ -1414,6 +1414,9 @@ fn newton_params(cx: &Ctx, solver: &SolverSpec) -> Result<NewtonParams, CaseErro
     if np.max_iterations == 0 {
         return Err(cx.err("solver.newton.max_iterations", "must be at least 1"));
     }
+    if np.max_set_iterations == Some(0) {
+        return Err(cx.err("solver.newton.max_set_iterations", "must be at least 1"));
+    }
     Ok(np)
 }
 

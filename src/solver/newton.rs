@@ -4,7 +4,8 @@
 //! that displacement-driven problems (no external force) are measured against their reactions.
 //! A step that does not converge in `max_iterations`, or whose residual grows by
 //! `divergence_factor` or becomes non-finite, is cut back (the increment halved) from the last
-//! converged state, at most `max_cutbacks` times.
+//! converged state, at most `max_cutbacks` times. Under interface condensation the contact
+//! active-set iterations of each solve have their own limit, `max_set_iterations`.
 
 use crate::solver::linear::LinearSolverError;
 
@@ -15,11 +16,21 @@ pub struct NewtonParams {
     pub rtol: f64,
     pub max_cutbacks: usize,
     pub divergence_factor: f64,
+    /// Contact active-set iterations of one interface solve (condensed contact); `None`: one per
+    /// contact row that may touch, at least `max_iterations` (a contact set that starts too wide
+    /// is released a node or two per side and iteration).
+    pub max_set_iterations: Option<usize>,
 }
 
 impl Default for NewtonParams {
     fn default() -> Self {
-        NewtonParams { max_iterations: 25, rtol: 1e-9, max_cutbacks: 8, divergence_factor: 1e8 }
+        NewtonParams {
+            max_iterations: 25,
+            rtol: 1e-9,
+            max_cutbacks: 8,
+            divergence_factor: 1e8,
+            max_set_iterations: None,
+        }
     }
 }
 
