@@ -1046,6 +1046,16 @@ impl<'m> StaticAnalysis<'m> {
         // Yielding bodies: one force scale for every pass, the converged start's (see
         // `force_scale`).
         let start_scale = plastic.then(|| self.force_scale(state, &f_ext));
+        // Rows that carry a multiplier at the start of the step (in contact at the last
+        // converged state) join the set whatever their gap in this pairing: the set is chosen
+        // from the gaps of the undeformed surfaces, and a row left outside would have its
+        // multiplier zeroed after the solve, unbalancing it.
+        let nt = m.constraints.len();
+        let loaded: Vec<usize> = (0..nc).filter(|&k| cd.live_of[nt + k].is_none() && lam0[nt + k] != 0.0).collect();
+        if !loaded.is_empty() {
+            tracing::debug!(step, t, added = loaded.len(), "condensed set grows by the rows in contact at the start");
+            self.grow_set(cd, &loaded, step, 0)?;
+        }
         for pass in 0..passes {
             // r_u = f - f_int(u0) - C^T lambda0 on the free equations, z = K_rho^{-1} r_u.
             self.pass_operator(cd, (&state.u, &u), &history, pass, step, iterations)?;
@@ -1477,14 +1487,28 @@ impl<'m> StaticAnalysis<'m> {
             .filter(|&k| cd.live_of[nt + k].is_none())
             .collect();
         tracing::debug!(step, t, added = add.len(), "condensed set grows");
-        let batch = condensed::with_friction(m, disc, &add);
+        self.grow_set(cd, &add, step, iterations)?;
+        Ok(true)
+    }
+
+    /// Adds the contact normal rows `rows` (not in the set) and their friction rows to the
+    /// interface set, logged for a restart.
+    fn grow_set(
+        &self,
+        cd: &mut condensed::Condensed,
+        rows: &[usize],
+        step: usize,
+        iterations: usize,
+    ) -> Result<(), AnalysisError> {
+        let (m, disc) = (self.model, self.disc);
+        let batch = condensed::with_friction(m, disc, rows);
         cd.grow(m, disc, &self.solver, &batch, 0.0).map_err(|source| NewtonError::Linear {
             step,
             iteration: iterations,
             source,
         })?;
         cd.log.push(batch);
-        Ok(true)
+        Ok(())
     }
 
     /// Interface stiffness of the last converged step (see [`GapSensitivity`]); `None` without
