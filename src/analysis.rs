@@ -1046,16 +1046,7 @@ impl<'m> StaticAnalysis<'m> {
         // Yielding bodies: one force scale for every pass, the converged start's (see
         // `force_scale`).
         let start_scale = plastic.then(|| self.force_scale(state, &f_ext));
-        // Rows that carry a multiplier at the start of the step (in contact at the last
-        // converged state) join the set whatever their gap in this pairing: the set is chosen
-        // from the gaps of the undeformed surfaces, and a row left outside would have its
-        // multiplier zeroed after the solve, unbalancing it.
-        let nt = m.constraints.len();
-        let loaded: Vec<usize> = (0..nc).filter(|&k| cd.live_of[nt + k].is_none() && lam0[nt + k] != 0.0).collect();
-        if !loaded.is_empty() {
-            tracing::debug!(step, t, added = loaded.len(), "condensed set grows by the rows in contact at the start");
-            self.grow_set(cd, &loaded, step, 0)?;
-        }
+        self.grow_where_loaded(cd, &lam0, step, t)?;
         for pass in 0..passes {
             // r_u = f - f_int(u0) - C^T lambda0 on the free equations, z = K_rho^{-1} r_u.
             self.pass_operator(cd, (&state.u, &u), &history, pass, step, iterations)?;
@@ -1092,25 +1083,8 @@ impl<'m> StaticAnalysis<'m> {
                         return Ok(outcome);
                     }
                 };
-                // du = z + K_rho^{-1} C^T (rho dw - dlambda).
-                let mut y = vec![0.0; cd.equations.num_free];
-                for (a, row) in cd.rows_free.iter().enumerate() {
-                    let v = cd.rho[a] * dw[a] - dlam[a];
-                    for &(e, c) in row {
-                        y[e] += c * v;
-                    }
-                }
-                self.solver.solve(&mut y).map_err(|source| NewtonError::Linear {
-                    step,
-                    iteration: iterations,
-                    source,
-                })?;
-                u.clone_from(&start.u_start);
-                for (i, &g) in cd.equations.free.iter().enumerate() {
-                    if disc.dofs.eq[g] != CONSTRAINED {
-                        u[g] += z[i] + y[i];
-                    }
-                }
+                self.recover_displacement(cd, (&z, &dlam, &dw), &start.u_start, &mut u)
+                    .map_err(|source| NewtonError::Linear { step, iteration: iterations, source })?;
                 let mut mu = lam0.clone();
                 for (a, i) in cd.model_rows() {
                     mu[i] += dlam[a];
@@ -1489,6 +1463,53 @@ impl<'m> StaticAnalysis<'m> {
         tracing::debug!(step, t, added = add.len(), "condensed set grows");
         self.grow_set(cd, &add, step, iterations)?;
         Ok(true)
+    }
+
+    /// The displacement after an interface solve: `u = u_start + du`,
+    /// `du = z + K_rho^{-1} C^T (rho dw - dlambda)` (see [`condensed`]).
+    fn recover_displacement(
+        &self,
+        cd: &condensed::Condensed,
+        (z, dlam, dw): (&[f64], &[f64], &[f64]),
+        u_start: &[f64],
+        u: &mut Vec<f64>,
+    ) -> Result<(), crate::solver::linear::LinearSolverError> {
+        let mut y = vec![0.0; cd.equations.num_free];
+        for (a, row) in cd.rows_free.iter().enumerate() {
+            let v = cd.rho[a] * dw[a] - dlam[a];
+            for &(e, c) in row {
+                y[e] += c * v;
+            }
+        }
+        self.solver.solve(&mut y)?;
+        u.clear();
+        u.extend_from_slice(u_start);
+        for (i, &g) in cd.equations.free.iter().enumerate() {
+            if self.disc.dofs.eq[g] != CONSTRAINED {
+                u[g] += z[i] + y[i];
+            }
+        }
+        Ok(())
+    }
+
+    /// Rows that carry a multiplier at the start of the step (`lambda0`: in contact at the last
+    /// converged state) join the set whatever their gap in this pairing: the set is chosen from
+    /// the gaps of the undeformed surfaces, and a row left outside would have its multiplier
+    /// zeroed after the solve, unbalancing it.
+    fn grow_where_loaded(
+        &self,
+        cd: &mut condensed::Condensed,
+        lambda0: &[f64],
+        step: usize,
+        t: f64,
+    ) -> Result<(), AnalysisError> {
+        let (nt, nc) = (self.model.constraints.len(), self.disc.contact.rows.len());
+        let loaded: Vec<usize> = (0..nc).filter(|&k| cd.live_of[nt + k].is_none() && lambda0[nt + k] != 0.0).collect();
+        if loaded.is_empty() {
+            return Ok(());
+        }
+        tracing::debug!(step, t, added = loaded.len(), "condensed set grows by the rows in contact at the start");
+        self.grow_set(cd, &loaded, step, 0)
     }
 
     /// Adds the contact normal rows `rows` (not in the set) and their friction rows to the
