@@ -425,17 +425,7 @@ fn solve_paired_step<R>(
     timings: &mut RunTimings,
     then: impl FnOnce(&Discretisation, &StaticAnalysis, &mut SimState, StepReport, &SimState) -> Result<R, AnalysisError>,
 ) -> Result<R, AnalysisError> {
-    // The step's start, to go back to between pairings: everything but the wear state, which
-    // a solve does not touch (it carries the cycle's increment linearisations and pairing
-    // guesses, megabytes a step would copy for nothing).
-    let wear = std::mem::take(&mut state.wear);
     let start = state.clone();
-    state.wear = wear;
-    let restore = |state: &mut SimState, start: &SimState| {
-        let wear = std::mem::take(&mut state.wear);
-        state.clone_from(start);
-        state.wear = wear;
-    };
     let mut u_pair = guess.map_or_else(|| state.u.clone(), <[f64]>::to_vec);
     let mut last_pressure: Option<Vec<f64>> = None;
     let (mut change, mut last_change, mut estimate) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
@@ -450,7 +440,7 @@ fn solve_paired_step<R>(
         timings.setup += t0.elapsed().as_secs_f64();
         timings.count_setup(&analysis);
         if pairing > 1 {
-            restore(state, &start);
+            *state = start.clone();
         }
         let t1 = std::time::Instant::now();
         let mut report = analysis.advance_to(state, step, t)?;
@@ -491,7 +481,7 @@ fn solve_paired_step<R>(
         let at_rest = pairing == 1 && guess.is_none() && !state_slid(&paired, state, &start.u);
         if estimate <= PAIRING_TOLERANCE || (pairing > 1 && change == 0.0) || at_rest {
             if let Err(e) = check_on_counter_surface(model, (current, &paired), state, step, t) {
-                restore(state, &start);
+                *state = start;
                 return Err(e);
             }
             report.iterations = iterations;
@@ -505,7 +495,7 @@ fn solve_paired_step<R>(
         last_pressure = Some(pressure);
         u_pair.clone_from(&state.u);
     }
-    restore(state, &start);
+    *state = start;
     Err(AnalysisError::PairingNotSettled { step, time: t, pairings: MAX_PAIRINGS, change })
 }
 
