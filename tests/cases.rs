@@ -420,3 +420,55 @@ fn tied_bending_contrast_case() {
     assert!(coarse <= 0.01, "coarse-grained traction error {coarse:.3e}");
     assert!(classical > 0.01 && classical > coarse, "classical {classical:.3e}, coarse-grained {coarse:.3e}");
 }
+
+/// `fine_zone` on the generated meshes: a uniform zone of the given width and divisions in the
+/// middle of the rectangle's x lines and of the half disc's arc (the contact zone of a fretting
+/// scar resolved evenly), the rest graded away; bad zones are errors naming the key. Exact
+/// up to round-off: the zone's lines are `width / divisions` apart by construction (1e-9 of the
+/// spacing allows for the subtraction of coordinates of order 1 mm).
+#[test]
+fn fine_zone_meshes_resolve_the_contact_zone_evenly() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("wear_cases/mccoll_fretting.toml")).unwrap();
+    let with = |cylinder: &str, flat: &str| {
+        text.replace("angular_grading = 200.0 }", &format!("fine_zone = {cylinder} }}")).replace(
+            "divisions = [120, 30], grading = [30.0, 0.01], refine_to_centre = [true, false] }",
+            &format!("divisions = [160, 30], grading = [1.0, 0.01], fine_zone = {flat} }}"),
+        )
+    };
+    let good = with("{ width = 0.6, divisions = 120 }", "{ width = 0.7, divisions = 120 }");
+    let case = mortex::case::parse(&good, "fine_zone", &root.join("wear_cases"), "fine_zone").unwrap();
+    let coords = &case.model.coords;
+    // Flat top: y = 0 (the cylinder's lowest node coincides with one of them).
+    let mut xs: Vec<f64> = coords.iter().filter(|p| p.y == 0.0 && p.x.abs() <= 0.35 + 1e-12).map(|p| p.x).collect();
+    xs.sort_by(f64::total_cmp);
+    xs.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
+    assert_eq!(xs.len(), 121, "120 divisions over the flat's fine zone");
+    let h = 0.7 / 120.0;
+    assert!(xs.windows(2).all(|w| ((w[1] - w[0]) - h).abs() < 1e-9 * h), "uniform flat zone");
+    // Cylinder arc (radius 6 about (0, 6)): angles of the rim nodes within the zone.
+    let half_angle = 0.3 / 6.0;
+    let mut angles: Vec<f64> = coords
+        .iter()
+        .filter(|p| ((p.x.powi(2) + (p.y - 6.0).powi(2)).sqrt() - 6.0).abs() < 1e-9 && p.y < 6.0)
+        .map(|p| p.x.atan2(6.0 - p.y))
+        .filter(|a| a.abs() <= half_angle + 1e-12)
+        .collect();
+    angles.sort_by(f64::total_cmp);
+    angles.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
+    assert_eq!(angles.len(), 121, "120 divisions over the arc's fine zone");
+    let dt = 2.0 * half_angle / 120.0;
+    assert!(angles.windows(2).all(|w| ((w[1] - w[0]) - dt).abs() < 1e-9 * dt), "uniform arc zone");
+    // Bad zones: odd on a half disc, no division left outside, wider than the body.
+    for (cylinder, flat, what) in [
+        ("{ width = 0.6, divisions = 121 }", "{ width = 0.7, divisions = 120 }", "even"),
+        ("{ width = 0.6, divisions = 120 }", "{ width = 0.7, divisions = 160 }", "fine_zone.divisions"),
+        ("{ width = 0.6, divisions = 120 }", "{ width = 3.5, divisions = 120 }", "fine_zone.width"),
+    ] {
+        let err = mortex::case::parse(&with(cylinder, flat), "bad", &root.join("wear_cases"), "bad")
+            .err()
+            .unwrap_or_else(|| panic!("{cylinder} / {flat} accepted"))
+            .to_string();
+        assert!(err.contains(what) && err.contains("mesh"), "{err}");
+    }
+}

@@ -352,6 +352,33 @@ pub enum CellSpec {
     Tri3,
 }
 
+/// A uniform fine zone in the middle of a generated mesh direction (see `MeshSpec`).
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FineZone {
+    /// Length of the zone (arc length on a half disc).
+    pub width: f64,
+    /// Divisions inside the zone (even on a half disc, so that its lowest point is a node).
+    pub divisions: usize,
+}
+
+/// Grid coordinates in [0, 1] with the fine zone `zone` (relative width `fraction`) in the middle
+/// of `n` divisions.
+fn fine_zone_lines(zone: &FineZone, fraction: f64, n: usize, what: &str) -> Result<Vec<f64>, String> {
+    if !(zone.width > 0.0 && fraction > 0.0 && fraction < 1.0) {
+        return Err(format!("fine_zone.width must be positive and less than the {what} (got {})", zone.width));
+    }
+    if zone.divisions == 0 || zone.divisions + 2 > n {
+        return Err(format!(
+            "fine_zone.divisions must be at least 1 and leave at least one division on each side of the {} \
+             divisions (got {})",
+            n, zone.divisions
+        ));
+    }
+    let side = (n - zone.divisions) / 2;
+    Ok(generate::plateau_graded(zone.divisions, fraction, side))
+}
+
 fn one() -> f64 {
     1.0
 }
@@ -378,6 +405,10 @@ pub enum MeshSpec {
         /// spacing ratio end/middle (e.g. a block refined under a contact).
         #[serde(default)]
         refine_to_centre: [bool; 2],
+        /// A uniform fine zone centred in x (a contact zone resolved evenly, e.g. a fretting
+        /// scar): `fine_zone.divisions` of the x divisions over `fine_zone.width`, the rest
+        /// growing geometrically toward both ends (replaces `grading[0]`).
+        fine_zone: Option<FineZone>,
     },
     Disc {
         centre: [f64; 2],
@@ -405,6 +436,10 @@ pub enum MeshSpec {
         /// Turned by 180 degrees about the centre (arc on top: the lower body of a pair).
         #[serde(default)]
         upside_down: bool,
+        /// A uniform fine zone of the arc centred on its lowest point: `fine_zone.divisions` of
+        /// the angular divisions over the arc length `fine_zone.width`, the rest growing
+        /// geometrically toward the flat side (replaces `angular_grading`).
+        fine_zone: Option<FineZone>,
     },
     Gmsh {
         /// Path of a MSH 4.1 ASCII file, relative to the case file.
@@ -1493,15 +1528,21 @@ fn build_mesh(spec: &MeshSpec, base: &Path) -> Result<Mesh2, String> {
         }
     }
     let m = match spec {
-        MeshSpec::Rectangle { origin, size, divisions, grading, cell, rotation, refine_to_centre } => {
+        MeshSpec::Rectangle { origin, size, divisions, grading, cell, rotation, refine_to_centre, fine_zone } => {
             if divisions[0] == 0 || divisions[1] == 0 || !(grading[0] > 0.0 && grading[1] > 0.0) {
                 return Err("rectangle needs divisions >= 1 and positive grading ratios".into());
             }
             if !(size[0] > 0.0 && size[1] > 0.0) {
                 return Err(format!("rectangle size must be positive, got [{}, {}]", size[0], size[1]));
             }
+            let x_lines = match fine_zone {
+                Some(z) => Some(fine_zone_lines(z, z.width / size[0], divisions[0], "rectangle's width")?),
+                None => None,
+            };
             let lines = |k: usize| {
-                if refine_to_centre[k] {
+                if let (0, Some(x)) = (k, &x_lines) {
+                    x.clone()
+                } else if refine_to_centre[k] {
                     generate::graded_to_centre(divisions[k], grading[k])
                 } else {
                     generate::graded(divisions[k], grading[k])
@@ -1540,16 +1581,24 @@ fn build_mesh(spec: &MeshSpec, base: &Path) -> Result<Mesh2, String> {
                 *radial_grading,
             )
         }
-        MeshSpec::HalfDisc { centre, radius, divisions, radial_grading, angular_grading, upside_down } => {
-            generate::half_disc(
-                Point2::new(centre[0], centre[1]),
-                *radius,
-                divisions[0],
-                divisions[1],
-                *radial_grading,
-                *angular_grading,
-            )
-            .map(|mut m| {
+        MeshSpec::HalfDisc { centre, radius, divisions, radial_grading, angular_grading, upside_down, fine_zone } => {
+            let c = Point2::new(centre[0], centre[1]);
+            let disc = match fine_zone {
+                Some(z) => {
+                    if z.divisions % 2 != 0 {
+                        return Err(format!("fine_zone.divisions must be even on a half disc (got {})", z.divisions));
+                    }
+                    if !(*radius > 0.0 && *radial_grading > 0.0) || divisions[0] == 0 {
+                        return Err("half disc needs a positive radius, radial grading and ring count".into());
+                    }
+                    let arc = std::f64::consts::PI * radius;
+                    let ts = fine_zone_lines(z, z.width / arc, divisions[1], "half arc")?;
+                    let rs = generate::graded(divisions[0], 1.0 / radial_grading);
+                    generate::half_disc_from_divisions(c, *radius, &rs, &ts)
+                }
+                None => generate::half_disc(c, *radius, divisions[0], divisions[1], *radial_grading, *angular_grading),
+            };
+            disc.map(|mut m| {
                 if *upside_down {
                     // A rotation keeps the cells' orientation and the sets' meaning.
                     let c = Point2::new(centre[0], centre[1]);
