@@ -461,6 +461,11 @@ pub struct ContactNodeState {
     /// Shear `lambda_t` along `t = n` turned +90 degrees (`n` the mortar side's outward normal);
     /// 0 when frictionless.
     pub shear: f64,
+    /// The nodal traction of the pressure and of the shear: each node's contact force over its
+    /// hat's measure (see [`crate::mortar::Multipliers::nodal_traction`]), what the node
+    /// transmits where the coefficients `pressure`, `shear` undershoot beside a concentrated load.
+    pub nodal_pressure: f64,
+    pub nodal_shear: f64,
     /// Slip of the last increment and accumulated slip, as lengths (weighted slips over
     /// `int Phi`); 0 for unpaired or frictionless nodes.
     pub slip: f64,
@@ -493,7 +498,13 @@ pub fn contact_field(m: &ContactSet, state: &ContactUnknowns<'_>, pair: usize) -
     let c = &m.pairs[pair];
     let (nt, nn) = (m.first_multiplier, m.rows.len());
     let nodes = c.multiplier_nodes();
-    (0..c.multipliers.num_nodes)
+    let n_lm = c.multipliers.num_nodes;
+    let pressures: Vec<f64> = (0..n_lm).map(|l| -state.multipliers[nt + c.first_row + l]).collect();
+    let shears: Vec<f64> =
+        (0..n_lm).map(|l| c.friction_row[l].map_or(0.0, |j| state.multipliers[nt + nn + j])).collect();
+    let (nodal_pressure, nodal_shear) =
+        (c.multipliers.nodal_traction(&pressures), c.multipliers.nodal_traction(&shears));
+    (0..n_lm)
         .map(|l| {
             let k = c.first_row + l;
             let n = nodes[l];
@@ -527,6 +538,8 @@ pub fn contact_field(m: &ContactSet, state: &ContactUnknowns<'_>, pair: usize) -
                 position,
                 pressure,
                 shear,
+                nodal_pressure: nodal_pressure[l],
+                nodal_shear: nodal_shear[l],
                 slip,
                 accumulated_slip,
                 gap,

@@ -9,8 +9,9 @@
 //! * `/series/` (every output step, one row each, extendable chunked datasets): `step`,
 //!   `cycle`, `increment`, `iterations`, `newton_iterations` (u64: contact active-set and bulk
 //!   Newton iterations), `time`, `load_factor`, `residual`;
-//!   `/series/contacts/<pair>/{pressure, shear, slip, accumulated_slip}` `(steps, l)`, `status`
-//!   u8 `(steps, l)`, `position` `(steps, l, 2)`, `/series/contacts/dissipation`;
+//!   `/series/contacts/<pair>/{pressure, shear, slip, accumulated_slip, nodal_pressure,
+//!   nodal_shear}` `(steps, l)`, `status` u8 `(steps, l)`, `position` `(steps, l, 2)`,
+//!   `/series/contacts/dissipation`;
 //!   `/series/surfaces/<cut>/vertices` `(steps, v, 2)` of moving surfaces.
 //! * `/steps/NNNNNN/` (snapshot steps only: full fields, or a checkpoint) attributes `time`,
 //!   `load_factor`, `iterations`, `cutbacks`,
@@ -26,9 +27,11 @@
 //!   `/steps/NNNNNN/ties/<tie>/traction` `(l, 2)`: the traction on the patch, `t = sigma n = -lambda`.
 //! * Contacts: `/mesh/contacts/<pair>/points` `(l, 2)`, `segments` `(l - 1, 2)` i64 (attributes
 //!   `mu`, `sliding`) and per step
-//!   `/steps/NNNNNN/contacts/<pair>/pressure` `(l)` (`p = -lambda_n >= 0`), `position` `(l, 2)`
+//!   `/steps/NNNNNN/contacts/<pair>/pressure` `(l)` (`p = -lambda_n >= 0`, the multiplier's
+//!   nodal coefficients), `nodal_pressure` (each node's contact force over its hat's measure:
+//!   what the node transmits, see `Multipliers::nodal_traction`), `position` `(l, 2)`
 //!   (current position of the multiplier nodes); with friction also
-//!   `shear` (`lambda_t` along `t = n` turned +90 degrees), `slip` (slip of the step),
+//!   `shear` (`lambda_t` along `t = n` turned +90 degrees), `nodal_shear`, `slip` (slip of the step),
 //!   `accumulated_slip` and `status` (0 open, 1 stick, 2 slip); `/steps/NNNNNN/contacts/
 //!   dissipation` (frictional energy dissipated so far, per unit thickness).
 //!
@@ -110,7 +113,7 @@ struct Series {
     scalars: Vec<hdf5::Dataset>,
     /// Per contact pair: pressure, shear, slip, accumulated slip `(steps, l)`, status u8
     /// `(steps, l)`, position `(steps, l, 2)`.
-    contacts: Vec<[hdf5::Dataset; 6]>,
+    contacts: Vec<[hdf5::Dataset; 8]>,
     dissipation: Option<hdf5::Dataset>,
     /// Moving surfaces: vertices `(steps, v, 2)`.
     surfaces: Vec<hdf5::Dataset>,
@@ -293,6 +296,8 @@ impl Series {
                     f("accumulated_slip")?,
                     pg.new_dataset::<u8>().chunk((SERIES_CHUNK, l)).shape((0.., l)).create("status")?,
                     pg.new_dataset::<f64>().chunk((SERIES_CHUNK, l, 2)).shape((0.., l, 2)).create("position")?,
+                    f("nodal_pressure")?,
+                    f("nodal_shear")?,
                 ]);
             }
             dissipation = Some(cg.new_dataset::<f64>().chunk(SERIES_CHUNK * 16).shape(0..).create("dissipation")?);
@@ -365,6 +370,15 @@ impl Series {
             let xy =
                 ndarray::Array3::from_shape_vec((1, l, 2), xy).unwrap_or_else(|_| ndarray::Array3::zeros((1, l, 2)));
             ds[5].write_slice(&xy, s![k..k + 1, .., ..])?;
+            let nodal: [Vec<f64>; 2] =
+                [field.iter().map(|n| n.nodal_pressure).collect(), field.iter().map(|n| n.nodal_shear).collect()];
+            for (d, col) in ds[6..].iter().zip(nodal) {
+                d.resize((k + 1, l))?;
+                d.write_slice(
+                    &Array2::from_shape_vec((1, l), col).unwrap_or_else(|_| Array2::zeros((1, l))),
+                    s![k..k + 1, ..],
+                )?;
+            }
         }
         if let Some(d) = &self.dissipation {
             d.resize(k + 1)?;
@@ -454,7 +468,7 @@ impl ResultWriter {
                 .map_err(|e| OutputError::Io { path: partial.display().to_string(), source: e })?;
             let mut bw = std::io::BufWriter::new(f);
             use std::io::Write as _;
-            bw.write_all(b"step,time,pair,x,y,pressure,shear,slip,accumulated_slip,status,cycle,increment\n")
+            bw.write_all(b"step,time,pair,x,y,pressure,shear,slip,accumulated_slip,status,cycle,increment,nodal_pressure,nodal_shear\n")
                 .map_err(|e| OutputError::Io { path: partial.display().to_string(), source: e })?;
             Some((bw, partial, csv))
         };
@@ -656,6 +670,7 @@ impl ResultWriter {
                     };
                     let pg = cg.create_group(&c.name)?;
                     put(&pg, "pressure", &col(&|n| n.pressure))?;
+                    put(&pg, "nodal_pressure", &col(&|n| n.nodal_pressure))?;
                     // Current position of the multiplier nodes (they slide under finite sliding).
                     let xy: Vec<f64> = field.iter().flat_map(|n| [n.position.x, n.position.y]).collect();
                     put(&pg, "position", &array2(nl, 2, xy))?;
@@ -663,6 +678,7 @@ impl ResultWriter {
                         // Shear lambda_t, slip of the step and accumulated slip (lengths), status
                         // 0 open / 1 stick / 2 slip.
                         put(&pg, "shear", &col(&|n| n.shear))?;
+                        put(&pg, "nodal_shear", &col(&|n| n.nodal_shear))?;
                         put(&pg, "slip", &col(&|n| n.slip))?;
                         put(&pg, "accumulated_slip", &col(&|n| n.accumulated_slip))?;
                         let status: Array1<u8> = field.iter().map(|n| n.status.code()).collect();
@@ -770,7 +786,7 @@ impl ResultWriter {
             for n in field {
                 let _ = writeln!(
                     rows,
-                    "{},{:e},{},{:e},{:e},{:e},{:e},{:e},{:e},{},{},{}",
+                    "{},{:e},{},{:e},{:e},{:e},{:e},{:e},{:e},{},{},{},{:e},{:e}",
                     report.step,
                     report.time,
                     c.name,
@@ -782,7 +798,9 @@ impl ResultWriter {
                     n.accumulated_slip,
                     n.status.code(),
                     report.cycle,
-                    report.increment
+                    report.increment,
+                    n.nodal_pressure,
+                    n.nodal_shear
                 );
             }
         }
@@ -797,7 +815,7 @@ impl ResultWriter {
     /// never replaces an existing result: it stays `<name>.h5.partial` (returned), which
     /// `--restart` reads. Contact profiles go to `<name>_contact.csv` (step, time, pair, current
     /// node position, pressure, shear, slip of the step, accumulated slip, status 0 open / 1
-    /// stick / 2 slip, cycle, increment).
+    /// stick / 2 slip, cycle, increment, nodal pressure, nodal shear).
     pub fn finish(mut self, completed: bool) -> Result<PathBuf, OutputError> {
         if let Some(file) = self.file.take() {
             let res: hdf5::Result<()> = (|| {
@@ -877,10 +895,11 @@ impl ResultWriter {
             }
             for (name, l, friction) in &self.contact_meta {
                 let series = format!("/series/contacts/{name}");
-                let mut attrs = vec![("pressure", "Float", 8)];
+                let mut attrs = vec![("pressure", "Float", 8), ("nodal_pressure", "Float", 8)];
                 if *friction {
                     attrs.extend([
                         ("shear", "Float", 8),
+                        ("nodal_shear", "Float", 8),
                         ("slip", "Float", 8),
                         ("accumulated_slip", "Float", 8),
                         ("status", "UChar", 1),

@@ -27,8 +27,14 @@ pub struct ContactProfile {
     pub step: usize,
     pub time: f64,
     pub x: Vec<f64>,
+    /// The nodal traction (each node's contact force over its hat's measure; files written
+    /// before it was stored: the multiplier's values).
     pub pressure: Vec<f64>,
-    /// Friction only: shear `lambda_t`, slip of the step, accumulated slip, status (0/1/2).
+    /// The multiplier's nodal values `-lambda_n` where they differ from `pressure` (drawn as
+    /// points: they undershoot beside a load concentrated between two nodes).
+    pub multiplier_pressure: Option<Vec<f64>>,
+    /// Friction only: shear (nodal traction, as `pressure`), slip of the step, accumulated
+    /// slip, status (0/1/2).
     pub shear: Option<Vec<f64>>,
     pub slip: Option<Vec<f64>>,
     pub accumulated_slip: Option<Vec<f64>>,
@@ -118,7 +124,12 @@ pub fn read_profile(path: &Path, step: Option<usize>, pair: Option<&str>) -> Res
         Some(a.iter().copied().collect())
     };
     let f64s = row_of;
-    let pressure = f64s("pressure").ok_or_else(|| err(format!("step {step}: no pressure of pair '{pair}'")))?;
+    let multiplier = f64s("pressure").ok_or_else(|| err(format!("step {step}: no pressure of pair '{pair}'")))?;
+    let nodal = f64s("nodal_pressure").filter(|v| v.len() == multiplier.len());
+    let (pressure, multiplier) = match nodal {
+        Some(p) => (p, Some(multiplier)),
+        None => (multiplier, None),
+    };
     // Current positions (they move under finite sliding).
     let position: Option<Vec<f64>> = cg
         .dataset("position")
@@ -148,7 +159,8 @@ pub fn read_profile(path: &Path, step: Option<usize>, pair: Option<&str>) -> Res
         time,
         x: order.iter().map(|&i| points[2 * i]).collect(),
         pressure: sorted(pressure),
-        shear: f64s("shear").filter(|_| frictional).map(sorted),
+        multiplier_pressure: multiplier.map(sorted),
+        shear: f64s("nodal_shear").or_else(|| f64s("shear")).filter(|_| frictional).map(sorted),
         slip: f64s("slip").filter(|_| frictional).map(sorted),
         accumulated_slip: f64s("accumulated_slip").filter(|_| frictional).map(sorted),
         status: status.filter(|_| frictional).map(|s| order.iter().map(|&i| s[i]).collect()),
@@ -263,6 +275,7 @@ pub fn write_png(p: &ContactProfile, xlim: (f64, f64), out: &Path) -> Result<(),
         inside
             .iter()
             .map(|&i| p.pressure[i])
+            .chain(inside.iter().filter_map(|&i| p.multiplier_pressure.as_ref().map(|m| m[i])))
             .chain(inside.iter().filter_map(|&i| shear.get(i).copied()))
             .chain(mu_p.iter().flat_map(|&v| [v, -v])),
     );
@@ -277,8 +290,15 @@ pub fn write_png(p: &ContactProfile, xlim: (f64, f64), out: &Path) -> Result<(),
     let line = |v: &[f64]| -> Vec<(f64, f64)> { inside.iter().map(|&i| (p.x[i], v[i])).collect() };
     ch.draw_series(LineSeries::new(line(&p.pressure), BLUE.stroke_width(2)))
         .map_err(|e| de(&e))?
-        .label("pressure p")
+        .label("pressure p (nodal traction)")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE.stroke_width(2)));
+    if let Some(m) = &p.multiplier_pressure {
+        let dots = inside.iter().map(|&i| Circle::new((p.x[i], m[i]), 2, BLUE.filled()));
+        ch.draw_series(dots)
+            .map_err(|e| de(&e))?
+            .label("multiplier -lambda_n")
+            .legend(|(x, y)| Circle::new((x + 10, y), 2, BLUE.filled()));
+    }
     if let Some(r) = &p.reference {
         // The computed shear's sign: the reference shear drawn on the same side.
         let shear_sign = friction.then(|| if shear.iter().sum::<f64>() < 0.0 { -1.0 } else { 1.0 });
@@ -552,8 +572,12 @@ pub fn read_cycle_pressure(
         None => return Err(err(format!("several contact pairs: choose one with --pair ({})", names.join(", ")))),
     };
     let g = contacts.group(&name).map_err(|e| err(e.to_string()))?;
-    let pressure: ndarray::Array2<f64> =
-        g.dataset("pressure").and_then(|d| d.read_2d()).map_err(|e| err(e.to_string()))?;
+    // The nodal traction where the file has it (files written before: the multiplier's values).
+    let pressure: ndarray::Array2<f64> = g
+        .dataset("nodal_pressure")
+        .or_else(|_| g.dataset("pressure"))
+        .and_then(|d| d.read_2d())
+        .map_err(|e| err(e.to_string()))?;
     let position: ndarray::Array3<f64> =
         g.dataset("position").and_then(|d| d.read()).map_err(|e| err(e.to_string()))?;
     let found = cycles
