@@ -168,13 +168,23 @@ fn block_contact_case() {
     // The same profile in the CSV beside the HDF5 file (one row per multiplier node and step).
     let csv = std::fs::read_to_string(format!("{}_contact.csv", out.with_extension("").display())).unwrap();
     let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some("step,time,pair,x,y,pressure,shear,slip,accumulated_slip,status,cycle,increment"));
+    assert_eq!(
+        lines.next(),
+        Some(
+            "step,time,pair,x,y,pressure,shear,slip,accumulated_slip,status,cycle,increment,nodal_pressure,nodal_shear"
+        )
+    );
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert_eq!(rows.len(), p.len());
+    // The nodal traction (force over hat) of a uniform pressure is that pressure (the hats
+    // sum to one), in the CSV and the HDF5 file alike.
     for r in &rows {
-        let pressure: f64 = r[5].parse().unwrap();
+        let (pressure, nodal): (f64, f64) = (r[5].parse().unwrap(), r[12].parse().unwrap());
         assert!((pressure - 50.0).abs() < 1e-8 * 50.0 && r[2] == "interface" && r[9] == "0", "CSV row {r:?}");
+        assert!((nodal - 50.0).abs() < 1e-8 * 50.0, "CSV row {r:?}");
     }
+    let nodal = f.dataset("steps/000001/contacts/interface/nodal_pressure").unwrap().read_raw::<f64>().unwrap();
+    assert!(nodal.len() == p.len() && nodal.iter().all(|v| (v - 50.0).abs() < 1e-8 * 50.0), "{nodal:?}");
 }
 
 /// Cattaneo-Mindlin case (two cylinders, rigid platen, normal then tangential force; see its
