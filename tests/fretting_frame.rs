@@ -240,8 +240,13 @@ fn mccoll_engine(cycles: usize) -> EngineRun {
 fn mccoll_engine_with(cycles: usize, edit: &dyn Fn(String) -> String) -> EngineRun {
     let text = edit(std::fs::read_to_string("wear_cases/mccoll_fretting.toml").expect("shipped case"))
         .replace("cycles = 18000", &format!("cycles = {cycles}"));
-    let case =
-        mortex::case::parse(&text, "mccoll", Path::new("wear_cases"), "mccoll").unwrap_or_else(|e| panic!("{e}"));
+    engine_run_of(&text)
+}
+
+/// The McColl scene of case text `text` run to its end: depths, worn areas and the last
+/// computed cycle's stroke positions.
+fn engine_run_of(text: &str) -> EngineRun {
+    let case = mortex::case::parse(text, "mccoll", Path::new("wear_cases"), "mccoll").unwrap_or_else(|e| panic!("{e}"));
     let model = case.model;
     let increments = model.cycle.expect("a cyclic case").increments;
     let mut state = StaticAnalysis::initial_state_of(&model);
@@ -441,6 +446,28 @@ fn shipped_fretting_run_transmits_pressure_at_every_node_inside_the_contact() {
     assert_eq!(nodal_holes, 0, "steps with a node inside the contact transmitting no pressure");
 }
 
+/// The shipped tractions case (`wear_cases/mccoll_tractions.toml`: contact meshes eight times
+/// finer, jumps of at most 10 cycles, 1,000 cycles, about 9 minutes; ignored) against the
+/// half-plane reference: at the stroke ends and the centre of the stroke the nodal traction
+/// within the 10% target in L2 and its largest value within 10% of the reference's (measured
+/// 9.5-9.6% / 7.8%, p_max 351 / 121-122 against 334 / 116 MPa); depth profiles within 1%
+/// (measured 0.25% / 0.22%). The engine's last computed cycle is 996 (jumps of up to 10
+/// cycles), 0.4% of the wear short of the reference's 1,000.
+#[test]
+#[ignore]
+fn tractions_case_against_half_planes() {
+    let text = std::fs::read_to_string("wear_cases/mccoll_tractions.toml").expect("shipped case");
+    let cmp = against_half_planes(&engine_run_of(&text));
+    for b in &cmp.bodies {
+        assert!(b.profile_l2 < 0.01, "{}: profile L2 {:.3e}", b.name, b.profile_l2);
+    }
+    for k in 0..4 {
+        let (l2, pm, pr) = (cmp.nodal_l2[k], cmp.nodal_max[k], cmp.reference_max[k]);
+        assert!(l2 < 0.10, "stroke position {k}: nodal traction L2 {l2:.3}");
+        assert!((pm / pr - 1.0).abs() < 0.10, "stroke position {k}: p_max {pm:.0} against {pr:.0} MPa");
+    }
+}
+
 /// One body's scar against the half-plane reference at the same cycle.
 struct ScarComparison {
     name: &'static str,
@@ -458,9 +485,11 @@ struct HalfPlaneComparison {
     slip_ratio: f64,
     bodies: Vec<ScarComparison>,
     /// Pressure L2 at the four stroke positions of cycle 1,000: the multiplier's values and the
-    /// nodal traction.
+    /// nodal traction; the nodal traction's largest value and the reference's.
     pressure_l2: Vec<f64>,
     nodal_l2: Vec<f64>,
+    nodal_max: Vec<f64>,
+    reference_max: Vec<f64>,
     /// The reference's panel centres, its pressure at every eighth of cycle 1,000, and the
     /// model whose stroke is the engine's slip.
     x: Vec<f64>,
@@ -513,7 +542,7 @@ fn against_half_planes(engine: &EngineRun) -> HalfPlaneComparison {
         bodies.push(b);
     }
     let mut pressure_l2 = vec![];
-    let mut nodal_l2 = vec![];
+    let (mut nodal_l2, mut nodal_max, mut reference_max) = (vec![], vec![], vec![]);
     for (k, ((x, p, t), pr)) in engine.last_cycle.iter().zip(ref_p.iter().skip(1).step_by(2)).enumerate() {
         let max = |v: &[f64]| v.iter().fold(0.0_f64, |a, &b| a.max(b));
         let (l2, l2_nodal) = (l2_against(x, p, &end.x, pr), l2_against(x, t, &end.x, pr));
@@ -529,8 +558,20 @@ fn against_half_planes(engine: &EngineRun) -> HalfPlaneComparison {
         );
         pressure_l2.push(l2);
         nodal_l2.push(l2_nodal);
+        nodal_max.push(max(t));
+        reference_max.push(max(pr));
     }
-    HalfPlaneComparison { slip_ratio, bodies, pressure_l2, nodal_l2, x: end.x, reference_pressure: ref_p, calibrated }
+    HalfPlaneComparison {
+        slip_ratio,
+        bodies,
+        pressure_l2,
+        nodal_l2,
+        nodal_max,
+        reference_max,
+        x: end.x,
+        reference_pressure: ref_p,
+        calibrated,
+    }
 }
 
 /// One output step of a wear run: its cycle and increment labels, the pressure of every contact
