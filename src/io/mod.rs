@@ -346,13 +346,17 @@ impl Series {
         }
         for (ds, field) in self.contacts.iter().zip(fields) {
             let l = field.len();
-            let cols: [Vec<f64>; 4] = [
-                field.iter().map(|n| n.pressure).collect(),
-                field.iter().map(|n| n.shear).collect(),
-                field.iter().map(|n| n.slip).collect(),
-                field.iter().map(|n| n.accumulated_slip).collect(),
+            // The float columns: datasets 0-3 and 6-7 (4 is the status, 5 the positions).
+            let cols: [(usize, Vec<f64>); 6] = [
+                (0, field.iter().map(|n| n.pressure).collect()),
+                (1, field.iter().map(|n| n.shear).collect()),
+                (2, field.iter().map(|n| n.slip).collect()),
+                (3, field.iter().map(|n| n.accumulated_slip).collect()),
+                (6, field.iter().map(|n| n.nodal_pressure).collect()),
+                (7, field.iter().map(|n| n.nodal_shear).collect()),
             ];
-            for (d, col) in ds.iter().zip(cols) {
+            for (i, col) in cols {
+                let d = &ds[i];
                 d.resize((k + 1, l))?;
                 d.write_slice(
                     &Array2::from_shape_vec((1, l), col).unwrap_or_else(|_| Array2::zeros((1, l))),
@@ -370,15 +374,6 @@ impl Series {
             let xy =
                 ndarray::Array3::from_shape_vec((1, l, 2), xy).unwrap_or_else(|_| ndarray::Array3::zeros((1, l, 2)));
             ds[5].write_slice(&xy, s![k..k + 1, .., ..])?;
-            let nodal: [Vec<f64>; 2] =
-                [field.iter().map(|n| n.nodal_pressure).collect(), field.iter().map(|n| n.nodal_shear).collect()];
-            for (d, col) in ds[6..].iter().zip(nodal) {
-                d.resize((k + 1, l))?;
-                d.write_slice(
-                    &Array2::from_shape_vec((1, l), col).unwrap_or_else(|_| Array2::zeros((1, l))),
-                    s![k..k + 1, ..],
-                )?;
-            }
         }
         if let Some(d) = &self.dissipation {
             d.resize(k + 1)?;
