@@ -12,6 +12,7 @@ use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, LltRef, Symbol
 use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{Accum, Conj, Mat, MatMut, Par, Side};
+use rayon::prelude::*;
 use nalgebra::DMatrix;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -263,19 +264,25 @@ impl SparseSolver {
                 Numeric::Blocks(f) => f.into_iter().map(Some).collect(),
                 _ => (0..self.blocks.len()).map(|_| None).collect(),
             };
-            let mut factors = Vec::with_capacity(self.blocks.len());
-            for (b, old) in self.blocks.iter().zip(kept.iter_mut()) {
-                let v: Vec<f64> = b.positions.iter().map(|&p| values[p]).collect();
-                match old.take() {
-                    Some(f) if f.values == v => factors.push(f),
-                    old => {
-                        let mut l = old.map(|f| f.l).unwrap_or_default();
-                        let sub = SparseColMatRef::new(b.pattern.as_ref(), &v);
-                        factor_llt(&b.symbolic, sub, &mut l)?;
-                        factors.push(BlockFactor { values: v, l, gram: std::sync::Mutex::new(None) });
+            // The blocks are independent: factored side by side (each by the same sequential
+            // kernels as alone, so the factors do not depend on the thread count).
+            let factors = self
+                .blocks
+                .par_iter()
+                .zip(kept.par_iter_mut())
+                .map(|(b, old)| {
+                    let v: Vec<f64> = b.positions.iter().map(|&p| values[p]).collect();
+                    match old.take() {
+                        Some(f) if f.values == v => Ok(f),
+                        old => {
+                            let mut l = old.map(|f| f.l).unwrap_or_default();
+                            let sub = SparseColMatRef::new(b.pattern.as_ref(), &v);
+                            factor_llt(&b.symbolic, sub, &mut l)?;
+                            Ok(BlockFactor { values: v, l, gram: std::sync::Mutex::new(None) })
+                        }
                     }
-                }
-            }
+                })
+                .collect::<Result<Vec<_>, LinearSolverError>>()?;
             self.numeric = Numeric::Blocks(factors);
             return Ok(());
         }
@@ -320,9 +327,19 @@ impl SparseSolver {
         let mut b = MatMut::from_column_major_slice_mut(rhs, n, ncols);
         match (&self.numeric, &self.llt_symbolic) {
             (Numeric::Blocks(factors), _) => {
-                for (block, f) in self.blocks.iter().zip(factors) {
-                    let mut x = Mat::<f64>::from_fn(block.eqs.len(), ncols, |i, j| b[(block.eqs[i], j)]);
-                    solve_llt(&block.symbolic, &f.l, x.as_mut());
+                // Independent blocks, solved side by side (sequential kernels in each).
+                let rhs = b.as_ref();
+                let solved: Vec<Mat<f64>> = self
+                    .blocks
+                    .par_iter()
+                    .zip(factors)
+                    .map(|(block, f)| {
+                        let mut x = Mat::<f64>::from_fn(block.eqs.len(), ncols, |i, j| rhs[(block.eqs[i], j)]);
+                        solve_llt(&block.symbolic, &f.l, x.as_mut());
+                        x
+                    })
+                    .collect();
+                for (block, x) in self.blocks.iter().zip(&solved) {
                     for j in 0..ncols {
                         for (i, &e) in block.eqs.iter().enumerate() {
                             b[(e, j)] = x[(i, j)];
@@ -353,39 +370,48 @@ impl SparseSolver {
         let nb = cols.len();
         let out = match (&self.numeric, &self.llt_symbolic) {
             (Numeric::Blocks(factors), _) => {
+                // Each block's share on its own (side by side: independent, sequential kernels
+                // in each), then summed in block order: the same sums on any thread count.
+                let shares = self
+                    .blocks
+                    .par_iter()
+                    .zip(factors)
+                    .map(|(block, f)| {
+                        let mut local = vec![usize::MAX; self.pattern.nrows()];
+                        for (k, &e) in block.eqs.iter().enumerate() {
+                            local[e] = k;
+                        }
+                        let touching: Vec<(usize, Vec<(usize, f64)>)> = cols
+                            .iter()
+                            .enumerate()
+                            .filter_map(|(j, col)| {
+                                let c: Vec<(usize, f64)> = col
+                                    .iter()
+                                    .filter(|&&(e, _)| local[e] != usize::MAX)
+                                    .map(|&(e, c)| (local[e], c))
+                                    .collect();
+                                (!c.is_empty()).then_some((j, c))
+                            })
+                            .collect();
+                        let mut kept = f.gram.lock().ok()?;
+                        let fresh = !matches!(kept.as_ref(), Some(g) if g.from == from && g.cols == touching);
+                        tracing::trace!(block = block.eqs[0], kept = !fresh, "interface operator share");
+                        if fresh {
+                            let k0 = touching.partition_point(|(j, _)| *j < from);
+                            let local_cols: Vec<Vec<(usize, f64)>> = touching.iter().map(|(_, c)| c.clone()).collect();
+                            let gram = match supernodal_congruence(&block.symbolic, &f.l, &local_cols, k0) {
+                                Some(gram) => gram,
+                                None => solved_congruence(&block.symbolic, &f.l, &local_cols, k0, block.eqs.len()),
+                            };
+                            *kept = Some(BlockGram { from, cols: touching, gram });
+                        }
+                        Some(())
+                    })
+                    .collect::<Option<Vec<()>>>();
+                shares?;
                 let mut out = Mat::<f64>::zeros(nb, nb - from);
-                let mut local = vec![usize::MAX; self.pattern.nrows()];
-                for (block, f) in self.blocks.iter().zip(factors) {
-                    for (k, &e) in block.eqs.iter().enumerate() {
-                        local[e] = k;
-                    }
-                    let touching: Vec<(usize, Vec<(usize, f64)>)> = cols
-                        .iter()
-                        .enumerate()
-                        .filter_map(|(j, col)| {
-                            let c: Vec<(usize, f64)> = col
-                                .iter()
-                                .filter(|&&(e, _)| local[e] != usize::MAX)
-                                .map(|&(e, c)| (local[e], c))
-                                .collect();
-                            (!c.is_empty()).then_some((j, c))
-                        })
-                        .collect();
-                    for &e in &block.eqs {
-                        local[e] = usize::MAX;
-                    }
-                    let mut kept = f.gram.lock().ok()?;
-                    let fresh = !matches!(kept.as_ref(), Some(g) if g.from == from && g.cols == touching);
-                    tracing::trace!(block = block.eqs[0], kept = !fresh, "interface operator share");
-                    if fresh {
-                        let k0 = touching.partition_point(|(j, _)| *j < from);
-                        let local_cols: Vec<Vec<(usize, f64)>> = touching.iter().map(|(_, c)| c.clone()).collect();
-                        let gram = match supernodal_congruence(&block.symbolic, &f.l, &local_cols, k0) {
-                            Some(gram) => gram,
-                            None => solved_congruence(&block.symbolic, &f.l, &local_cols, k0, block.eqs.len()),
-                        };
-                        *kept = Some(BlockGram { from, cols: touching, gram });
-                    }
+                for f in factors {
+                    let kept = f.gram.lock().ok()?;
                     let g = kept.as_ref()?;
                     let k0 = g.cols.partition_point(|(j, _)| *j < from);
                     for (b, (jb, _)) in g.cols[k0..].iter().enumerate() {
