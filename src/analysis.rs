@@ -947,7 +947,9 @@ impl<'m> StaticAnalysis<'m> {
             };
             self.assembler.elastic_stresses(&input, &mut self.trial_stress);
         }
-        state.stress.copy_from_slice(&self.trial_stress);
+        // Swapped, not copied: the next step starts its trial stresses from the state's (the
+        // points a step does not write keep their values in both buffers).
+        std::mem::swap(&mut state.stress, &mut self.trial_stress);
         state.f_int.copy_from_slice(&self.trial_f_int);
     }
 

@@ -268,6 +268,25 @@ impl Fingerprint {
         self.next += 1;
     }
 
+    /// Four values at once, one per lane (the lanes stay in registers).
+    #[inline]
+    fn mix4(&mut self, v: [f64; 4]) {
+        for (h, x) in self.lanes.iter_mut().zip(v) {
+            *h = (*h ^ x.to_bits()).wrapping_mul(0x0100_0000_01b3).rotate_left(17);
+        }
+    }
+
+    /// A slice, four values at a time.
+    fn mix_slice(&mut self, v: &[f64]) {
+        let mut chunks = v.chunks_exact(4);
+        for c in &mut chunks {
+            self.mix4([c[0], c[1], c[2], c[3]]);
+        }
+        for &x in chunks.remainder() {
+            self.mix(x);
+        }
+    }
+
     fn finish(&self) -> u64 {
         self.lanes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &l| (h ^ l).wrapping_mul(0x0100_0000_01b3).rotate_left(17))
     }
@@ -277,7 +296,11 @@ impl Fingerprint {
 /// cheap next to one assembly, and it changes whenever any of them does.
 fn geometry_fingerprint(inp: &AssemblyInput) -> u64 {
     let mut h = Fingerprint::new(0xcbf2_9ce4_8422_2325);
-    for p in inp.coords {
+    let mut pairs = inp.coords.chunks_exact(2);
+    for c in &mut pairs {
+        h.mix4([c[0].x, c[0].y, c[1].x, c[1].y]);
+    }
+    for p in pairs.remainder() {
         h.mix(p.x);
         h.mix(p.y);
     }
@@ -287,10 +310,7 @@ fn geometry_fingerprint(inp: &AssemblyInput) -> u64 {
     }
     for r in inp.rules {
         h.mix(r.points.len() as f64);
-        for xi in &r.points {
-            h.mix(xi[0]);
-            h.mix(xi[1]);
-        }
+        h.mix_slice(r.points.as_flattened());
     }
     h.finish()
 }
@@ -301,9 +321,7 @@ fn stiffness_fingerprint(geometry: u64, inp: &AssemblyInput) -> u64 {
     let mut h = Fingerprint::new(geometry);
     for r in inp.rules {
         h.mix(r.weights.len() as f64);
-        for &w in &r.weights {
-            h.mix(w);
-        }
+        h.mix_slice(&r.weights);
     }
     h.finish()
 }
