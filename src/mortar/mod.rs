@@ -588,8 +588,10 @@ pub struct ContactRow {
 /// mortar segment; only those facing it (normals opposed) and within `max_gap` of it (either
 /// side: penetration counts) contribute.
 pub fn weighted_gaps(side: &MortarSide, lm: &Multipliers, other: &OtherSide, max_gap: f64) -> Vec<ContactRow> {
-    let mut normal: Vec<BTreeMap<usize, f64>> = vec![BTreeMap::new(); lm.num_nodes];
-    let mut tangent: Vec<BTreeMap<usize, f64>> = vec![BTreeMap::new(); lm.num_nodes];
+    // Each row's contributions in the order they come, summed per DOF at the end in that order
+    // (what a map accumulating them would give, bit for bit, without its per-entry search).
+    let mut normal: Vec<Vec<(usize, f64)>> = vec![Vec::new(); lm.num_nodes];
+    let mut tangent: Vec<Vec<(usize, f64)>> = vec![Vec::new(); lm.num_nodes];
     let mut g0 = vec![0.0; lm.num_nodes];
     let mut phi_int = vec![0.0; lm.num_nodes];
     let mut shape = Vec::new();
@@ -615,22 +617,36 @@ pub fn weighted_gaps(side: &MortarSide, lm: &Multipliers, other: &OtherSide, max
             for (rows, dir) in [(&mut normal[l], p.n), (&mut tangent[l], t)] {
                 for c in 0..2 {
                     for (q, &v) in [p.va, p.vb].iter().enumerate() {
-                        *rows.entry(2 * side.nodes[v % n_pts] + c).or_insert(0.0) -= p.wt * phi * nm[q] * dir[c];
+                        rows.push((2 * side.nodes[v % n_pts] + c, -(p.wt * phi * nm[q] * dir[c])));
                     }
                     for &(node, nv) in shape.iter() {
-                        *rows.entry(2 * node + c).or_insert(0.0) += p.wt * phi * nv * dir[c];
+                        rows.push((2 * node + c, p.wt * phi * nv * dir[c]));
                     }
                 }
             }
         }
     });
-    let clean = |r: BTreeMap<usize, f64>| -> ConstraintRow { r.into_iter().filter(|(_, v)| *v != 0.0).collect() };
+    let clean = |r: Vec<(usize, f64)>| -> ConstraintRow { summed_by_dof(r).into_iter().filter(|(_, v)| *v != 0.0).collect() };
     normal
         .into_iter()
         .zip(tangent)
         .zip(g0.into_iter().zip(phi_int))
         .map(|((n, t), (g0, phi))| ContactRow { normal: clean(n), g0, tangent: clean(t), phi })
         .collect()
+}
+
+/// Contributions `(dof, value)` summed per DOF, in increasing DOF order; each DOF's sum starts
+/// at 0 and adds its contributions in the order given (a stable sort keeps it).
+fn summed_by_dof(mut entries: Vec<(usize, f64)>) -> Vec<(usize, f64)> {
+    entries.sort_by_key(|e| e.0);
+    let mut out: Vec<(usize, f64)> = Vec::with_capacity(entries.len());
+    for (d, v) in entries {
+        match out.last_mut() {
+            Some(last) if last.0 == d => last.1 += v,
+            _ => out.push((d, 0.0 + v)),
+        }
+    }
+    out
 }
 
 /// One mortar integration point of a contact pair, as wear reads it: weight (mortar-side
