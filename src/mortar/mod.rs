@@ -626,7 +626,8 @@ pub fn weighted_gaps(side: &MortarSide, lm: &Multipliers, other: &OtherSide, max
             }
         }
     });
-    let clean = |r: Vec<(usize, f64)>| -> ConstraintRow { summed_by_dof(r).into_iter().filter(|(_, v)| *v != 0.0).collect() };
+    let clean =
+        |r: Vec<(usize, f64)>| -> ConstraintRow { summed_by_dof(r).into_iter().filter(|(_, v)| *v != 0.0).collect() };
     normal
         .into_iter()
         .zip(tangent)
