@@ -316,10 +316,11 @@ fn bench_wear(path: PathBuf, at: &[u64]) -> Result<(), String> {
         model.num_dofs()
     );
     println!("{table}");
-    let rest = wall - timings.setup - timings.solve - timings.wear - output;
+    let rest = wall - timings.setup - timings.repairing - timings.solve - timings.wear - output;
     println!(
-        "wall {wall:.1} s: contact solves {:.1} s, solver set-up per cycle {:.1} s, wear update + re-cut {:.1} s, output {:.1} s ({:.1}%), other {:.1} s; result file {:.1} MB",
+        "wall {wall:.1} s: contact solves {:.1} s, re-pairing {:.1} s (pairings and their interface operators), solver set-up {:.1} s (per surface position), wear update + re-cut {:.1} s, output {:.1} s ({:.1}%), other {:.1} s; result file {:.1} MB",
         timings.solve,
+        timings.repairing,
         timings.setup,
         timings.wear,
         output,
@@ -328,9 +329,10 @@ fn bench_wear(path: PathBuf, at: &[u64]) -> Result<(), String> {
         size as f64 / 1e6
     );
     println!(
-        "per computed cycle: {:.3} s (contact {:.3}, set-up {:.3}, wear {:.3}, output {:.3})",
+        "per computed cycle: {:.3} s (contact {:.3}, re-pairing {:.3}, set-up {:.3}, wear {:.3}, output {:.3})",
         wall / state.wear.computed_cycles.max(1) as f64,
         timings.solve / state.wear.computed_cycles.max(1) as f64,
+        timings.repairing / state.wear.computed_cycles.max(1) as f64,
         timings.setup / state.wear.computed_cycles.max(1) as f64,
         timings.wear / state.wear.computed_cycles.max(1) as f64,
         output / state.wear.computed_cycles.max(1) as f64
