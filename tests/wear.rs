@@ -657,7 +657,7 @@ fn partial_slip_wear_rate_rises_then_decays() {
 /// hundred times over 10^4 cycles must reach the same scar: largest depth and worn area of
 /// both bodies within 2%, the jump error either run carries (the adaptive controller against
 /// fixed jumps of 200 cycles over 10^5 shipped cycles: 1.3% in depth, 1.4% in area,
-/// docs/validation.md "Partial slip"). Measured 0.57% and 1.24% (flat), 0.50% and 1.24%
+/// docs/validation.md "Partial slip"). Measured 0.57% and 1.25% (flat), 0.50% and 1.25%
 /// (cylinder). Before about 10^5 cycles of the ten-times run the stick zone spans several
 /// multiplier nodes and the depths converge in the mesh (123.0, 110.8, 108.0 nm on meshes 1, 2
 /// and 4 times finer); after it the stick zone collapses to the mesh scale, and the late stage

@@ -644,6 +644,7 @@ fn summed_by_dof(mut entries: Vec<(usize, f64)>) -> Vec<(usize, f64)> {
     for (d, v) in entries {
         match out.last_mut() {
             Some(last) if last.0 == d => last.1 += v,
+            // From 0 as a map's new entry (a lone -0.0 reads 0.0 there too).
             _ => out.push((d, 0.0 + v)),
         }
     }

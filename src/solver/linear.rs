@@ -372,43 +372,33 @@ impl SparseSolver {
             (Numeric::Blocks(factors), _) => {
                 // Each block's share on its own (side by side: independent, sequential kernels
                 // in each), then summed in block order: the same sums on any thread count.
-                let shares = self
-                    .blocks
-                    .par_iter()
-                    .zip(factors)
-                    .map(|(block, f)| {
-                        let mut local = vec![usize::MAX; self.pattern.nrows()];
-                        for (k, &e) in block.eqs.iter().enumerate() {
-                            local[e] = k;
-                        }
-                        let touching: Vec<(usize, Vec<(usize, f64)>)> = cols
-                            .iter()
-                            .enumerate()
-                            .filter_map(|(j, col)| {
-                                let c: Vec<(usize, f64)> = col
-                                    .iter()
-                                    .filter(|&&(e, _)| local[e] != usize::MAX)
-                                    .map(|&(e, c)| (local[e], c))
-                                    .collect();
-                                (!c.is_empty()).then_some((j, c))
-                            })
-                            .collect();
-                        let mut kept = f.gram.lock().ok()?;
-                        let fresh = !matches!(kept.as_ref(), Some(g) if g.from == from && g.cols == touching);
-                        tracing::trace!(block = block.eqs[0], kept = !fresh, "interface operator share");
-                        if fresh {
-                            let k0 = touching.partition_point(|(j, _)| *j < from);
-                            let local_cols: Vec<Vec<(usize, f64)>> = touching.iter().map(|(_, c)| c.clone()).collect();
-                            let gram = match supernodal_congruence(&block.symbolic, &f.l, &local_cols, k0) {
-                                Some(gram) => gram,
-                                None => solved_congruence(&block.symbolic, &f.l, &local_cols, k0, block.eqs.len()),
-                            };
-                            *kept = Some(BlockGram { from, cols: touching, gram });
-                        }
-                        Some(())
-                    })
-                    .collect::<Option<Vec<()>>>();
-                shares?;
+                self.blocks.par_iter().zip(factors).try_for_each(|(block, f)| -> Option<()> {
+                    // The block's equations are sorted: a column entry's position in it.
+                    let touching: Vec<(usize, Vec<(usize, f64)>)> = cols
+                        .iter()
+                        .enumerate()
+                        .filter_map(|(j, col)| {
+                            let c: Vec<(usize, f64)> = col
+                                .iter()
+                                .filter_map(|&(e, c)| block.eqs.binary_search(&e).ok().map(|k| (k, c)))
+                                .collect();
+                            (!c.is_empty()).then_some((j, c))
+                        })
+                        .collect();
+                    let mut kept = f.gram.lock().ok()?;
+                    let fresh = !matches!(kept.as_ref(), Some(g) if g.from == from && g.cols == touching);
+                    tracing::trace!(block = block.eqs[0], kept = !fresh, "interface operator share");
+                    if fresh {
+                        let k0 = touching.partition_point(|(j, _)| *j < from);
+                        let local_cols: Vec<Vec<(usize, f64)>> = touching.iter().map(|(_, c)| c.clone()).collect();
+                        let gram = match supernodal_congruence(&block.symbolic, &f.l, &local_cols, k0) {
+                            Some(gram) => gram,
+                            None => solved_congruence(&block.symbolic, &f.l, &local_cols, k0, block.eqs.len()),
+                        };
+                        *kept = Some(BlockGram { from, cols: touching, gram });
+                    }
+                    Some(())
+                })?;
                 let mut out = Mat::<f64>::zeros(nb, nb - from);
                 for f in factors {
                     let kept = f.gram.lock().ok()?;
