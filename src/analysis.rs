@@ -359,7 +359,8 @@ impl<'m> StaticAnalysis<'m> {
                 None => solver.factor(&self.values).is_err(),
             };
         let compliance = condensed.and_then(|c| c.compliance);
-        let reuse = SolverReuse::new(key, self.assembler, solver, self.values, compliance);
+        let mut reuse = SolverReuse::new(key, self.assembler, solver, self.values, compliance);
+        reuse.buffers = Some((self.trial_history, self.trial_stress, self.trial_f_int));
         Some(if lost { reuse.without_values() } else { reuse })
     }
 
@@ -375,6 +376,15 @@ impl<'m> StaticAnalysis<'m> {
         reuse: Option<SolverReuse>,
         compliance: bool,
     ) -> Result<Self, AnalysisError> {
+        let mut reuse = reuse;
+        let (mut trial_history, mut trial_stress, mut trial_f_int) =
+            reuse.as_mut().and_then(|r| r.buffers.take()).unwrap_or_default();
+        // As allocated afresh, except the stresses: every step starts them from the state's.
+        trial_history.clear();
+        trial_history.resize(model.elements.num_states(), PlasticState::default());
+        trial_stress.resize(model.elements.num_points(), Stress4::zeros());
+        trial_f_int.clear();
+        trial_f_int.resize(disc.dofs.num_dofs, 0.0);
         let (mut assembler, solver, values, cd, key, reused) = condensed::setup(model, disc, true, reuse, compliance)?;
         // A yielding run's elastic bodies: force from their kept stiffness (stresses at commit).
         assembler.set_elastic_force_from_kept(model.has_plasticity());
@@ -387,9 +397,9 @@ impl<'m> StaticAnalysis<'m> {
             alpha: 1.0,
             factored: true,
             parallel: true,
-            trial_history: vec![PlasticState::default(); model.elements.num_states()],
-            trial_stress: vec![Stress4::zeros(); model.elements.num_points()],
-            trial_f_int: vec![0.0; disc.dofs.num_dofs],
+            trial_history,
+            trial_stress,
+            trial_f_int,
             condensed: Some(cd),
             tangent_values: vec![],
             last_active: 0,

@@ -100,6 +100,7 @@ where
     }
     let mut current = model.initial().clone();
     let mut reuse = None;
+    let mut backup = state.clone();
     let first = state.step;
     for (k, &t) in model.times.iter().enumerate().skip(first) {
         let step = k + 1;
@@ -116,7 +117,7 @@ where
             solve_paired_step(
                 model,
                 &current,
-                state,
+                (state, &mut backup),
                 &mut reuse,
                 same_bulk,
                 at_rest,
@@ -170,7 +171,8 @@ where
         return Err(crate::wear::WearError { cycle: 0, surface, msg }.into());
     };
     let current = model.initial().clone();
-    let mut run = WearRun { model, current, reuse: None, options, timings: RunTimings::default(), observer };
+    let backup = state.clone();
+    let mut run = WearRun { model, current, reuse: None, backup, options, timings: RunTimings::default(), observer };
     run.place_surfaces(state)?;
     let ramp_steps = model.times.len() - cycle.count * cycle.increments;
     if state.step < ramp_steps {
@@ -191,6 +193,8 @@ struct WearRun<'m, F> {
     model: &'m Model,
     current: Discretisation,
     reuse: Option<crate::analysis::SolverReuse>,
+    /// A finite-sliding step's start state (kept between steps: refilled, not reallocated).
+    backup: SimState,
     options: RunOptions,
     timings: RunTimings,
     observer: F,
@@ -246,7 +250,7 @@ where
         let n = state.wear.cycle;
         let step_time = |i: usize| cycle.start + cycle.period * (n as f64 + (i + 1) as f64 / cycle.increments as f64);
         let first = state.wear.increment;
-        let Self { model, current, reuse, options, timings, observer } = self;
+        let Self { model, current, reuse, backup, options, timings, observer } = self;
         let model: &Model = model;
         if model.has_finite_sliding() {
             state.wear.pairing_guess.resize(cycle.increments, vec![]);
@@ -261,7 +265,7 @@ where
                 solve_paired_step(
                     model,
                     current,
-                    state,
+                    (state, backup),
                     reuse,
                     i > first,
                     false,
@@ -413,13 +417,14 @@ const PAIRING_CONTRACTION_FLOOR: f64 = 0.1;
 /// re-pairings only the contact rows change: `K_rho` keeps its factorisation. `same_bulk`: the
 /// structure handed in `reuse` was set up on `current`'s bulk; `surface_compliance`: see
 /// [`StaticAnalysis::for_pairings`] (on for runs whose surfaces stay where they are, where one
-/// bulk serves every step). `then` gets the step's discretisation (`current` re-paired),
+/// bulk serves every step). `start` receives the step's start state (a buffer kept by the
+/// caller). `then` gets the step's discretisation (`current` re-paired),
 /// its analysis, the converged state and the report; its result is returned.
 #[allow(clippy::too_many_arguments)]
 fn solve_paired_step<R>(
     model: &Model,
     current: &Discretisation,
-    state: &mut SimState,
+    (state, start): (&mut SimState, &mut SimState),
     reuse: &mut Option<crate::analysis::SolverReuse>,
     same_bulk: bool,
     surface_compliance: bool,
@@ -430,7 +435,7 @@ fn solve_paired_step<R>(
     timings: &mut RunTimings,
     then: impl FnOnce(&Discretisation, &StaticAnalysis, &mut SimState, StepReport, &SimState) -> Result<R, AnalysisError>,
 ) -> Result<R, AnalysisError> {
-    let start = state.clone();
+    start.clone_from(state);
     let mut u_pair = guess.map_or_else(|| state.u.clone(), <[f64]>::to_vec);
     let mut last_pressure: Option<Vec<f64>> = None;
     let (mut change, mut last_change, mut estimate) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
@@ -449,7 +454,7 @@ fn solve_paired_step<R>(
         *(if kept_bulk { &mut timings.repairing } else { &mut timings.setup }) += t0.elapsed().as_secs_f64();
         timings.count_setup(&analysis);
         if pairing > 1 {
-            *state = start.clone();
+            state.clone_from(start);
         }
         let t1 = std::time::Instant::now();
         let mut report = analysis.advance_to(state, step, t)?;
@@ -492,11 +497,11 @@ fn solve_paired_step<R>(
         let at_rest = pairing == 1 && guess.is_none() && !state_slid(&paired, state, &start.u);
         if estimate <= PAIRING_TOLERANCE || (pairing > 1 && change == 0.0) || at_rest {
             if let Err(e) = check_on_counter_surface(model, (current, &paired), state, step, t) {
-                *state = start;
+                state.clone_from(start);
                 return Err(e);
             }
             report.iterations = iterations;
-            let out = then(&paired, &analysis, state, report, &start);
+            let out = then(&paired, &analysis, state, report, start);
             *reuse = analysis.into_reuse();
             // The interface log of a per-step operator means nothing to the next step.
             state.interface_log.clear();
@@ -506,7 +511,7 @@ fn solve_paired_step<R>(
         last_pressure = Some(pressure);
         u_pair.clone_from(&state.u);
     }
-    *state = start;
+    state.clone_from(start);
     Err(AnalysisError::PairingNotSettled { step, time: t, pairings: MAX_PAIRINGS, change })
 }
 

@@ -371,7 +371,13 @@ pub struct SolverReuse {
     same_bulk: bool,
     /// The surface compliance on that bulk (finite sliding).
     compliance: Option<Compliance>,
+    /// The analysis's trial buffers (history, stresses, internal force), refilled by the next
+    /// analysis instead of allocated: a finite-sliding run sets up an analysis per pairing.
+    pub(super) buffers: Option<TrialBuffers>,
 }
+
+/// Trial buffers of an analysis (see [`SolverReuse`]).
+pub(super) type TrialBuffers = (Vec<PlasticState>, Vec<Stress4>, Vec<f64>);
 
 /// What the pattern of `K_rho` is built from.
 #[derive(PartialEq)]
@@ -389,7 +395,7 @@ impl SolverReuse {
         values: Vec<f64>,
         compliance: Option<Compliance>,
     ) -> Self {
-        SolverReuse { key, assembler, solver, values, same_bulk: false, compliance }
+        SolverReuse { key, assembler, solver, values, same_bulk: false, compliance, buffers: None }
     }
 
     /// For a next model that differs from this one only in its contact rows (a re-pairing of
