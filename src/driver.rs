@@ -100,7 +100,7 @@ where
     }
     let mut current = model.initial().clone();
     let mut reuse = None;
-    let mut backup = state.clone();
+    let mut backup = StepStart::default();
     let first = state.step;
     for (k, &t) in model.times.iter().enumerate().skip(first) {
         let step = k + 1;
@@ -171,7 +171,7 @@ where
         return Err(crate::wear::WearError { cycle: 0, surface, msg }.into());
     };
     let current = model.initial().clone();
-    let backup = state.clone();
+    let backup = StepStart::default();
     let mut run = WearRun { model, current, reuse: None, backup, options, timings: RunTimings::default(), observer };
     run.place_surfaces(state)?;
     let ramp_steps = model.times.len() - cycle.count * cycle.increments;
@@ -193,8 +193,8 @@ struct WearRun<'m, F> {
     model: &'m Model,
     current: Discretisation,
     reuse: Option<crate::analysis::SolverReuse>,
-    /// A finite-sliding step's start state (kept between steps: refilled, not reallocated).
-    backup: SimState,
+    /// A finite-sliding step's start (kept between steps: refilled, not reallocated).
+    backup: StepStart,
     options: RunOptions,
     timings: RunTimings,
     observer: F,
@@ -417,14 +417,14 @@ const PAIRING_CONTRACTION_FLOOR: f64 = 0.1;
 /// re-pairings only the contact rows change: `K_rho` keeps its factorisation. `same_bulk`: the
 /// structure handed in `reuse` was set up on `current`'s bulk; `surface_compliance`: see
 /// [`StaticAnalysis::for_pairings`] (on for runs whose surfaces stay where they are, where one
-/// bulk serves every step). `start` receives the step's start state (a buffer kept by the
-/// caller). `then` gets the step's discretisation (`current` re-paired),
+/// bulk serves every step). `start` receives the step's start (a buffer kept by the caller).
+/// `then` gets the step's discretisation (`current` re-paired),
 /// its analysis, the converged state and the report; its result is returned.
 #[allow(clippy::too_many_arguments)]
 fn solve_paired_step<R>(
     model: &Model,
     current: &Discretisation,
-    (state, start): (&mut SimState, &mut SimState),
+    (state, start): (&mut SimState, &mut StepStart),
     reuse: &mut Option<crate::analysis::SolverReuse>,
     same_bulk: bool,
     surface_compliance: bool,
@@ -433,9 +433,9 @@ fn solve_paired_step<R>(
     t: f64,
     options: RunOptions,
     timings: &mut RunTimings,
-    then: impl FnOnce(&Discretisation, &StaticAnalysis, &mut SimState, StepReport, &SimState) -> Result<R, AnalysisError>,
+    then: impl FnOnce(&Discretisation, &StaticAnalysis, &mut SimState, StepReport, &StepStart) -> Result<R, AnalysisError>,
 ) -> Result<R, AnalysisError> {
-    start.clone_from(state);
+    start.save(state);
     let mut u_pair = guess.map_or_else(|| state.u.clone(), <[f64]>::to_vec);
     let mut last_pressure: Option<Vec<f64>> = None;
     let (mut change, mut last_change, mut estimate) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
@@ -454,7 +454,7 @@ fn solve_paired_step<R>(
         *(if kept_bulk { &mut timings.repairing } else { &mut timings.setup }) += t0.elapsed().as_secs_f64();
         timings.count_setup(&analysis);
         if pairing > 1 {
-            state.clone_from(start);
+            start.restore(state);
         }
         let t1 = std::time::Instant::now();
         let mut report = analysis.advance_to(state, step, t)?;
@@ -497,7 +497,7 @@ fn solve_paired_step<R>(
         let at_rest = pairing == 1 && guess.is_none() && !state_slid(&paired, state, &start.u);
         if estimate <= PAIRING_TOLERANCE || (pairing > 1 && change == 0.0) || at_rest {
             if let Err(e) = check_on_counter_surface(model, (current, &paired), state, step, t) {
-                state.clone_from(start);
+                start.restore(state);
                 return Err(e);
             }
             report.iterations = iterations;
@@ -511,8 +511,74 @@ fn solve_paired_step<R>(
         last_pressure = Some(pressure);
         u_pair.clone_from(&state.u);
     }
-    state.clone_from(start);
+    start.restore(state);
     Err(AnalysisError::PairingNotSettled { step, time: t, pairings: MAX_PAIRINGS, change })
+}
+
+/// What the solve of a finite-sliding step changes in the state, saved at the step's start so
+/// that a re-pairing solves again from there (and a refused step leaves the state where it
+/// started). The stresses are left out: derived from the displacements and the history, every
+/// solve writes them wherever there is material (points without material keep theirs, which
+/// no solve changes); so is the wear state, which the solve does not touch. Its buffers are
+/// refilled step after step, not reallocated.
+#[derive(Default)]
+struct StepStart {
+    step: usize,
+    time: f64,
+    load_factor: f64,
+    u: Vec<f64>,
+    history: Vec<crate::fem::material::PlasticState>,
+    f_int: Vec<f64>,
+    multipliers: Vec<f64>,
+    friction_status: Vec<u8>,
+    slip_increment: Vec<f64>,
+    accumulated_slip: Vec<f64>,
+    dissipation: f64,
+    interface_log: Vec<Vec<usize>>,
+}
+
+impl StepStart {
+    fn save(&mut self, s: &SimState) {
+        // Every field named: a new state field must be placed on one side or the other.
+        let SimState {
+            step,
+            time,
+            load_factor,
+            u,
+            history,
+            stress: _,
+            f_int,
+            multipliers,
+            friction_status,
+            slip_increment,
+            accumulated_slip,
+            dissipation,
+            interface_log,
+            wear: _,
+            ghost: _,
+        } = s;
+        (self.step, self.time, self.load_factor, self.dissipation) = (*step, *time, *load_factor, *dissipation);
+        self.u.clone_from(u);
+        self.history.clone_from(history);
+        self.f_int.clone_from(f_int);
+        self.multipliers.clone_from(multipliers);
+        self.friction_status.clone_from(friction_status);
+        self.slip_increment.clone_from(slip_increment);
+        self.accumulated_slip.clone_from(accumulated_slip);
+        self.interface_log.clone_from(interface_log);
+    }
+
+    fn restore(&self, s: &mut SimState) {
+        (s.step, s.time, s.load_factor, s.dissipation) = (self.step, self.time, self.load_factor, self.dissipation);
+        s.u.clone_from(&self.u);
+        s.history.clone_from(&self.history);
+        s.f_int.clone_from(&self.f_int);
+        s.multipliers.clone_from(&self.multipliers);
+        s.friction_status.clone_from(&self.friction_status);
+        s.slip_increment.clone_from(&self.slip_increment);
+        s.accumulated_slip.clone_from(&self.accumulated_slip);
+        s.interface_log.clone_from(&self.interface_log);
+    }
 }
 
 /// The pressure change that re-pairing a converged finite-sliding step would cause, relative
