@@ -358,8 +358,20 @@ impl<'m> StaticAnalysis<'m> {
                 }
                 None => solver.factor(&self.values).is_err(),
             };
-        let compliance = condensed.and_then(|c| c.compliance);
+        let (compliance, bulk) = match condensed {
+            Some(c) => {
+                let bulk = condensed::BulkRows {
+                    grounds: c.ground_rows,
+                    rho_tie: c.rho_tie,
+                    rho_ground: c.rho_ground,
+                    equations: c.equations,
+                };
+                (c.compliance, Some(bulk))
+            }
+            None => (None, None),
+        };
         let mut reuse = SolverReuse::new(key, self.assembler, solver, self.values, compliance);
+        reuse.bulk = bulk;
         reuse.buffers = Some((self.trial_history, self.trial_stress, self.trial_f_int));
         Some(if lost { reuse.without_values() } else { reuse })
     }

@@ -64,6 +64,11 @@ pub(super) struct Condensed {
     /// The factor and `d` hold a consistent tangent of yielding bodies instead of the elastic
     /// `K_rho` (see [`Condensed::refactor`]); the next model then assembles its own.
     pub tangent: bool,
+    /// The grounding rows and the regularisation weights (with `equations`: what a re-pairing on
+    /// the same bulk keeps, see [`BulkRows`]).
+    pub ground_rows: Vec<Vec<(usize, f64)>>,
+    pub rho_tie: f64,
+    pub rho_ground: f64,
     /// While a tangent is factored: the elastic `K_rho`'s factor, put back instead of
     /// refactoring it (the same numbers: a factorisation of the same values); and the storage
     /// of the last tangent factor, for the next.
@@ -371,9 +376,20 @@ pub struct SolverReuse {
     same_bulk: bool,
     /// The surface compliance on that bulk (finite sliding).
     compliance: Option<Compliance>,
+    /// What the set-up derived from the bulk alone (a re-pairing on it skips that work).
+    pub(super) bulk: Option<BulkRows>,
     /// The analysis's trial buffers (history, stresses, internal force), refilled by the next
     /// analysis instead of allocated: a finite-sliding run sets up an analysis per pairing.
     pub(super) buffers: Option<TrialBuffers>,
+}
+
+/// The rows and equations of a condensed set-up that depend on the bulk alone: the grounding
+/// rows, the regularisation weights of ties and grounding rows, the equations of `K_rho`.
+pub(super) struct BulkRows {
+    pub grounds: Vec<Vec<(usize, f64)>>,
+    pub rho_tie: f64,
+    pub rho_ground: f64,
+    pub equations: DofMap,
 }
 
 /// Trial buffers of an analysis (see [`SolverReuse`]).
@@ -395,7 +411,7 @@ impl SolverReuse {
         values: Vec<f64>,
         compliance: Option<Compliance>,
     ) -> Self {
-        SolverReuse { key, assembler, solver, values, same_bulk: false, compliance, buffers: None }
+        SolverReuse { key, assembler, solver, values, same_bulk: false, compliance, bulk: None, buffers: None }
     }
 
     /// For a next model that differs from this one only in its contact rows (a re-pairing of
@@ -470,15 +486,26 @@ pub(super) fn setup(
         .map(|k| g0[k] / disc.contact.phi[k])
         .fold(f64::INFINITY, f64::min);
     let e_max = m.materials.iter().map(|mat| mat.elastic().young).fold(0.0, f64::max);
-    let grounds = ground_rows(m, disc);
-    let (regularisation, rho_tie, rho_ground) = regularisation(&all[..nt], &grounds, e_max);
-    let pairs = merged_pairs(m.ghost_reach(), regularisation.iter().map(|&(i, j, _)| (i, j)).collect());
-    let equations = solver_equations(m);
-    let key = ReuseKey { eq: equations.eq.clone(), elements: m.elements.len(), pairs };
-    let mut penalty = disc.penalty.clone();
-    penalty.extend_from_slice(&regularisation);
     let t0 = std::time::Instant::now();
-    let (assembler, solver, kept, reused) = bulk_structure(m, reuse, &key, &equations, &penalty)?;
+    let (bulk, key, (assembler, solver, kept, reused)) = match reuse {
+        // A re-pairing on the same bulk: the grounding rows, the regularisation, the equations
+        // and the structure key are functions of the bulk alone, kept with it.
+        Some(SolverReuse { key, assembler, solver, values, same_bulk: true, compliance, bulk: Some(bulk), .. }) => {
+            (bulk, key, (assembler, solver, Some((values, compliance)), true))
+        }
+        reuse => {
+            let grounds = ground_rows(m, disc);
+            let (regularisation, rho_tie, rho_ground) = regularisation(&all[..nt], &grounds, e_max);
+            let pairs = merged_pairs(m.ghost_reach(), regularisation.iter().map(|&(i, j, _)| (i, j)).collect());
+            let equations = solver_equations(m);
+            let key = ReuseKey { eq: equations.eq.clone(), elements: m.elements.len(), pairs };
+            let mut penalty = disc.penalty.clone();
+            penalty.extend_from_slice(&regularisation);
+            let structure = bulk_structure(m, reuse, &key, &equations, &penalty)?;
+            (BulkRows { grounds, rho_tie, rho_ground, equations }, key, structure)
+        }
+    };
+    let BulkRows { grounds, rho_tie, rho_ground, equations } = bulk;
     let (mut assembler, mut solver) = (assembler, solver);
     let (kept_values, mut kept_compliance) = kept.map_or((None, None), |(v, c)| (Some(v), c));
     let ts = t0.elapsed().as_secs_f64();
@@ -518,6 +545,9 @@ pub(super) fn setup(
         equations,
         compliance,
         tangent: false,
+        ground_rows: vec![],
+        rho_tie,
+        rho_ground,
         elastic_factor: None,
         spare_factor: None,
     };
@@ -530,9 +560,11 @@ pub(super) fn setup(
     cd.push(m, disc, &ties, rho_tie);
     cd.push(m, disc, &with_friction(m, disc, &near_rows(disc, &g0, CANDIDATE_MARGIN, g_min)), 0.0);
     cd.extend_operator(&solver, 0)?;
+    let n_grounds = grounds.len();
+    cd.ground_rows = grounds;
     tracing::info!(
         set = cd.live.len(),
-        grounds = grounds.len(),
+        grounds = n_grounds,
         points = m.elements.num_points(),
         elements = m.elements.len(),
         rho_tie,
