@@ -48,6 +48,9 @@ pub(super) struct Condensed {
     pub rho: Vec<f64>,
     /// Delassus operator of `K_rho` on the set.
     pub d: DMatrix<f64>,
+    /// The leading rows of the set that depend on the bulk alone (grounding rows and ties): the
+    /// solver keeps their share of the operator from one pairing to the next.
+    pub fixed: usize,
     /// Rows added after setup, batch by batch (a checkpoint stores it; replaying it on a restart
     /// rebuilds the identical `d`).
     pub log: Vec<Vec<usize>>,
@@ -129,7 +132,7 @@ impl Compliance {
     /// Forms `F` over `eqs` with the factor of `K_rho`.
     fn new(solver: &SparseSolver, eqs: Vec<usize>, num_equations: usize) -> Result<Self, LinearSolverError> {
         let rows: Vec<Vec<(usize, f64)>> = eqs.iter().map(|&e| vec![(e, 1.0)]).collect();
-        let f = operator_columns(solver, &rows, 0, num_equations)?;
+        let f = operator_columns(solver, &rows, 0, 0, num_equations)?;
         let mut pos = vec![None; num_equations];
         for (i, &e) in eqs.iter().enumerate() {
             pos[e] = Some(i as u32);
@@ -164,15 +167,18 @@ impl Compliance {
 
 /// Columns `old..` of the operator `B K_rho^{-1} B^T` for the rows `rows` of `B` (over the
 /// equations of `K_rho`): an `n x (n - old)` block. Supernodal substitution where the factor
-/// allows it, else solves with the factor, `RHS_BLOCK` rows at a time on the rayon threads.
+/// allows it (the first `fixed` rows the same while the factor is, see
+/// [`SparseSolver::congruence`]), else solves with the factor, `RHS_BLOCK` rows at a time on the
+/// rayon threads.
 fn operator_columns(
     solver: &SparseSolver,
     rows: &[Vec<(usize, f64)>],
     old: usize,
+    fixed: usize,
     nf: usize,
 ) -> Result<DMatrix<f64>, LinearSolverError> {
     let nl = rows.len();
-    if let Some(block) = solver.congruence(rows, old) {
+    if let Some(block) = solver.congruence(rows, old, fixed) {
         return Ok(block);
     }
     let mut out = DMatrix::zeros(nl, nl - old);
@@ -540,6 +546,7 @@ pub(super) fn setup(
         rows_free: vec![],
         rho: vec![],
         d: DMatrix::zeros(0, 0),
+        fixed: 0,
         log: vec![],
         grounds: all.len(),
         equations,
@@ -558,6 +565,7 @@ pub(super) fn setup(
     }
     let ties: Vec<usize> = (0..nt).collect();
     cd.push(m, disc, &ties, rho_tie);
+    cd.fixed = cd.live.len();
     cd.push(m, disc, &with_friction(m, disc, &near_rows(disc, &g0, CANDIDATE_MARGIN, g_min)), 0.0);
     cd.extend_operator(&solver, 0)?;
     let n_grounds = grounds.len();
@@ -993,7 +1001,7 @@ impl Condensed {
         }
         let block = match self.compliance.as_ref().and_then(|c| c.columns(&self.rows_free, old)) {
             Some(block) => block,
-            None => operator_columns(solver, &self.rows_free, old, self.equations.num_free)?,
+            None => operator_columns(solver, &self.rows_free, old, self.fixed, self.equations.num_free)?,
         };
         let mut d = DMatrix::zeros(nl, nl);
         d.view_mut((0, 0), (old, old)).copy_from(&self.d);

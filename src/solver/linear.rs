@@ -67,6 +67,22 @@ struct BlockFactor {
     values: Vec<f64>,
     l: Vec<f64>,
     gram: std::sync::Mutex<Option<BlockGram>>,
+    fixed: std::sync::Mutex<Option<FixedShare>>,
+}
+
+/// A block's fixed columns (see [`SparseSolver::congruence`]) with their `W` by supernode and
+/// their own `W^T W`, kept while the block's factor is.
+struct FixedShare {
+    cols: Vec<(usize, Vec<(usize, f64)>)>,
+    w: Substitution,
+    gram: Mat<f64>,
+}
+
+/// `W = L^{-1} P B` of some columns of `B`, by supernode: the columns non-zero on each (sorted,
+/// local indices) and the block of `W` over its rows and those columns (`None`: not reached).
+struct Substitution {
+    cols_of: Vec<Vec<usize>>,
+    blocks: Vec<Option<Mat<f64>>>,
 }
 
 /// A block's share of `B^T A^{-1} B[:, from..]`: the columns of `B` that touch the block
@@ -278,7 +294,12 @@ impl SparseSolver {
                             let mut l = old.map(|f| f.l).unwrap_or_default();
                             let sub = SparseColMatRef::new(b.pattern.as_ref(), &v);
                             factor_llt(&b.symbolic, sub, &mut l)?;
-                            Ok(BlockFactor { values: v, l, gram: std::sync::Mutex::new(None) })
+                            Ok(BlockFactor {
+                                values: v,
+                                l,
+                                gram: std::sync::Mutex::new(None),
+                                fixed: std::sync::Mutex::new(None),
+                            })
                         }
                     }
                 })
@@ -365,8 +386,12 @@ impl SparseSolver {
     ///
     /// Factored by blocks, it is the sum of the blocks' shares, each over the columns touching
     /// it (a simplicial block's by column solves); a block whose factor and columns are those
-    /// of the last call adds its kept share.
-    pub fn congruence(&self, cols: &[Vec<(usize, f64)>], from: usize) -> Option<DMatrix<f64>> {
+    /// of the last call adds its kept share. The first `fixed` columns are the same from call
+    /// to call while the factor is (the caller's ties and grounding rows before its contact
+    /// rows): a block keeps their `W` and their share, and a call forms only the other columns'
+    /// `W` and share and the cross products (the whole operator, `from = 0`, only). The fixed
+    /// columns are substituted on their own, so the result does not depend on the calls before.
+    pub fn congruence(&self, cols: &[Vec<(usize, f64)>], from: usize, fixed: usize) -> Option<DMatrix<f64>> {
         let nb = cols.len();
         let out = match (&self.numeric, &self.llt_symbolic) {
             (Numeric::Blocks(factors), _) => {
@@ -390,8 +415,15 @@ impl SparseSolver {
                     tracing::trace!(block = block.eqs[0], kept = !fresh, "interface operator share");
                     if fresh {
                         let k0 = touching.partition_point(|(j, _)| *j < from);
+                        let nf = touching.partition_point(|(j, _)| *j < fixed);
                         let local_cols: Vec<Vec<(usize, f64)>> = touching.iter().map(|(_, c)| c.clone()).collect();
-                        let gram = match supernodal_congruence(&block.symbolic, &f.l, &local_cols, k0) {
+                        let split = from == 0 && nf > 0 && nf < touching.len();
+                        let gram = match split {
+                            true => with_fixed_columns(&block.symbolic, &f.l, &touching, nf, &f.fixed),
+                            false => None,
+                        };
+                        let gram = match gram.or_else(|| supernodal_congruence(&block.symbolic, &f.l, &local_cols, k0))
+                        {
                             Some(gram) => gram,
                             None => solved_congruence(&block.symbolic, &f.l, &local_cols, k0, block.eqs.len()),
                         };
@@ -444,6 +476,64 @@ fn supernodal_congruence(
     cols: &[Vec<(usize, f64)>],
     from: usize,
 ) -> Option<Mat<f64>> {
+    let mut out = Mat::<f64>::zeros(cols.len(), cols.len() - from);
+    substitute(symbolic, values, cols, |block, js| accumulate_gram(&mut out, block, js, from))?;
+    Some(out)
+}
+
+/// The share `W^T W` of a block whose first `nf` columns `cols` (global index, local entries)
+/// are fixed: theirs kept in `fixed` (formed on their own when absent or different), the
+/// others' formed here, and the cross products over the supernodes both reach. `None` if the
+/// factor is simplicial.
+fn with_fixed_columns(
+    symbolic: &SymbolicCholesky<usize>,
+    values: &[f64],
+    cols: &[(usize, Vec<(usize, f64)>)],
+    nf: usize,
+    fixed: &std::sync::Mutex<Option<FixedShare>>,
+) -> Option<Mat<f64>> {
+    let mut kept = fixed.lock().ok()?;
+    if !matches!(kept.as_ref(), Some(k) if k.cols[..] == cols[..nf]) {
+        let local: Vec<Vec<(usize, f64)>> = cols[..nf].iter().map(|(_, c)| c.clone()).collect();
+        let mut gram = Mat::<f64>::zeros(nf, nf);
+        let w = substitute(symbolic, values, &local, |block, js| accumulate_gram(&mut gram, block, js, 0))?;
+        *kept = Some(FixedShare { cols: cols[..nf].to_vec(), w, gram });
+    }
+    let share = kept.as_ref()?;
+    let n = cols.len();
+    let local: Vec<Vec<(usize, f64)>> = cols[nf..].iter().map(|(_, c)| c.clone()).collect();
+    let mut others = Mat::<f64>::zeros(n - nf, n - nf);
+    let w = substitute(symbolic, values, &local, |block, js| accumulate_gram(&mut others, block, js, 0))?;
+    let mut out = Mat::<f64>::zeros(n, n);
+    out.as_mut().submatrix_mut(0, 0, nf, nf).copy_from(&share.gram);
+    out.as_mut().submatrix_mut(nf, nf, n - nf, n - nf).copy_from(&others);
+    // Cross products on the supernodes both sets reach (the separators above both surfaces).
+    for (s, block) in w.blocks.iter().enumerate() {
+        let (Some(b), Some(a)) = (block, share.w.blocks[s].as_ref()) else { continue };
+        let mut cross = Mat::<f64>::zeros(a.ncols(), b.ncols());
+        matmul(cross.as_mut(), Accum::Replace, a.transpose(), b.as_ref(), 1.0, Par::Seq);
+        for (jb, &cb) in w.cols_of[s].iter().enumerate() {
+            for (ja, &ca) in share.w.cols_of[s].iter().enumerate() {
+                out[(ca, nf + cb)] += cross[(ja, jb)];
+                out[(nf + cb, ca)] += cross[(ja, jb)];
+            }
+        }
+    }
+    Some(out)
+}
+
+/// `W = L^{-1} P B` for sparse columns `cols` of `B`, by forward substitution over the
+/// supernodes the columns reach: `W` is non-zero only on the elimination-tree ancestors of the
+/// equations `B` touches (for interface rows of a 2D mesh: the leaves at the surface and the
+/// separators above them), so the substitution runs over those supernodes alone, all columns
+/// at once. `final_block(block, js)` gets each supernode's block of `W` (its rows, its columns
+/// `js`) as soon as it is final, in elimination order. `None` for a simplicial factor.
+fn substitute(
+    symbolic: &SymbolicCholesky<usize>,
+    values: &[f64],
+    cols: &[Vec<(usize, f64)>],
+    mut final_block: impl FnMut(faer::MatRef<f64>, &[usize]),
+) -> Option<Substitution> {
     let SymbolicCholeskyRaw::Supernodal(sym) = symbolic.raw() else { return None };
     let n = sym.nrows();
     let nb = cols.len();
@@ -499,26 +589,25 @@ fn supernodal_congruence(
     }
     // Per supernode: solved with the diagonal block, pushed to the rows below by one
     // product, scattered into the blocks of the supernodes those rows belong to. Its rows
-    // of W are then final (every descendant has pushed its update), so the Gram product
+    // of W are then final (every descendant has pushed its update), so a Gram product
     // `W^T W` is accumulated supernode by supernode over its own columns only (the dense
     // product did eight times the work).
-    let mut out = Mat::<f64>::zeros(nb, nb - from);
     let mut position = Vec::new();
     for s in 0..ns {
         let Some(mut block) = blocks[s].take() else { continue };
         let node = factor.supernode(s);
         let size = end[s] - begin[s];
-        let js = &cols_of[s];
         let (l_top, l_bot) = node.val().split_at_row(size);
         solve_lower_triangular_in_place(l_top, block.as_mut(), Par::Seq);
-        accumulate_gram(&mut out, block.as_ref(), js, from);
+        final_block(block.as_ref(), &cols_of[s]);
         let pattern = node.pattern();
-        if pattern.is_empty() {
-            continue;
+        if !pattern.is_empty() {
+            let js = &cols_of[s];
+            let mut update = Mat::<f64>::zeros(pattern.len(), js.len());
+            matmul(update.as_mut(), Accum::Replace, l_bot, block.as_ref(), 1.0, Par::Seq);
+            scatter_update(update.as_ref(), pattern, js, (&super_of, begin), &cols_of, &mut blocks, &mut position);
         }
-        let mut update = Mat::<f64>::zeros(pattern.len(), js.len());
-        matmul(update.as_mut(), Accum::Replace, l_bot, block.as_ref(), 1.0, Par::Seq);
-        scatter_update(update.as_ref(), pattern, js, (&super_of, begin), &cols_of, &mut blocks, &mut position);
+        blocks[s] = Some(block);
     }
     tracing::debug!(
         n,
@@ -529,7 +618,7 @@ fn supernodal_congruence(
         column_visits = cols_of.iter().map(|c| c.len()).sum::<usize>(),
         "interface operator by forward substitution"
     );
-    Some(out)
+    Some(Substitution { cols_of, blocks })
 }
 
 /// Adds the supernode block's share of `W^T W` (its own columns `js`, sorted) to the columns
