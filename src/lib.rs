@@ -31,25 +31,6 @@
 //!
 //! Physics modules never print or touch files; logging goes through `tracing`.
 
-/// `Clone` for a struct of owned buffers whose `clone_from` refills the target's buffers in
-/// place (the derived one allocates afresh): a state copied back and forth every step, as a
-/// finite-sliding step's backup, then costs no allocation. The field list must be complete
-/// (the destructuring fails to compile otherwise).
-macro_rules! clone_in_place {
-    ($ty:ident { $($field:ident),* $(,)? }) => {
-        impl Clone for $ty {
-            fn clone(&self) -> Self {
-                let $ty { $($field),* } = self;
-                $ty { $($field: $field.clone()),* }
-            }
-            fn clone_from(&mut self, source: &Self) {
-                let $ty { $($field),* } = source;
-                $(self.$field.clone_from($field);)*
-            }
-        }
-    };
-}
-
 pub mod analysis;
 pub mod assembly;
 pub mod case;

@@ -7,7 +7,7 @@ use crate::contact::ContactUnknowns;
 use crate::fem::material::{PlasticState, Stress4};
 pub use crate::wear::WearState;
 
-#[derive(Debug, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct SimState {
     /// Index of the last converged output step (0: initial state).
     pub step: usize,
@@ -42,24 +42,6 @@ pub struct SimState {
     /// Ghost-penalty faces born after the start on re-cut bodies of path-dependent material.
     pub ghost: GhostBirths,
 }
-
-clone_in_place!(SimState {
-    step,
-    time,
-    load_factor,
-    u,
-    history,
-    stress,
-    f_int,
-    multipliers,
-    friction_status,
-    slip_increment,
-    accumulated_slip,
-    dissipation,
-    interface_log,
-    wear,
-    ghost,
-});
 
 /// The ghost-penalty faces of re-cut bodies whose material has a history (J2), each with its
 /// force at birth. The penalty of such a face acts on the displacement since it was born,

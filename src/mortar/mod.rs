@@ -626,28 +626,39 @@ pub fn weighted_gaps(side: &MortarSide, lm: &Multipliers, other: &OtherSide, max
             }
         }
     });
-    let clean =
-        |r: Vec<(usize, f64)>| -> ConstraintRow { summed_by_dof(r).into_iter().filter(|(_, v)| *v != 0.0).collect() };
-    normal
-        .into_iter()
-        .zip(tangent)
-        .zip(g0.into_iter().zip(phi_int))
-        .map(|((n, t), (g0, phi))| ContactRow { normal: clean(n), g0, tangent: clean(t), phi })
-        .collect()
+    let mut slot = Vec::new();
+    let mut clean = |r: &[(usize, f64)]| -> ConstraintRow {
+        summed_by_dof(r, &mut slot).into_iter().filter(|(_, v)| *v != 0.0).collect()
+    };
+    let mut out = Vec::with_capacity(lm.num_nodes);
+    for ((n, t), (g0, phi)) in normal.iter().zip(&tangent).zip(g0.into_iter().zip(phi_int)) {
+        out.push(ContactRow { normal: clean(n), g0, tangent: clean(t), phi });
+    }
+    out
 }
 
 /// Contributions `(dof, value)` summed per DOF, in increasing DOF order; each DOF's sum starts
-/// at 0 and adds its contributions in the order given (a stable sort keeps it).
-fn summed_by_dof(mut entries: Vec<(usize, f64)>) -> Vec<(usize, f64)> {
-    entries.sort_by_key(|e| e.0);
-    let mut out: Vec<(usize, f64)> = Vec::with_capacity(entries.len());
-    for (d, v) in entries {
-        match out.last_mut() {
-            Some(last) if last.0 == d => last.1 += v,
+/// at 0 and adds its contributions in the order given (what a map accumulating them gives, bit
+/// for bit). `slot` is scratch over the DOFs (`usize::MAX` where free; left so).
+fn summed_by_dof(entries: &[(usize, f64)], slot: &mut Vec<usize>) -> Vec<(usize, f64)> {
+    let mut out: Vec<(usize, f64)> = Vec::new();
+    for &(d, v) in entries {
+        if d >= slot.len() {
+            slot.resize(d + 1, usize::MAX);
+        }
+        match slot[d] {
             // From 0 as a map's new entry (a lone -0.0 reads 0.0 there too).
-            _ => out.push((d, 0.0 + v)),
+            usize::MAX => {
+                slot[d] = out.len();
+                out.push((d, 0.0 + v));
+            }
+            i => out[i].1 += v,
         }
     }
+    for &(d, _) in &out {
+        slot[d] = usize::MAX;
+    }
+    out.sort_unstable_by_key(|e| e.0);
     out
 }
 

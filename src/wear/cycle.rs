@@ -29,7 +29,7 @@ use nalgebra::{DMatrix, Point2};
 /// Everything a wear run carries from cycle to cycle: where the worn surfaces are, how much
 /// each lost, the cycle counters and the cycle-jump controller's memory. Per wearing surface
 /// (in the model's wear order), per vertex of its polyline.
-#[derive(Debug, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct WearState {
     /// Cycles done, the jumped ones included (the cycle being computed is `cycle`).
     pub cycle: u64,
@@ -69,25 +69,6 @@ pub struct WearState {
     pub cycle_ratcheting: f64,
     pub cycle_plastic_strain: f64,
 }
-
-clone_in_place!(WearState {
-    cycle,
-    computed_cycles,
-    increment,
-    jump,
-    vertices,
-    depth,
-    cycle_volume,
-    cycle_work,
-    cycle_jumps,
-    worn_area,
-    work,
-    controller,
-    pairing_guess,
-    plastic_start,
-    cycle_ratcheting,
-    cycle_plastic_strain,
-});
 
 /// The largest jump that drops at most `tolerance` of net plastic strain at the rate
 /// `ratcheting` per cycle (unbounded without ratcheting).
