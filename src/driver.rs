@@ -43,6 +43,8 @@ pub struct RunTimings {
     /// that estimates whether it settled) and the interface operator of each pairing on a
     /// bulk already factored.
     pub repairing: f64,
+    /// The pairings alone (the geometry: mortar integrals of the rows), part of `repairing`.
+    pub pairings: f64,
     /// Contact solves of the increments.
     pub solve: f64,
     /// Wear: step integrals, cycle update with its jump, surface move, re-cut and re-pairing.
@@ -57,6 +59,7 @@ impl RunTimings {
     fn add(&mut self, o: &RunTimings) {
         self.setup += o.setup;
         self.repairing += o.repairing;
+        self.pairings += o.pairings;
         self.solve += o.solve;
         self.wear += o.wear;
         self.setups += o.setups;
@@ -445,6 +448,7 @@ fn solve_paired_step<R>(
         let t0 = std::time::Instant::now();
         let paired = prepared.take().unwrap_or_else(|| current.repaired_at(model, &u_pair, &start.u));
         timings.repairing += t0.elapsed().as_secs_f64();
+        timings.pairings += t0.elapsed().as_secs_f64();
         let t0 = std::time::Instant::now();
         let kept_bulk = same_bulk || pairing > 1;
         let handed = reuse.take().map(|r| if kept_bulk { r.with_same_bulk() } else { r });
@@ -485,6 +489,7 @@ fn solve_paired_step<R>(
         if pairing == 1 && guess.is_some() {
             let t0 = std::time::Instant::now();
             let next = current.repaired_at(model, &state.u, &start.u);
+            timings.pairings += t0.elapsed().as_secs_f64();
             if let Some(linear) = linear_pairing_change(model, (&paired, &next), &analysis, state) {
                 change = linear;
                 let floor = PAIRING_CONTRACTION_FLOOR;

@@ -318,9 +318,11 @@ fn bench_wear(path: PathBuf, at: &[u64]) -> Result<(), String> {
     println!("{table}");
     let rest = wall - timings.setup - timings.repairing - timings.solve - timings.wear - output;
     println!(
-        "wall {wall:.1} s: contact solves {:.1} s, re-pairing {:.1} s (pairings and their interface operators), solver set-up {:.1} s (per surface position), wear update + re-cut {:.1} s, output {:.1} s ({:.1}%), other {:.1} s; result file {:.1} MB",
+        "wall {wall:.1} s: contact solves {:.1} s, re-pairing {:.1} s (pairings {:.1} s, their interface operators {:.1} s), solver set-up {:.1} s (per surface position), wear update + re-cut {:.1} s, output {:.1} s ({:.1}%), other {:.1} s; result file {:.1} MB",
         timings.solve,
         timings.repairing,
+        timings.pairings,
+        timings.repairing - timings.pairings,
         timings.setup,
         timings.wear,
         output,
