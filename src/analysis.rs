@@ -466,6 +466,7 @@ impl<'m> StaticAnalysis<'m> {
             assembler: {
                 let mut assembler = Assembler::new(pattern, &model.elements);
                 assembler.set_elastic_force_from_kept(model.has_plasticity());
+                assembler.share_rules(&disc.rules);
                 assembler
             },
             solver,

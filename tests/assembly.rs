@@ -255,7 +255,8 @@ fn interface_operator_by_forward_substitution_equals_column_solves() {
 
 /// The assembler keeps the mapped geometry of every point between assemblies; when the rule
 /// points change under it (a re-cut moves a band cell's points), it must see the change: the
-/// same assembler after the change gives bit for bit what a fresh one gives.
+/// same assembler after the change gives bit for bit what a fresh one gives, also when the
+/// tables are shared with it (it keeps their hashes).
 #[test]
 fn assembler_geometry_follows_changed_rule_points() {
     let (model, u) = mixed_model();
@@ -266,6 +267,18 @@ fn assembler_geometry_follows_changed_rule_points() {
     let reused = assemble_with(&mut asm, &model, &disc, &u, true);
     let (values, f, new, _) = assemble(&model, &disc, &u, true);
     assert_eq!(reused, (values, f, new));
+    // The same through shared tables (the assembler keeps a shared table's hashes): the
+    // changed table is another table, and an assembly from a table other than the shared one
+    // is hashed as before.
+    let (_, _, _, mut shared) = assemble(&model, model.initial(), &u, true);
+    shared.share_rules(&model.initial().rules);
+    let before = assemble_with(&mut shared, &model, model.initial(), &u, true);
+    assert_eq!(before, assemble_with(&mut shared, &model, model.initial(), &u, true));
+    let mut changed = model.initial().clone();
+    std::sync::Arc::make_mut(&mut changed.rules)[r].points[0][0] *= 0.5;
+    shared.share_rules(&changed.rules);
+    assert_eq!(assemble_with(&mut shared, &model, &changed, &u, true), reused);
+    assert_eq!(assemble_with(&mut shared, &model, model.initial(), &u, true), before);
 }
 
 /// An assembler keeps the stiffness of every element whose points all stayed elastic and

@@ -513,6 +513,7 @@ pub(super) fn setup(
     };
     let BulkRows { grounds, rho_tie, rho_ground, equations } = bulk;
     let (mut assembler, mut solver) = (assembler, solver);
+    assembler.share_rules(&disc.rules);
     let (kept_values, mut kept_compliance) = kept.map_or((None, None), |(v, c)| (Some(v), c));
     let ts = t0.elapsed().as_secs_f64();
     let (values, t1, t2) = match kept_values {

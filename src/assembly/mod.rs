@@ -231,6 +231,9 @@ pub struct Assembler {
     /// Linear elastic elements with a kept stiffness take their force as `K_e u_e` and leave
     /// their stresses unwritten (see [`Assembler::set_elastic_force_from_kept`]).
     elastic_force_from_kept: bool,
+    /// The rule table last shared by the caller (see [`Assembler::share_rules`]) and the
+    /// hashes of its points and weights, once computed.
+    shared_rules: Option<SharedRules>,
 }
 
 const BLOCK: usize = 512;
@@ -292,9 +295,37 @@ impl Fingerprint {
     }
 }
 
-/// A hash of every coordinate, element-to-rule link and rule point (their bits, in order):
-/// cheap next to one assembly, and it changes whenever any of them does.
-fn geometry_fingerprint(inp: &AssemblyInput) -> u64 {
+/// A rule table shared with the assembler, and the hashes of its points and weights.
+struct SharedRules {
+    rules: std::sync::Arc<Vec<QuadratureRule>>,
+    points: Option<u64>,
+    weights: Option<u64>,
+}
+
+/// A hash of every rule point of a rule table (their bits, in order).
+fn rule_points_hash(rules: &[QuadratureRule]) -> u64 {
+    let mut h = Fingerprint::new(0xcbf2_9ce4_8422_2325);
+    for r in rules {
+        h.mix(r.points.len() as f64);
+        h.mix_slice(r.points.as_flattened());
+    }
+    h.finish()
+}
+
+/// A hash of every rule weight of a rule table (their bits, in order).
+fn rule_weights_hash(rules: &[QuadratureRule]) -> u64 {
+    let mut h = Fingerprint::new(0x9e37_79b9_7f4a_7c15);
+    for r in rules {
+        h.mix(r.weights.len() as f64);
+        h.mix_slice(&r.weights);
+    }
+    h.finish()
+}
+
+/// A hash of every coordinate, element-to-rule link and rule point (their bits, in order;
+/// the rule points' given as `rule_points`): cheap next to one assembly, and it changes
+/// whenever any of them does.
+fn geometry_fingerprint(inp: &AssemblyInput, rule_points: u64) -> u64 {
     let mut h = Fingerprint::new(0xcbf2_9ce4_8422_2325);
     let mut pairs = inp.coords.chunks_exact(2);
     for c in &mut pairs {
@@ -308,21 +339,16 @@ fn geometry_fingerprint(inp: &AssemblyInput) -> u64 {
         h.mix(r as f64);
         h.mix(nodes[0] as f64);
     }
-    for r in inp.rules {
-        h.mix(r.points.len() as f64);
-        h.mix_slice(r.points.as_flattened());
-    }
+    h.mix(f64::from_bits(rule_points));
     h.finish()
 }
 
-/// [`geometry_fingerprint`] extended by every rule weight (a re-cut of a yielding body's band
-/// changes the weights of its fixed points, hence its elements' stiffness).
-fn stiffness_fingerprint(geometry: u64, inp: &AssemblyInput) -> u64 {
+/// [`geometry_fingerprint`] extended by every rule weight (their hash `rule_weights`: a re-cut
+/// of a yielding body's band changes the weights of its fixed points, hence its elements'
+/// stiffness).
+fn stiffness_fingerprint(geometry: u64, rule_weights: u64) -> u64 {
     let mut h = Fingerprint::new(geometry);
-    for r in inp.rules {
-        h.mix(r.weights.len() as f64);
-        h.mix_slice(&r.weights);
-    }
+    h.mix(f64::from_bits(rule_weights));
     h.finish()
 }
 
@@ -367,12 +393,37 @@ impl Assembler {
             elastic_ke_valid: vec![false; ne],
             elastic_ke_of: None,
             elastic_force_from_kept: false,
+            shared_rules: None,
+        }
+    }
+
+    /// The rule table the next assemblies will mostly read (a model's discretisation shares
+    /// its table between re-pairings): holding it, the assembler hashes its points and weights
+    /// once, not at every assembly (136k points on the McColl scene). An assembly whose
+    /// `rules` are this table's (same buffer) uses the kept hashes; the table cannot change
+    /// while it is held (shared, it is immutable), and any other table is hashed afresh.
+    pub fn share_rules(&mut self, rules: &std::sync::Arc<Vec<QuadratureRule>>) {
+        if !matches!(&self.shared_rules, Some(s) if std::sync::Arc::ptr_eq(&s.rules, rules)) {
+            self.shared_rules = Some(SharedRules { rules: rules.clone(), points: None, weights: None });
+        }
+    }
+
+    /// The hash of `rules`' points (`weights`: of their weights), kept for a shared table.
+    fn rules_hash(&mut self, rules: &[QuadratureRule], weights: bool) -> u64 {
+        let compute = |r: &[QuadratureRule]| if weights { rule_weights_hash(r) } else { rule_points_hash(r) };
+        match self.shared_rules.as_mut() {
+            Some(s) if std::ptr::eq(s.rules.as_slice(), rules) => {
+                let slot = if weights { &mut s.weights } else { &mut s.points };
+                *slot.get_or_insert_with(|| compute(rules))
+            }
+            _ => compute(rules),
         }
     }
 
     /// Fills the per-point geometry table if `inp`'s geometry is not the one it holds.
     fn ensure_geometry(&mut self, inp: &AssemblyInput, parallel: bool) -> u64 {
-        let key = geometry_fingerprint(inp);
+        let rule_points = self.rules_hash(inp.rules, false);
+        let key = geometry_fingerprint(inp, rule_points);
         let el = inp.elements;
         if self.geometry_of == Some(key) && self.geometry.len() == el.num_points() {
             return key;
@@ -447,14 +498,15 @@ impl Assembler {
     /// Evaluates all element kernels (in parallel if `parallel`) and scatters them.
     pub fn assemble(&mut self, inp: &AssemblyInput, out: AssemblyOutput, parallel: bool) {
         let key = self.ensure_geometry(inp, parallel);
+        let with_tangent = out.values.is_some();
+        let stiffness_key = (with_tangent || self.elastic_force_from_kept)
+            .then(|| stiffness_fingerprint(key, self.rules_hash(inp.rules, true)));
         let geometry = &self.geometry;
         let el = inp.elements;
-        let with_tangent = out.values.is_some();
         // The kept stiffnesses serve an assembly of their own geometry and rules only; a
         // tangent assembly of another starts them anew.
         let mut kept_usable = false;
-        if with_tangent || self.elastic_force_from_kept {
-            let key = stiffness_fingerprint(key, inp);
+        if let Some(key) = stiffness_key {
             if with_tangent && (self.elastic_ke_of != Some(key) || self.elastic_ke_valid.len() != el.len()) {
                 self.elastic_ke = vec![[0.0; 64]; el.len()];
                 self.elastic_ke_valid = vec![false; el.len()];
