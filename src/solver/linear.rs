@@ -477,7 +477,7 @@ fn supernodal_congruence(
     from: usize,
 ) -> Option<Mat<f64>> {
     let mut out = Mat::<f64>::zeros(cols.len(), cols.len() - from);
-    substitute(symbolic, values, cols, |block, js| accumulate_gram(&mut out, block, js, from))?;
+    substitute(symbolic, values, cols, false, |block, js| accumulate_gram(&mut out, block, js, from))?;
     Some(out)
 }
 
@@ -496,14 +496,14 @@ fn with_fixed_columns(
     if !matches!(kept.as_ref(), Some(k) if k.cols[..] == cols[..nf]) {
         let local: Vec<Vec<(usize, f64)>> = cols[..nf].iter().map(|(_, c)| c.clone()).collect();
         let mut gram = Mat::<f64>::zeros(nf, nf);
-        let w = substitute(symbolic, values, &local, |block, js| accumulate_gram(&mut gram, block, js, 0))?;
+        let w = substitute(symbolic, values, &local, true, |block, js| accumulate_gram(&mut gram, block, js, 0))?;
         *kept = Some(FixedShare { cols: cols[..nf].to_vec(), w, gram });
     }
     let share = kept.as_ref()?;
     let n = cols.len();
     let local: Vec<Vec<(usize, f64)>> = cols[nf..].iter().map(|(_, c)| c.clone()).collect();
     let mut others = Mat::<f64>::zeros(n - nf, n - nf);
-    let w = substitute(symbolic, values, &local, |block, js| accumulate_gram(&mut others, block, js, 0))?;
+    let w = substitute(symbolic, values, &local, true, |block, js| accumulate_gram(&mut others, block, js, 0))?;
     let mut out = Mat::<f64>::zeros(n, n);
     out.as_mut().submatrix_mut(0, 0, nf, nf).copy_from(&share.gram);
     out.as_mut().submatrix_mut(nf, nf, n - nf, n - nf).copy_from(&others);
@@ -527,11 +527,14 @@ fn with_fixed_columns(
 /// equations `B` touches (for interface rows of a 2D mesh: the leaves at the surface and the
 /// separators above them), so the substitution runs over those supernodes alone, all columns
 /// at once. `final_block(block, js)` gets each supernode's block of `W` (its rows, its columns
-/// `js`) as soon as it is final, in elimination order. `None` for a simplicial factor.
+/// `js`) as soon as it is final, in elimination order; the blocks are returned with `keep`
+/// (else dropped once used: a compliance of thousands of columns would hold them all).
+/// `None` for a simplicial factor.
 fn substitute(
     symbolic: &SymbolicCholesky<usize>,
     values: &[f64],
     cols: &[Vec<(usize, f64)>],
+    keep: bool,
     mut final_block: impl FnMut(faer::MatRef<f64>, &[usize]),
 ) -> Option<Substitution> {
     let SymbolicCholeskyRaw::Supernodal(sym) = symbolic.raw() else { return None };
@@ -607,7 +610,9 @@ fn substitute(
             matmul(update.as_mut(), Accum::Replace, l_bot, block.as_ref(), 1.0, Par::Seq);
             scatter_update(update.as_ref(), pattern, js, (&super_of, begin), &cols_of, &mut blocks, &mut position);
         }
-        blocks[s] = Some(block);
+        if keep {
+            blocks[s] = Some(block);
+        }
     }
     tracing::debug!(
         n,
