@@ -521,11 +521,13 @@ fn solve_paired_step<R>(
 }
 
 /// What the solve of a finite-sliding step changes in the state, saved at the step's start so
-/// that a re-pairing solves again from there (and a refused step leaves the state where it
-/// started). The stresses are left out: derived from the displacements and the history, every
-/// solve writes them wherever there is material (points without material keep theirs, which
-/// no solve changes); so is the wear state, which the solve does not touch. Its buffers are
-/// refilled step after step, not reallocated.
+/// that a re-pairing solves again from there (and a refused step leaves its step, time,
+/// displacements, multipliers, friction fields and history where they started). The stresses
+/// are left out: derived from the displacements and the history, every solve writes them
+/// wherever there is material (points without material keep theirs, which no solve changes),
+/// so a re-pairing's solve gives the same bits; after a refused step they are its last
+/// solve's. So is the wear state, which the solve does not touch. Its buffers are refilled
+/// step after step, not reallocated.
 #[derive(Default)]
 struct StepStart {
     step: usize,

@@ -89,6 +89,8 @@ struct Substitution {
 /// (global index, entries in block numbering) and `W_b^T W_b` over them.
 struct BlockGram {
     from: usize,
+    /// The fixed columns it was formed with (the split's shares may differ in round-off).
+    fixed: usize,
     cols: Vec<(usize, Vec<(usize, f64)>)>,
     gram: Mat<f64>,
 }
@@ -411,7 +413,8 @@ impl SparseSolver {
                         })
                         .collect();
                     let mut kept = f.gram.lock().ok()?;
-                    let fresh = !matches!(kept.as_ref(), Some(g) if g.from == from && g.cols == touching);
+                    let fresh =
+                        !matches!(kept.as_ref(), Some(g) if g.from == from && g.fixed == fixed && g.cols == touching);
                     tracing::trace!(block = block.eqs[0], kept = !fresh, "interface operator share");
                     if fresh {
                         let k0 = touching.partition_point(|(j, _)| *j < from);
@@ -427,7 +430,7 @@ impl SparseSolver {
                             Some(gram) => gram,
                             None => solved_congruence(&block.symbolic, &f.l, &local_cols, k0, block.eqs.len()),
                         };
-                        *kept = Some(BlockGram { from, cols: touching, gram });
+                        *kept = Some(BlockGram { from, fixed, cols: touching, gram });
                     }
                     Some(())
                 })?;
