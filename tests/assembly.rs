@@ -279,6 +279,13 @@ fn assembler_geometry_follows_changed_rule_points() {
     shared.share_rules(&changed.rules);
     assert_eq!(assemble_with(&mut shared, &model, &changed, &u, true), reused);
     assert_eq!(assemble_with(&mut shared, &model, model.initial(), &u, true), before);
+    // A table its sole owner changes in place (as a re-cut does): the assembler's link is cut.
+    let mut owned = model.initial().clone();
+    owned.rules = std::sync::Arc::new(model.initial().rules.as_ref().clone());
+    shared.share_rules(&owned.rules);
+    assert_eq!(assemble_with(&mut shared, &model, &owned, &u, true), before);
+    std::sync::Arc::make_mut(&mut owned.rules)[r].points[0][0] *= 0.5;
+    assert_eq!(assemble_with(&mut shared, &model, &owned, &u, true), reused);
 }
 
 /// An assembler keeps the stiffness of every element whose points all stayed elastic and

@@ -295,9 +295,10 @@ impl Fingerprint {
     }
 }
 
-/// A rule table shared with the assembler, and the hashes of its points and weights.
+/// A rule table shared with the assembler (held weakly: a re-cut that owns the table then
+/// changes it in place, which cuts this link), and the hashes of its points and weights.
 struct SharedRules {
-    rules: std::sync::Arc<Vec<QuadratureRule>>,
+    rules: std::sync::Weak<Vec<QuadratureRule>>,
     points: Option<u64>,
     weights: Option<u64>,
 }
@@ -398,13 +399,16 @@ impl Assembler {
     }
 
     /// The rule table the next assemblies will mostly read (a model's discretisation shares
-    /// its table between re-pairings): holding it, the assembler hashes its points and weights
-    /// once, not at every assembly (136k points on the McColl scene). An assembly whose
-    /// `rules` are this table's (same buffer) uses the kept hashes; the table cannot change
-    /// while it is held (shared, it is immutable), and any other table is hashed afresh.
+    /// its table between re-pairings): linked to it, the assembler hashes its points and
+    /// weights once, not at every assembly (136k points on the McColl scene). An assembly whose
+    /// `rules` are this table's (same buffer) uses the kept hashes while the link holds: a
+    /// shared table cannot change, and the only way to change it in place (`Arc::make_mut` by
+    /// its sole owner) cuts the weak link first. Any other table is hashed afresh.
     pub fn share_rules(&mut self, rules: &std::sync::Arc<Vec<QuadratureRule>>) {
-        if !matches!(&self.shared_rules, Some(s) if std::sync::Arc::ptr_eq(&s.rules, rules)) {
-            self.shared_rules = Some(SharedRules { rules: rules.clone(), points: None, weights: None });
+        let linked = |s: &SharedRules| s.rules.upgrade().is_some_and(|held| std::sync::Arc::ptr_eq(&held, rules));
+        if !self.shared_rules.as_ref().is_some_and(linked) {
+            let rules = std::sync::Arc::downgrade(rules);
+            self.shared_rules = Some(SharedRules { rules, points: None, weights: None });
         }
     }
 
@@ -412,7 +416,7 @@ impl Assembler {
     fn rules_hash(&mut self, rules: &[QuadratureRule], weights: bool) -> u64 {
         let compute = |r: &[QuadratureRule]| if weights { rule_weights_hash(r) } else { rule_points_hash(r) };
         match self.shared_rules.as_mut() {
-            Some(s) if std::ptr::eq(s.rules.as_slice(), rules) => {
+            Some(s) if s.rules.upgrade().is_some_and(|held| std::ptr::eq(held.as_slice(), rules)) => {
                 let slot = if weights { &mut s.weights } else { &mut s.points };
                 *slot.get_or_insert_with(|| compute(rules))
             }
