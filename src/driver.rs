@@ -447,8 +447,9 @@ fn solve_paired_step<R>(
     for pairing in 1..=MAX_PAIRINGS {
         let t0 = std::time::Instant::now();
         let paired = prepared.take().unwrap_or_else(|| current.repaired_at(model, &u_pair, &start.u));
-        timings.repairing += t0.elapsed().as_secs_f64();
-        timings.pairings += t0.elapsed().as_secs_f64();
+        let pairing_time = t0.elapsed().as_secs_f64();
+        timings.repairing += pairing_time;
+        timings.pairings += pairing_time;
         let t0 = std::time::Instant::now();
         let kept_bulk = same_bulk || pairing > 1;
         let handed = reuse.take().map(|r| if kept_bulk { r.with_same_bulk() } else { r });

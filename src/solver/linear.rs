@@ -422,7 +422,7 @@ impl SparseSolver {
                         let local_cols: Vec<Vec<(usize, f64)>> = touching.iter().map(|(_, c)| c.clone()).collect();
                         let split = from == 0 && nf > 0 && nf < touching.len();
                         let gram = match split {
-                            true => with_fixed_columns(&block.symbolic, &f.l, &touching, nf, &f.fixed),
+                            true => with_fixed_columns(&block.symbolic, &f.l, (&touching, &local_cols), nf, &f.fixed),
                             false => None,
                         };
                         let gram = match gram.or_else(|| supernodal_congruence(&block.symbolic, &f.l, &local_cols, k0))
@@ -484,29 +484,27 @@ fn supernodal_congruence(
     Some(out)
 }
 
-/// The share `W^T W` of a block whose first `nf` columns `cols` (global index, local entries)
-/// are fixed: theirs kept in `fixed` (formed on their own when absent or different), the
-/// others' formed here, and the cross products over the supernodes both reach. `None` if the
-/// factor is simplicial.
+/// The share `W^T W` of a block whose first `nf` columns `cols` (global index, local entries;
+/// and the local entries alone) are fixed: theirs kept in `fixed` (formed on their own when
+/// absent or different), the others' formed here, and the cross products over the supernodes
+/// both reach. `None` if the factor is simplicial.
 fn with_fixed_columns(
     symbolic: &SymbolicCholesky<usize>,
     values: &[f64],
-    cols: &[(usize, Vec<(usize, f64)>)],
+    (cols, local): (&[(usize, Vec<(usize, f64)>)], &[Vec<(usize, f64)>]),
     nf: usize,
     fixed: &std::sync::Mutex<Option<FixedShare>>,
 ) -> Option<Mat<f64>> {
     let mut kept = fixed.lock().ok()?;
     if !matches!(kept.as_ref(), Some(k) if k.cols[..] == cols[..nf]) {
-        let local: Vec<Vec<(usize, f64)>> = cols[..nf].iter().map(|(_, c)| c.clone()).collect();
         let mut gram = Mat::<f64>::zeros(nf, nf);
-        let w = substitute(symbolic, values, &local, true, |block, js| accumulate_gram(&mut gram, block, js, 0))?;
+        let w = substitute(symbolic, values, &local[..nf], true, |block, js| accumulate_gram(&mut gram, block, js, 0))?;
         *kept = Some(FixedShare { cols: cols[..nf].to_vec(), w, gram });
     }
     let share = kept.as_ref()?;
     let n = cols.len();
-    let local: Vec<Vec<(usize, f64)>> = cols[nf..].iter().map(|(_, c)| c.clone()).collect();
     let mut others = Mat::<f64>::zeros(n - nf, n - nf);
-    let w = substitute(symbolic, values, &local, true, |block, js| accumulate_gram(&mut others, block, js, 0))?;
+    let w = substitute(symbolic, values, &local[nf..], true, |block, js| accumulate_gram(&mut others, block, js, 0))?;
     let mut out = Mat::<f64>::zeros(n, n);
     out.as_mut().submatrix_mut(0, 0, nf, nf).copy_from(&share.gram);
     out.as_mut().submatrix_mut(nf, nf, n - nf, n - nf).copy_from(&others);
