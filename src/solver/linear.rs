@@ -68,6 +68,52 @@ struct BlockFactor {
     l: Vec<f64>,
     gram: std::sync::Mutex<Option<BlockGram>>,
     fixed: std::sync::Mutex<Option<FixedShare>>,
+    /// Buffers of its substitutions, kept from one interface operator to the next.
+    scratch: std::sync::Mutex<Scratch>,
+}
+
+/// A dense column-major matrix on a buffer that is kept and refilled (a re-pairing forms
+/// hundreds of small products: fresh matrices cost more to allocate and clear than to fill).
+#[derive(Default)]
+struct Dense {
+    rows: usize,
+    cols: usize,
+    data: Vec<f64>,
+}
+
+impl Dense {
+    /// `rows x cols` zeros in the buffer's storage.
+    fn zeroed(&mut self, rows: usize, cols: usize) {
+        self.rows = rows;
+        self.cols = cols;
+        self.data.clear();
+        self.data.resize(rows * cols, 0.0);
+    }
+
+    fn at(&self, i: usize, j: usize) -> f64 {
+        self.data[i + j * self.rows]
+    }
+
+    fn add(&mut self, i: usize, j: usize, v: f64) {
+        self.data[i + j * self.rows] += v;
+    }
+
+    fn as_mut(&mut self) -> MatMut<'_, f64> {
+        MatMut::from_column_major_slice_mut(&mut self.data, self.rows, self.cols)
+    }
+}
+
+/// Work buffers of [`substitute`] and its products.
+#[derive(Default)]
+struct Scratch {
+    /// `W`'s blocks of a substitution that is not kept.
+    w: Vec<f64>,
+    /// A supernode's update of the rows below it.
+    update: Vec<f64>,
+    /// A supernode's Gram product, a cross product, the other columns' share.
+    gram: Dense,
+    cross: Dense,
+    others: Dense,
 }
 
 /// A block's fixed columns (see [`SparseSolver::congruence`]) with their `W` by supernode and
@@ -75,14 +121,28 @@ struct BlockFactor {
 struct FixedShare {
     cols: Vec<(usize, Vec<(usize, f64)>)>,
     w: Substitution,
-    gram: Mat<f64>,
+    gram: Dense,
 }
 
 /// `W = L^{-1} P B` of some columns of `B`, by supernode: the columns non-zero on each (sorted,
-/// local indices) and the block of `W` over its rows and those columns (`None`: not reached).
+/// local indices) and the block of `W` over its rows and those columns, column-major at
+/// `offset[s]` of one buffer (`size[s]` rows; not reached: no columns).
 struct Substitution {
     cols_of: Vec<Vec<usize>>,
-    blocks: Vec<Option<Mat<f64>>>,
+    offset: Vec<usize>,
+    size: Vec<usize>,
+    w: Vec<f64>,
+}
+
+impl Substitution {
+    /// Supernode `s`'s block of `W` (`None`: not reached).
+    fn block(&self, s: usize) -> Option<faer::MatRef<'_, f64>> {
+        let (rows, cols) = (self.size[s], self.cols_of[s].len());
+        (cols > 0).then(|| {
+            let at = self.offset[s];
+            faer::MatRef::from_column_major_slice(&self.w[at..at + rows * cols], rows, cols)
+        })
+    }
 }
 
 /// A block's share of `B^T A^{-1} B[:, from..]`: the columns of `B` that touch the block
@@ -92,7 +152,7 @@ struct BlockGram {
     /// The fixed columns it was formed with (the split's shares may differ in round-off).
     fixed: usize,
     cols: Vec<(usize, Vec<(usize, f64)>)>,
-    gram: Mat<f64>,
+    gram: Dense,
 }
 
 /// Factors with fewer non-zeros than this are factored and solved on one thread: measured on
@@ -293,7 +353,7 @@ impl SparseSolver {
                     match old.take() {
                         Some(f) if f.values == v => Ok(f),
                         old => {
-                            let mut l = old.map(|f| f.l).unwrap_or_default();
+                            let (mut l, scratch) = old.map(|f| (f.l, f.scratch)).unwrap_or_default();
                             let sub = SparseColMatRef::new(b.pattern.as_ref(), &v);
                             factor_llt(&b.symbolic, sub, &mut l)?;
                             Ok(BlockFactor {
@@ -301,6 +361,7 @@ impl SparseSolver {
                                 l,
                                 gram: std::sync::Mutex::new(None),
                                 fixed: std::sync::Mutex::new(None),
+                                scratch,
                             })
                         }
                     }
@@ -417,51 +478,70 @@ impl SparseSolver {
                         !matches!(kept.as_ref(), Some(g) if g.from == from && g.fixed == fixed && g.cols == touching);
                     tracing::trace!(block = block.eqs[0], kept = !fresh, "interface operator share");
                     if fresh {
+                        let mut scratch = f.scratch.lock().ok()?;
+                        // The last share's storage is refilled.
+                        let mut gram = kept.take().map(|g| g.gram).unwrap_or_default();
                         let k0 = touching.partition_point(|(j, _)| *j < from);
                         let nf = touching.partition_point(|(j, _)| *j < fixed);
                         let local_cols: Vec<Vec<(usize, f64)>> = touching.iter().map(|(_, c)| c.clone()).collect();
                         let split = from == 0 && nf > 0 && nf < touching.len();
-                        let gram = match split {
-                            true => with_fixed_columns(&block.symbolic, &f.l, (&touching, &local_cols), nf, &f.fixed),
-                            false => None,
-                        };
-                        let gram = match gram.or_else(|| supernodal_congruence(&block.symbolic, &f.l, &local_cols, k0))
+                        let formed = split
+                            && with_fixed_columns(
+                                &block.symbolic,
+                                &f.l,
+                                (&touching, &local_cols),
+                                nf,
+                                &f.fixed,
+                                &mut scratch,
+                                &mut gram,
+                            )
+                            .is_some();
+                        if !formed
+                            && supernodal_congruence(&block.symbolic, &f.l, &local_cols, k0, &mut scratch, &mut gram)
+                                .is_none()
                         {
-                            Some(gram) => gram,
-                            None => solved_congruence(&block.symbolic, &f.l, &local_cols, k0, block.eqs.len()),
-                        };
+                            solved_congruence(&block.symbolic, &f.l, &local_cols, k0, block.eqs.len(), &mut gram);
+                        }
                         *kept = Some(BlockGram { from, fixed, cols: touching, gram });
                     }
                     Some(())
                 })?;
-                let mut out = Mat::<f64>::zeros(nb, nb - from);
+                let mut out = DMatrix::<f64>::zeros(nb, nb - from);
+                let sums = out.as_mut_slice();
                 for f in factors {
                     let kept = f.gram.lock().ok()?;
                     let g = kept.as_ref()?;
                     let k0 = g.cols.partition_point(|(j, _)| *j < from);
                     for (b, (jb, _)) in g.cols[k0..].iter().enumerate() {
+                        let column = &mut sums[(jb - from) * nb..(jb - from + 1) * nb];
                         for (a, (ja, _)) in g.cols.iter().enumerate() {
-                            out[(*ja, jb - from)] += g.gram[(a, b)];
+                            column[*ja] += g.gram.at(a, b);
                         }
                     }
                 }
                 out
             }
-            (Numeric::Llt(values), Some(symbolic)) => supernodal_congruence(symbolic, values, cols, from)?,
+            (Numeric::Llt(values), Some(symbolic)) => {
+                let mut out = Dense::default();
+                supernodal_congruence(symbolic, values, cols, from, &mut Scratch::default(), &mut out)?;
+                DMatrix::from_column_slice(nb, nb - from, &out.data)
+            }
             _ => return None,
         };
-        Some(DMatrix::from_fn(nb, nb - from, |i, j| out[(i, j)]))
+        Some(out)
     }
 }
 
-/// `B^T A^{-1} B[:, from..]` by one solve per column (a simplicial factor of `n` equations).
+/// `B^T A^{-1} B[:, from..]` by one solve per column (a simplicial factor of `n` equations),
+/// into `out`.
 fn solved_congruence(
     symbolic: &SymbolicCholesky<usize>,
     l: &[f64],
     cols: &[Vec<(usize, f64)>],
     from: usize,
     n: usize,
-) -> Mat<f64> {
+    out: &mut Dense,
+) {
     let mut x = Mat::<f64>::zeros(n, cols.len() - from);
     for (b, col) in cols[from..].iter().enumerate() {
         for &(e, c) in col {
@@ -469,58 +549,84 @@ fn solved_congruence(
         }
     }
     solve_llt(symbolic, l, x.as_mut());
-    Mat::from_fn(cols.len(), cols.len() - from, |a, b| cols[a].iter().map(|&(e, c)| c * x[(e, b)]).sum())
+    out.zeroed(cols.len(), cols.len() - from);
+    for b in 0..cols.len() - from {
+        for (a, col) in cols.iter().enumerate() {
+            out.add(a, b, col.iter().map(|&(e, c)| c * x[(e, b)]).sum());
+        }
+    }
 }
 
-/// [`SparseSolver::congruence`] with one supernodal Cholesky factor (`None` if simplicial).
+/// [`SparseSolver::congruence`] with one supernodal Cholesky factor, into `out` (`None` if
+/// simplicial).
 fn supernodal_congruence(
     symbolic: &SymbolicCholesky<usize>,
     values: &[f64],
     cols: &[Vec<(usize, f64)>],
     from: usize,
-) -> Option<Mat<f64>> {
-    let mut out = Mat::<f64>::zeros(cols.len(), cols.len() - from);
-    substitute(symbolic, values, cols, false, |block, js| accumulate_gram(&mut out, block, js, from))?;
-    Some(out)
+    scratch: &mut Scratch,
+    out: &mut Dense,
+) -> Option<()> {
+    out.zeroed(cols.len(), cols.len() - from);
+    let Scratch { w, update, gram, .. } = scratch;
+    let sub = substitute(symbolic, values, cols, std::mem::take(w), update, |block, js| {
+        accumulate_gram(out, gram, block, js, from)
+    })?;
+    *w = sub.w;
+    Some(())
 }
 
 /// The share `W^T W` of a block whose first `nf` columns `cols` (global index, local entries;
-/// and the local entries alone) are fixed: theirs kept in `fixed` (formed on their own when
-/// absent or different), the others' formed here, and the cross products over the supernodes
-/// both reach. `None` if the factor is simplicial.
+/// and the local entries alone) are fixed, into `out`: theirs kept in `fixed` (formed on their
+/// own when absent or different), the others' formed here, and the cross products over the
+/// supernodes both reach. `None` if the factor is simplicial.
 fn with_fixed_columns(
     symbolic: &SymbolicCholesky<usize>,
     values: &[f64],
     (cols, local): (&[(usize, Vec<(usize, f64)>)], &[Vec<(usize, f64)>]),
     nf: usize,
     fixed: &std::sync::Mutex<Option<FixedShare>>,
-) -> Option<Mat<f64>> {
+    scratch: &mut Scratch,
+    out: &mut Dense,
+) -> Option<()> {
+    let Scratch { w: w_buffer, update, gram: product, cross, others } = scratch;
     let mut kept = fixed.lock().ok()?;
     if !matches!(kept.as_ref(), Some(k) if k.cols[..] == cols[..nf]) {
-        let mut gram = Mat::<f64>::zeros(nf, nf);
-        let w = substitute(symbolic, values, &local[..nf], true, |block, js| accumulate_gram(&mut gram, block, js, 0))?;
+        let mut gram = Dense::default();
+        gram.zeroed(nf, nf);
+        let w = substitute(symbolic, values, &local[..nf], Vec::new(), update, |block, js| {
+            accumulate_gram(&mut gram, product, block, js, 0)
+        })?;
         *kept = Some(FixedShare { cols: cols[..nf].to_vec(), w, gram });
     }
     let share = kept.as_ref()?;
     let n = cols.len();
-    let mut others = Mat::<f64>::zeros(n - nf, n - nf);
-    let w = substitute(symbolic, values, &local[nf..], true, |block, js| accumulate_gram(&mut others, block, js, 0))?;
-    let mut out = Mat::<f64>::zeros(n, n);
-    out.as_mut().submatrix_mut(0, 0, nf, nf).copy_from(&share.gram);
-    out.as_mut().submatrix_mut(nf, nf, n - nf, n - nf).copy_from(&others);
+    others.zeroed(n - nf, n - nf);
+    let w = substitute(symbolic, values, &local[nf..], std::mem::take(w_buffer), update, |block, js| {
+        accumulate_gram(others, product, block, js, 0)
+    })?;
+    out.zeroed(n, n);
+    for j in 0..nf {
+        out.data[j * n..j * n + nf].copy_from_slice(&share.gram.data[j * nf..(j + 1) * nf]);
+    }
+    for j in 0..n - nf {
+        out.data[(nf + j) * n + nf..(nf + j + 1) * n].copy_from_slice(&others.data[j * (n - nf)..(j + 1) * (n - nf)]);
+    }
     // Cross products on the supernodes both sets reach (the separators above both surfaces).
-    for (s, block) in w.blocks.iter().enumerate() {
-        let (Some(b), Some(a)) = (block, share.w.blocks[s].as_ref()) else { continue };
-        let mut cross = Mat::<f64>::zeros(a.ncols(), b.ncols());
-        matmul(cross.as_mut(), Accum::Replace, a.transpose(), b.as_ref(), 1.0, Par::Seq);
+    for s in 0..w.cols_of.len() {
+        let (Some(b), Some(a)) = (w.block(s), share.w.block(s)) else { continue };
+        cross.zeroed(a.ncols(), b.ncols());
+        matmul(cross.as_mut(), Accum::Replace, a.transpose(), b, 1.0, Par::Seq);
         for (jb, &cb) in w.cols_of[s].iter().enumerate() {
             for (ja, &ca) in share.w.cols_of[s].iter().enumerate() {
-                out[(ca, nf + cb)] += cross[(ja, jb)];
-                out[(nf + cb, ca)] += cross[(ja, jb)];
+                let c = cross.at(ja, jb);
+                out.add(ca, nf + cb, c);
+                out.add(nf + cb, ca, c);
             }
         }
     }
-    Some(out)
+    *w_buffer = w.w;
+    Some(())
 }
 
 /// `W = L^{-1} P B` for sparse columns `cols` of `B`, by forward substitution over the
@@ -528,14 +634,15 @@ fn with_fixed_columns(
 /// equations `B` touches (for interface rows of a 2D mesh: the leaves at the surface and the
 /// separators above them), so the substitution runs over those supernodes alone, all columns
 /// at once. `final_block(block, js)` gets each supernode's block of `W` (its rows, its columns
-/// `js`) as soon as it is final, in elimination order; the blocks are returned with `keep`
-/// (else dropped once used: a compliance of thousands of columns would hold them all).
-/// `None` for a simplicial factor.
+/// `js`) as soon as it is final, in elimination order. `W` is formed in the storage of `w`
+/// (a buffer handed back by the caller: a re-pairing forms one per body) and returned in it;
+/// `update` is scratch. `None` for a simplicial factor.
 fn substitute(
     symbolic: &SymbolicCholesky<usize>,
     values: &[f64],
     cols: &[Vec<(usize, f64)>],
-    keep: bool,
+    mut w: Vec<f64>,
+    update: &mut Vec<f64>,
     mut final_block: impl FnMut(faer::MatRef<f64>, &[usize]),
 ) -> Option<Substitution> {
     let SymbolicCholeskyRaw::Supernodal(sym) = symbolic.raw() else { return None };
@@ -577,17 +684,26 @@ fn substitute(
     // W by supernode blocks: rows of the supernode, its own columns only (a column reaches
     // a few dozen of the supernodes, so a dense `reached rows x columns` W would be mostly
     // zeros to clear and carry).
-    let mut blocks: Vec<Option<Mat<f64>>> = (0..ns)
-        .map(|s| (!cols_of[s].is_empty()).then(|| Mat::<f64>::zeros(end[s] - begin[s], cols_of[s].len())))
-        .collect();
-    let m: usize = (0..ns).filter(|&s| !cols_of[s].is_empty()).map(|s| end[s] - begin[s]).sum();
+    let size: Vec<usize> = (0..ns).map(|s| end[s] - begin[s]).collect();
+    let mut offset = vec![0usize; ns];
+    let mut m = 0;
+    let mut total = 0;
+    for s in 0..ns {
+        offset[s] = total;
+        if !cols_of[s].is_empty() {
+            total += size[s] * cols_of[s].len();
+            m += size[s];
+        }
+    }
+    w.clear();
+    w.resize(total, 0.0);
     for (j, col) in cols.iter().enumerate() {
         for &(e, c) in col {
             let r = inv[e];
             let t = super_of[r];
             // Every supernode a column touches has it in its set, and is reached.
-            if let (Ok(k), Some(block)) = (cols_of[t].binary_search(&j), blocks[t].as_mut()) {
-                block[(r - begin[t], k)] += c;
+            if let Ok(k) = cols_of[t].binary_search(&j) {
+                w[offset[t] + k * size[t] + r - begin[t]] += c;
             }
         }
     }
@@ -598,21 +714,28 @@ fn substitute(
     // product did eight times the work).
     let mut position = Vec::new();
     for s in 0..ns {
-        let Some(mut block) = blocks[s].take() else { continue };
+        let js = &cols_of[s];
+        if js.is_empty() {
+            continue;
+        }
         let node = factor.supernode(s);
-        let size = end[s] - begin[s];
-        let (l_top, l_bot) = node.val().split_at_row(size);
-        solve_lower_triangular_in_place(l_top, block.as_mut(), Par::Seq);
-        final_block(block.as_ref(), &cols_of[s]);
+        let (rows, at) = (size[s], offset[s]);
+        let (l_top, l_bot) = node.val().split_at_row(rows);
+        let span = at..at + rows * js.len();
+        solve_lower_triangular_in_place(
+            l_top,
+            MatMut::from_column_major_slice_mut(&mut w[span.clone()], rows, js.len()),
+            Par::Seq,
+        );
+        let block = faer::MatRef::from_column_major_slice(&w[span], rows, js.len());
+        final_block(block, js);
         let pattern = node.pattern();
         if !pattern.is_empty() {
-            let js = &cols_of[s];
-            let mut update = Mat::<f64>::zeros(pattern.len(), js.len());
-            matmul(update.as_mut(), Accum::Replace, l_bot, block.as_ref(), 1.0, Par::Seq);
-            scatter_update(update.as_ref(), pattern, js, (&super_of, begin), &cols_of, &mut blocks, &mut position);
-        }
-        if keep {
-            blocks[s] = Some(block);
+            update.clear();
+            update.resize(pattern.len() * js.len(), 0.0);
+            let product = MatMut::from_column_major_slice_mut(update, pattern.len(), js.len());
+            matmul(product, Accum::Replace, l_bot, block, 1.0, Par::Seq);
+            scatter_update(update, pattern, js, (&super_of, begin), (&cols_of, &offset, &size), &mut w, &mut position);
         }
     }
     tracing::debug!(
@@ -624,15 +747,16 @@ fn substitute(
         column_visits = cols_of.iter().map(|c| c.len()).sum::<usize>(),
         "interface operator by forward substitution"
     );
-    Some(Substitution { cols_of, blocks })
+    Some(Substitution { cols_of, offset, size, w })
 }
 
 /// Adds the supernode block's share of `W^T W` (its own columns `js`, sorted) to the columns
 /// `from..` of `out`: the lower half only when `from = 0` (the operator is symmetric).
-fn accumulate_gram(out: &mut Mat<f64>, block: faer::MatRef<f64>, js: &[usize], from: usize) {
+/// `gram` is scratch.
+fn accumulate_gram(out: &mut Dense, gram: &mut Dense, block: faer::MatRef<f64>, js: &[usize], from: usize) {
     let k0 = js.partition_point(|&j| j < from);
     if from == 0 {
-        let mut gram = Mat::<f64>::zeros(js.len(), js.len());
+        gram.zeroed(js.len(), js.len());
         triangular::matmul(
             gram.as_mut(),
             BlockStructure::TriangularLower,
@@ -645,38 +769,41 @@ fn accumulate_gram(out: &mut Mat<f64>, block: faer::MatRef<f64>, js: &[usize], f
             Par::Seq,
         );
         for (b, &jb) in js.iter().enumerate() {
-            out[(jb, jb)] += gram[(b, b)];
+            out.add(jb, jb, gram.at(b, b));
             for (a, &ja) in js.iter().enumerate().skip(b + 1) {
-                out[(ja, jb)] += gram[(a, b)];
-                out[(jb, ja)] += gram[(a, b)];
+                let g = gram.at(a, b);
+                out.add(ja, jb, g);
+                out.add(jb, ja, g);
             }
         }
     } else if k0 < js.len() {
-        let mut gram = Mat::<f64>::zeros(js.len(), js.len() - k0);
+        gram.zeroed(js.len(), js.len() - k0);
         matmul(gram.as_mut(), Accum::Replace, block.transpose(), block.subcols(k0, js.len() - k0), 1.0, Par::Seq);
         for (b, &jb) in js[k0..].iter().enumerate() {
             for (a, &ja) in js.iter().enumerate() {
-                out[(ja, jb - from)] += gram[(a, b)];
+                out.add(ja, jb - from, gram.at(a, b));
             }
         }
     }
 }
 
-/// Subtracts a supernode's `update` (rows: its below-diagonal `pattern`, sorted; columns: its
-/// own `js`) from the blocks of the supernodes those rows belong to. The rows come supernode by
-/// supernode; the positions of `js` in each target's sorted column set are merged once per
-/// target (an ancestor's set holds its descendants' columns).
+/// Subtracts a supernode's `update` (column-major; rows: its below-diagonal `pattern`, sorted;
+/// columns: its own `js`) from the blocks of `W` (in `w`, laid out by `cols_of`, `offset`,
+/// `size`) of the supernodes those rows belong to. The rows come supernode by supernode; the
+/// positions of `js` in each target's sorted column set are merged once per target (an
+/// ancestor's set holds its descendants' columns).
 fn scatter_update(
-    update: faer::MatRef<f64>,
+    update: &[f64],
     pattern: &[usize],
     js: &[usize],
     (super_of, begin): (&[usize], &[usize]),
-    cols_of: &[Vec<usize>],
-    blocks: &mut [Option<Mat<f64>>],
+    (cols_of, offset, size): (&[Vec<usize>], &[usize], &[usize]),
+    w: &mut [f64],
     position: &mut Vec<usize>,
 ) {
+    let below = pattern.len();
     let mut p = 0;
-    while p < pattern.len() {
+    while p < below {
         let t = super_of[pattern[p]];
         let q = p + pattern[p..].iter().take_while(|&&r| super_of[r] == t).count();
         let targets = &cols_of[t];
@@ -688,10 +815,12 @@ fn scatter_update(
             }
             position.push(i);
         }
-        if let Some(target) = blocks[t].as_mut() {
+        if !targets.is_empty() {
+            let (rows, first) = (size[t], begin[t]);
             for (k, &pos) in position.iter().enumerate() {
-                for (pp, &r) in pattern[p..q].iter().enumerate() {
-                    target[(r - begin[t], pos)] -= update[(p + pp, k)];
+                let target = &mut w[offset[t] + pos * rows..offset[t] + (pos + 1) * rows];
+                for (&r, &u) in pattern[p..q].iter().zip(&update[k * below + p..k * below + q]) {
+                    target[r - first] -= u;
                 }
             }
         }
