@@ -119,20 +119,20 @@ impl VirtualMortar {
             .collect()
     }
 
-    /// Rewrites a row on stand-in vertex DOFs onto the host's DOFs.
-    pub fn expand(&self, row: ConstraintRow) -> ConstraintRow {
-        let mut m: std::collections::BTreeMap<usize, f64> = std::collections::BTreeMap::new();
+    /// Rewrites a row on stand-in vertex DOFs onto the host's DOFs (`slot`: scratch of
+    /// [`crate::mortar::summed_by_dof`], kept between rows).
+    pub fn expand(&self, row: ConstraintRow, slot: &mut Vec<usize>) -> ConstraintRow {
+        let mut entries = Vec::with_capacity(4 * row.len());
         for (d, v) in row {
             let n = d / 2;
             if n >= self.base {
-                for &(g, w) in &self.interpolation[n - self.base] {
-                    *m.entry(2 * g + d % 2).or_insert(0.0) += v * w;
-                }
+                entries.extend(self.interpolation[n - self.base].iter().map(|&(g, w)| (2 * g + d % 2, v * w)));
             } else {
-                *m.entry(d).or_insert(0.0) += v;
+                entries.push((d, v));
             }
         }
-        m.into_iter().filter(|(_, v)| *v != 0.0).collect()
+        // Summed per DOF in the order they come (what a map accumulating them gives).
+        crate::mortar::summed_by_dof(&entries, slot).into_iter().filter(|(_, v)| *v != 0.0).collect()
     }
 
     /// Displacement of vertex `i` in `u`.
@@ -365,10 +365,12 @@ pub fn pair_rows(hosts: &[(&Mesh2, usize)], c: &ContactInfo, x: &dyn Fn(usize) -
     let rows = with_pairing(hosts, c, x, &mut |side, other| weighted_gaps(side, &c.multipliers, other, c.max_gap));
     match &c.virtual_mortar {
         None => rows,
-        Some(vm) => rows
-            .into_iter()
-            .map(|r| ContactRow { normal: vm.expand(r.normal), tangent: vm.expand(r.tangent), ..r })
-            .collect(),
+        Some(vm) => {
+            let mut slot = Vec::new();
+            rows.into_iter()
+                .map(|r| ContactRow { normal: vm.expand(r.normal, &mut slot), tangent: vm.expand(r.tangent, &mut slot), ..r })
+                .collect()
+        }
     }
 }
 
@@ -410,20 +412,17 @@ fn with_pairing<T>(
             f(&side, &OtherSide::Edges { nodes: edges, points: &pts })
         }
         PairedSide::Embedded { host, embedding } => {
-            let (host_mesh, node_offset) = hosts[*host];
-            let mut mesh = host_mesh.clone();
-            for (i, p) in mesh.nodes.iter_mut().enumerate() {
-                *p = x(node_offset + i);
-            }
+            let (mesh, node_offset) = hosts[*host];
+            let coords: Vec<Point2<f64>> = (0..mesh.nodes.len()).map(|i| x(node_offset + i)).collect();
             // A virtual surface moves with its host through its host reference coordinates.
             let mut e = embedding.clone();
             for piece in e.pieces.iter_mut() {
-                let mapped =
-                    crate::fem::element::MappedElement::new(mesh.cells[piece.cell].kind, mesh.cell_coords(piece.cell));
+                let corners = crate::mortar::cell_coords_at(mesh, &coords, piece.cell);
+                let mapped = crate::fem::element::MappedElement::new(mesh.cells[piece.cell].kind, corners);
                 piece.a = mapped.map(piece.xi_a);
                 piece.b = mapped.map(piece.xi_b);
             }
-            f(&side, &OtherSide::Embedded { host: &mesh, host_offset: node_offset, embedding: &e })
+            f(&side, &OtherSide::Embedded { host: mesh, coords: &coords, host_offset: node_offset, embedding: &e })
         }
     }
 }

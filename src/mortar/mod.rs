@@ -380,7 +380,8 @@ type Segments = Vec<(Point2<f64>, Point2<f64>)>;
 /// displacements from either a host cell (virtual surface) or a real edge.
 pub enum OtherSide<'a> {
     /// Virtual surface pieces inside host cells (`host_offset` maps host node ids to global).
-    Embedded { host: &'a Mesh2, host_offset: usize, embedding: &'a Embedding },
+    /// `coords`: where the host's nodes are (its own nodes in the reference configuration).
+    Embedded { host: &'a Mesh2, coords: &'a [Point2<f64>], host_offset: usize, embedding: &'a Embedding },
     /// Real mesh edges: global node ids and their end coordinates.
     Edges { nodes: &'a [[usize; 2]], points: &'a [[Point2<f64>; 2]] },
 }
@@ -408,9 +409,9 @@ impl OtherSide<'_> {
     fn shape_at(&self, i: usize, x: Point2<f64>, sigma: f64, out: &mut Vec<(usize, f64)>) {
         out.clear();
         match self {
-            OtherSide::Embedded { host, host_offset, embedding } => {
+            OtherSide::Embedded { host, coords, host_offset, embedding } => {
                 let p = &embedding.pieces[i];
-                let mapped = MappedElement::new(host.cells[p.cell].kind, host.cell_coords(p.cell));
+                let mapped = MappedElement::new(host.cells[p.cell].kind, cell_coords_at(host, coords, p.cell));
                 let xi = mapped.inverse_map(x).unwrap_or(p.xi_a);
                 let mut nh = [0.0; 4];
                 host.cells[p.cell].kind.shape(xi, &mut nh);
@@ -424,6 +425,16 @@ impl OtherSide<'_> {
             }
         }
     }
+}
+
+/// Corner coordinates of cell `c` of `host` with its nodes at `coords` (unused slots of a
+/// `Tri3` zero, as [`Mesh2::cell_coords`]).
+pub fn cell_coords_at(host: &Mesh2, coords: &[Point2<f64>], c: usize) -> [Point2<f64>; 4] {
+    let mut x = [Point2::origin(); 4];
+    for (k, &n) in host.cells[c].nodes().iter().enumerate() {
+        x[k] = coords[n];
+    }
+    x
 }
 
 /// One quadrature point of a mortar segment paired with an other-side segment.
@@ -493,7 +504,7 @@ fn for_each_mortar_point(
             let n = right_normal(a, b);
             for &pi in &cand {
                 let (pa, pb) = segs[pi];
-                if !accept(pa, pb, a, b) {
+                if beside(a, d, len, n, pa, pb) || !accept(pa, pb, a, b) {
                     continue;
                 }
                 let n_other = right_normal(pa, pb);
@@ -533,6 +544,24 @@ fn for_each_mortar_point(
             }
         }
     }
+}
+
+/// Whether the other-side segment `pa pb` certainly projects outside the mortar segment
+/// `a, a + d` (length `len`, unit normal `n`) along any pairing direction
+/// [`for_each_mortar_point`] may take: a cheap test before the projection, since the pairing
+/// reach gathers dozens of candidates per segment. A point `p = a + s d + e len n` projects
+/// along a direction `q` at an angle `phi` to `n` to the parameter `s + e tan phi`, and
+/// `cos phi >= 1/2` there (else `q = n`), so `tan phi < 2`; with a margin far above round-off,
+/// both ends beyond the same end of `[0, 1]` leave no overlap.
+fn beside(a: Point2<f64>, d: Vector2<f64>, len: f64, n: Vector2<f64>, pa: Point2<f64>, pb: Point2<f64>) -> bool {
+    const MARGIN: f64 = 1e-9;
+    let range = |p: Point2<f64>| {
+        let r = p - a;
+        let (s, e) = (r.dot(&d) / (len * len), 2.0 * r.dot(&n).abs() / len);
+        (s - e - MARGIN, s + e + MARGIN)
+    };
+    let ((lo_a, hi_a), (lo_b, hi_b)) = (range(pa), range(pb));
+    hi_a.max(hi_b) < 0.0 || lo_a.min(lo_b) > 1.0
 }
 
 /// Assembles the tying rows (two per multiplier node, x then y): segment-to-segment mortar
@@ -640,7 +669,7 @@ pub fn weighted_gaps(side: &MortarSide, lm: &Multipliers, other: &OtherSide, max
 /// Contributions `(dof, value)` summed per DOF, in increasing DOF order; each DOF's sum starts
 /// at 0 and adds its contributions in the order given (what a map accumulating them gives, bit
 /// for bit). `slot` is scratch over the DOFs (`usize::MAX` where free; left so).
-fn summed_by_dof(entries: &[(usize, f64)], slot: &mut Vec<usize>) -> Vec<(usize, f64)> {
+pub(crate) fn summed_by_dof(entries: &[(usize, f64)], slot: &mut Vec<usize>) -> Vec<(usize, f64)> {
     let mut out: Vec<(usize, f64)> = Vec::new();
     for &(d, v) in entries {
         if d >= slot.len() {
