@@ -413,9 +413,22 @@ fn with_pairing<T>(
         }
         PairedSide::Embedded { host, embedding } => {
             let (mesh, node_offset) = hosts[*host];
-            let coords: Vec<Point2<f64>> = (0..mesh.nodes.len()).map(|i| x(node_offset + i)).collect();
-            // A virtual surface moves with its host through its host reference coordinates.
-            let mut e = embedding.clone();
+            // Only the nodes of the cells the surface crosses are placed (the pairing reads no
+            // others).
+            let mut coords = vec![Point2::origin(); mesh.nodes.len()];
+            for piece in &embedding.pieces {
+                for &n in mesh.cells[piece.cell].nodes() {
+                    coords[n] = x(node_offset + n);
+                }
+            }
+            // A virtual surface moves with its host through its host reference coordinates
+            // (the pairing reads its pieces only).
+            let mut e = Embedding {
+                cell_pieces: Vec::new(),
+                pieces: embedding.pieces.clone(),
+                vertices: Vec::new(),
+                closed: embedding.closed,
+            };
             for piece in e.pieces.iter_mut() {
                 let corners = crate::mortar::cell_coords_at(mesh, &coords, piece.cell);
                 let mapped = crate::fem::element::MappedElement::new(mesh.cells[piece.cell].kind, corners);
