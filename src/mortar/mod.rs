@@ -496,12 +496,15 @@ fn for_each_mortar_point(
                 }
             }
             let r = reach.max(1e-6 * len);
-            index.query(
+            let n = right_normal(a, b);
+            // Tree nodes whose boxes lie beside the segment are skipped whole (their segments
+            // would all be dropped below): the reach gathers hundreds on fine meshes.
+            index.query_where(
                 Point2::new(a.x.min(b.x) - r, a.y.min(b.y) - r),
                 Point2::new(a.x.max(b.x) + r, a.y.max(b.y) + r),
+                |lo, hi| !box_beside(a, d, len, n, lo, hi),
                 &mut cand,
             );
-            let n = right_normal(a, b);
             for &pi in &cand {
                 let (pa, pb) = segs[pi];
                 if beside(a, d, len, n, pa, pb) || !accept(pa, pb, a, b) {
@@ -554,14 +557,30 @@ fn for_each_mortar_point(
 /// `cos phi >= 1/2` there (else `q = n`), so `tan phi < 2`; with a margin far above round-off,
 /// both ends beyond the same end of `[0, 1]` leave no overlap.
 fn beside(a: Point2<f64>, d: Vector2<f64>, len: f64, n: Vector2<f64>, pa: Point2<f64>, pb: Point2<f64>) -> bool {
-    const MARGIN: f64 = 1e-9;
-    let range = |p: Point2<f64>| {
-        let r = p - a;
-        let (s, e) = (r.dot(&d) / (len * len), 2.0 * r.dot(&n).abs() / len);
-        (s - e - MARGIN, s + e + MARGIN)
-    };
-    let ((lo_a, hi_a), (lo_b, hi_b)) = (range(pa), range(pb));
+    let ((lo_a, hi_a), (lo_b, hi_b)) = (projection_range(a, d, len, n, pa, 1e-9), projection_range(a, d, len, n, pb, 1e-9));
     hi_a.max(hi_b) < 0.0 || lo_a.min(lo_b) > 1.0
+}
+
+/// The parameters on the mortar segment `a, a + d` that point `p` may project to (see
+/// [`beside`]), widened by `margin`.
+fn projection_range(a: Point2<f64>, d: Vector2<f64>, len: f64, n: Vector2<f64>, p: Point2<f64>, margin: f64) -> (f64, f64) {
+    let r = p - a;
+    let (s, e) = (r.dot(&d) / (len * len), 2.0 * r.dot(&n).abs() / len);
+    (s - e - margin, s + e + margin)
+}
+
+/// [`beside`] for every segment inside the box `[lo, hi]`: the lower end of a point's range is
+/// concave in the point and the upper end convex, so their extremes over the box are at its
+/// corners (a wider margin than [`beside`]'s covers the round-off between corner and point).
+fn box_beside(a: Point2<f64>, d: Vector2<f64>, len: f64, n: Vector2<f64>, lo: Point2<f64>, hi: Point2<f64>) -> bool {
+    let corners = [lo, Point2::new(hi.x, lo.y), hi, Point2::new(lo.x, hi.y)];
+    let (mut low, mut high) = (f64::INFINITY, f64::NEG_INFINITY);
+    for c in corners {
+        let (l, h) = projection_range(a, d, len, n, c, 2e-9);
+        low = low.min(l);
+        high = high.max(h);
+    }
+    high < 0.0 || low > 1.0
 }
 
 /// Assembles the tying rows (two per multiplier node, x then y): segment-to-segment mortar

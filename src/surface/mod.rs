@@ -70,6 +70,24 @@ impl BoxIndex {
         out.extend(self.bvh.intersect_aabb(&q).map(|i| i as usize));
     }
 
+    /// [`Self::query`] without the boxes inside a tree node's box (`min`, `max` corners) that
+    /// `wanted` refuses: whole subtrees are skipped, the others come in the same order.
+    pub fn query_where(
+        &self,
+        lo: Point2<f64>,
+        hi: Point2<f64>,
+        wanted: impl Fn(Point2<f64>, Point2<f64>) -> bool,
+        out: &mut Vec<usize>,
+    ) {
+        out.clear();
+        let q = parry2d_f64::partitioning::BvhNode::leaf(aabb(lo, hi), 0);
+        let check = |node: &parry2d_f64::partitioning::BvhNode| {
+            let (a, b) = (node.mins(), node.maxs());
+            node.intersects(&q) && wanted(Point2::new(a.x, a.y), Point2::new(b.x, b.y))
+        };
+        out.extend(self.bvh.leaves(check).map(|i| i as usize));
+    }
+
     /// Index over the cells of a mesh.
     pub fn over_cells(mesh: &Mesh2) -> Self {
         let boxes: Vec<_> = mesh

@@ -258,8 +258,8 @@ pub fn wear_coupling(
     Some(WearCoupling { entries, phi })
 }
 
-/// Wear of one converged step on one wearing surface. `u_prev`, `u`: displacements at the
-/// start and end of the step; `x` places nodes where the pair is paired for the step: the
+/// Wear of one converged step on one wearing surface. `sub`: displacements at the start and
+/// end of the step (or of a part of it); `x` places nodes where the pair is paired for the step: the
 /// reference geometry under small sliding (the material points that meet stay paired, as in its
 /// mechanics), the configuration halfway through the step under finite sliding (the wear lands
 /// on the material that slid under the point).
@@ -269,8 +269,7 @@ pub fn step_wear(
     hosts: &[(&Mesh2, usize)],
     ws: &WearingSurface,
     surface: &FreeSurface,
-    u_prev: &[f64],
-    u: &[f64],
+    sub: SubStep<'_>,
     multipliers: &[f64],
     x: &dyn Fn(usize) -> Point2<f64>,
 ) -> StepWear {
@@ -284,7 +283,7 @@ pub fn step_wear(
         if set.phi[k] <= 0.0 {
             continue;
         }
-        let ds: f64 = set.tangents[k].iter().map(|&(d, v)| v * (u[d] - u_prev[d])).sum();
+        let ds: f64 = set.tangents[k].iter().map(|&(d, v)| v * (sub.to(d) - sub.from(d))).sum();
         out.row_slip[l] = ds.abs();
         out.row_work[l] = match ws.law {
             WearLaw::Archard => (-multipliers[nt + k]).max(0.0) * ds.abs(),
@@ -341,7 +340,6 @@ pub fn swept_step_wear(
     let finite = set.pairs[ws.contact].sliding == crate::contact::Sliding::Finite;
     let lambda_prev = lambda.0.filter(|_| finite);
     let subs = sweep_positions(set, ws, surface, u_prev, u_end, lambda.1);
-    let lerp = |f: f64| -> Vec<f64> { u_prev.iter().zip(u_end).map(|(a, b)| a + f * (b - a)).collect() };
     let mut total: Option<StepWear> = None;
     for j in 0..subs {
         let f = (j as f64 + 0.5) / subs as f64;
@@ -353,16 +351,17 @@ pub fn swept_step_wear(
             }
             None => lambda.1,
         };
-        let (ua, ub);
-        let (from, to): (&[f64], &[f64]) = if subs == 1 {
-            (u_prev, u_end)
-        } else {
-            ua = lerp(j as f64 / subs as f64);
-            ub = if j + 1 == subs { u_end.to_vec() } else { lerp((j + 1) as f64 / subs as f64) };
-            (&ua, &ub)
+        let sub = match subs {
+            1 => SubStep::whole(u_prev, u_end),
+            _ => SubStep {
+                u_prev,
+                u_end,
+                from: Some(j as f64 / subs as f64),
+                to: (j + 1 < subs).then(|| (j + 1) as f64 / subs as f64),
+            },
         };
-        let x = pairing_position(set, ws, coords, from, to);
-        let sw = step_wear(set, hosts, ws, surface, from, to, multipliers, &x);
+        let x = sub_step_position(set, ws, coords, sub);
+        let sw = step_wear(set, hosts, ws, surface, sub, multipliers, &x);
         total = Some(match total {
             None => sw,
             Some(mut t) => {
@@ -449,14 +448,60 @@ pub fn pairing_position<'a>(
     u_prev: &'a [f64],
     u: &'a [f64],
 ) -> impl Fn(usize) -> Point2<f64> + 'a {
+    sub_step_position(set, ws, coords, SubStep::whole(u_prev, u))
+}
+
+/// [`pairing_position`] for a sub-position of a step's sweep.
+fn sub_step_position<'a>(
+    set: &ContactSet,
+    ws: &WearingSurface,
+    coords: &'a [Point2<f64>],
+    sub: SubStep<'a>,
+) -> impl Fn(usize) -> Point2<f64> + 'a {
     let finite = set.pairs[ws.contact].sliding == crate::contact::Sliding::Finite;
     move |node: usize| {
         let p = coords[node];
         if !finite {
             return p;
         }
-        let (ux, uy) = (0.5 * (u_prev[2 * node] + u[2 * node]), 0.5 * (u_prev[2 * node + 1] + u[2 * node + 1]));
+        let (x, y) = (2 * node, 2 * node + 1);
+        let (ux, uy) = (0.5 * (sub.from(x) + sub.to(x)), 0.5 * (sub.from(y) + sub.to(y)));
         Point2::new(p.x + ux, p.y + uy)
+    }
+}
+
+/// The part of a step from `u_prev` to `u_end` between the fractions `from` and `to` of it
+/// (`None`: the step's start, its end), its displacements read per DOF: a sweep on fine meshes
+/// has dozens of sub-positions, and each reads a few hundred DOFs of the whole field.
+#[derive(Clone, Copy)]
+pub struct SubStep<'a> {
+    u_prev: &'a [f64],
+    u_end: &'a [f64],
+    from: Option<f64>,
+    to: Option<f64>,
+}
+
+impl<'a> SubStep<'a> {
+    /// The whole step from `u_prev` to `u_end`.
+    pub fn whole(u_prev: &'a [f64], u_end: &'a [f64]) -> Self {
+        SubStep { u_prev, u_end, from: None, to: None }
+    }
+
+    fn at(&self, f: Option<f64>, d: usize, end: f64) -> f64 {
+        match f {
+            None => end,
+            Some(f) => self.u_prev[d] + f * (self.u_end[d] - self.u_prev[d]),
+        }
+    }
+
+    /// Displacement `d` at the sub-position's start.
+    fn from(&self, d: usize) -> f64 {
+        self.at(self.from, d, self.u_prev[d])
+    }
+
+    /// Displacement `d` at the sub-position's end.
+    fn to(&self, d: usize) -> f64 {
+        self.at(self.to, d, self.u_end[d])
     }
 }
 
