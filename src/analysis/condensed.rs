@@ -680,6 +680,10 @@ fn factor_bulk(
     let mut history_new = history.clone();
     let mut stress = vec![Stress4::zeros(); m.elements.num_points()];
     let mut f_int = vec![0.0; disc.dofs.num_dofs];
+    // Only the matrix is wanted (at zero displacement): elastic elements whose stiffness is
+    // kept copy it instead of integrating their stresses.
+    let from_kept = assembler.elastic_force_from_kept();
+    assembler.set_elastic_force_from_kept(true);
     assembler.assemble(
         &AssemblyInput {
             coords: &m.coords,
@@ -697,6 +701,7 @@ fn factor_bulk(
         },
         parallel,
     );
+    assembler.set_elastic_force_from_kept(from_kept);
     decouple_held(disc, &assembler.pattern, equations, e_max, &mut values);
     solver.factor(&values)?;
     Ok(values)

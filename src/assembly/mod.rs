@@ -215,19 +215,17 @@ pub struct Assembler {
     fe: Vec<[f64; 8]>,
     /// Element block boundaries for the parallel loop.
     blocks: Vec<usize>,
-    /// Mapped geometry at every quadrature point (point order), computed by the first assembly:
-    /// an assembler belongs to one model, whose reference geometry and rules are fixed.
+    /// Mapped geometry at every quadrature point (point order).
     geometry: Vec<ShapeEval>,
-    /// Fingerprint of the coordinates and rule points the geometry was computed from: a
-    /// different input (another model, or a re-cut that moved a band cell's points) recomputes
-    /// it.
-    geometry_of: Option<u64>,
-    /// Per element, its stiffness from an assembly where all its points stayed elastic (if
-    /// `elastic_ke_valid`): reused while they stay elastic (see `ElementInput::elastic_ke`).
-    elastic_ke: Vec<[f64; 64]>,
-    elastic_ke_valid: Vec<bool>,
-    /// Fingerprint of the geometry and rule weights the kept stiffnesses belong to.
-    elastic_ke_of: Option<u64>,
+    /// Per element, the fingerprint of the node coordinates and rule points its points'
+    /// geometry was computed from: an element whose input changed (a re-cut moved a band
+    /// cell's points) is recomputed, the others are kept.
+    geometry_of: Vec<Option<u64>>,
+    /// Per element, its stiffness from an assembly where all its points stayed elastic, with
+    /// the fingerprint of its geometry, rule weights and material (`None`: none kept): reused
+    /// while they stay elastic and the fingerprint holds (see `ElementInput::elastic_ke`), so a
+    /// re-cut recomputes only the cells whose rules it changed.
+    elastic_ke: Vec<KeptStiffness>,
     /// Linear elastic elements with a kept stiffness take their force as `K_e u_e` and leave
     /// their stresses unwritten (see [`Assembler::set_elastic_force_from_kept`]).
     elastic_force_from_kept: bool,
@@ -238,15 +236,19 @@ pub struct Assembler {
 
 const BLOCK: usize = 512;
 
+/// An element's kept elastic stiffness and the fingerprint of what it was computed from.
+#[derive(Clone, Copy)]
+struct KeptStiffness {
+    ke: [f64; 64],
+    of: Option<u64>,
+}
+
 /// One parallel job of [`Assembler::assemble`]: its first element, its slices of the element
 /// stiffnesses, kept elastic stiffnesses and their flags, element forces, point stresses and
 /// point histories, and its end.
 type ElementBlock<'a, 'b> = (
     (
-        (
-            ((((&'b usize, &'a mut [[f64; 64]]), &'a mut [[f64; 64]]), &'a mut [bool]), &'a mut [[f64; 8]]),
-            &'a mut [Stress4],
-        ),
+        ((((&'b usize, &'a mut [[f64; 64]]), &'a mut [KeptStiffness]), &'a mut [[f64; 8]]), &'a mut [Stress4]),
         &'a mut [PlasticState],
     ),
     usize,
@@ -296,60 +298,61 @@ impl Fingerprint {
 }
 
 /// A rule table shared with the assembler (held weakly: a re-cut that owns the table then
-/// changes it in place, which cuts this link), and the hashes of its points and weights.
+/// changes it in place, which cuts this link), and the hashes of its rules, once computed.
 struct SharedRules {
     rules: std::sync::Weak<Vec<QuadratureRule>>,
-    points: Option<u64>,
-    weights: Option<u64>,
+    hashes: Option<std::sync::Arc<Vec<RuleHash>>>,
 }
 
-/// A hash of every rule point of a rule table (their bits, in order).
-fn rule_points_hash(rules: &[QuadratureRule]) -> u64 {
-    let mut h = Fingerprint::new(0xcbf2_9ce4_8422_2325);
-    for r in rules {
-        h.mix(r.points.len() as f64);
-        h.mix_slice(r.points.as_flattened());
+/// Hashes of one rule's points and of its weights (their bits, in order).
+#[derive(Clone, Copy)]
+struct RuleHash {
+    points: u64,
+    weights: u64,
+}
+
+fn rule_hashes(rules: &[QuadratureRule]) -> Vec<RuleHash> {
+    rules
+        .iter()
+        .map(|r| {
+            let mut points = Fingerprint::new(0xcbf2_9ce4_8422_2325);
+            points.mix(r.points.len() as f64);
+            points.mix_slice(r.points.as_flattened());
+            let mut weights = Fingerprint::new(0x9e37_79b9_7f4a_7c15);
+            weights.mix(r.weights.len() as f64);
+            weights.mix_slice(&r.weights);
+            RuleHash { points: points.finish(), weights: weights.finish() }
+        })
+        .collect()
+}
+
+/// A hash of what element `e`'s point geometry depends on: its kind, node coordinates and
+/// rule points (their bits).
+fn element_geometry_fingerprint(inp: &AssemblyInput, e: usize, rule: RuleHash) -> u64 {
+    let el = inp.elements;
+    let mut h = Fingerprint::new(rule.points);
+    let nn = el.kind[e].num_nodes();
+    h.mix(nn as f64);
+    for &n in &el.nodes[e][..nn] {
+        h.mix(inp.coords[n].x);
+        h.mix(inp.coords[n].y);
     }
     h.finish()
 }
 
-/// A hash of every rule weight of a rule table (their bits, in order).
-fn rule_weights_hash(rules: &[QuadratureRule]) -> u64 {
-    let mut h = Fingerprint::new(0x9e37_79b9_7f4a_7c15);
-    for r in rules {
-        h.mix(r.weights.len() as f64);
-        h.mix_slice(&r.weights);
-    }
-    h.finish()
-}
-
-/// A hash of every coordinate, element-to-rule link and rule point (their bits, in order;
-/// the rule points' given as `rule_points`): cheap next to one assembly, and it changes
-/// whenever any of them does.
-fn geometry_fingerprint(inp: &AssemblyInput, rule_points: u64) -> u64 {
-    let mut h = Fingerprint::new(0xcbf2_9ce4_8422_2325);
-    let mut pairs = inp.coords.chunks_exact(2);
-    for c in &mut pairs {
-        h.mix4([c[0].x, c[0].y, c[1].x, c[1].y]);
-    }
-    for p in pairs.remainder() {
-        h.mix(p.x);
-        h.mix(p.y);
-    }
-    for (&r, nodes) in inp.elements.rule.iter().zip(&inp.elements.nodes) {
-        h.mix(r as f64);
-        h.mix(nodes[0] as f64);
-    }
-    h.mix(f64::from_bits(rule_points));
-    h.finish()
-}
-
-/// [`geometry_fingerprint`] extended by every rule weight (their hash `rule_weights`: a re-cut
-/// of a yielding body's band changes the weights of its fixed points, hence its elements'
-/// stiffness).
-fn stiffness_fingerprint(geometry: u64, rule_weights: u64) -> u64 {
+/// [`element_geometry_fingerprint`] extended by what the element's elastic stiffness also
+/// depends on: its rule weights (a re-cut of a band cell changes them), material, formulation
+/// and thickness.
+fn element_stiffness_fingerprint(inp: &AssemblyInput, e: usize, geometry: u64, rule: RuleHash) -> u64 {
+    let el = inp.elements;
     let mut h = Fingerprint::new(geometry);
-    h.mix(f64::from_bits(rule_weights));
+    h.mix(f64::from_bits(rule.weights));
+    h.mix(el.material[e] as f64);
+    h.mix(match el.formulation[e] {
+        Formulation::Standard => 0.0,
+        Formulation::BBar => 1.0,
+    });
+    h.mix(el.thickness[e]);
     h.finish()
 }
 
@@ -389,10 +392,8 @@ impl Assembler {
             fe: vec![[0.0; 8]; ne],
             blocks,
             geometry: Vec::new(),
-            geometry_of: None,
-            elastic_ke: vec![[0.0; 64]; ne],
-            elastic_ke_valid: vec![false; ne],
-            elastic_ke_of: None,
+            geometry_of: Vec::new(),
+            elastic_ke: vec![KeptStiffness { ke: [0.0; 64], of: None }; ne],
             elastic_force_from_kept: false,
             shared_rules: None,
         }
@@ -408,37 +409,41 @@ impl Assembler {
         let linked = |s: &SharedRules| s.rules.upgrade().is_some_and(|held| std::sync::Arc::ptr_eq(&held, rules));
         if !self.shared_rules.as_ref().is_some_and(linked) {
             let rules = std::sync::Arc::downgrade(rules);
-            self.shared_rules = Some(SharedRules { rules, points: None, weights: None });
+            self.shared_rules = Some(SharedRules { rules, hashes: None });
         }
     }
 
-    /// The hash of `rules`' points (`weights`: of their weights), kept for a shared table.
-    fn rules_hash(&mut self, rules: &[QuadratureRule], weights: bool) -> u64 {
-        let compute = |r: &[QuadratureRule]| if weights { rule_weights_hash(r) } else { rule_points_hash(r) };
+    /// The hashes of `rules`, kept for a shared table.
+    fn rule_hashes(&mut self, rules: &[QuadratureRule]) -> std::sync::Arc<Vec<RuleHash>> {
         match self.shared_rules.as_mut() {
             Some(s) if s.rules.upgrade().is_some_and(|held| std::ptr::eq(held.as_slice(), rules)) => {
-                let slot = if weights { &mut s.weights } else { &mut s.points };
-                *slot.get_or_insert_with(|| compute(rules))
+                s.hashes.get_or_insert_with(|| std::sync::Arc::new(rule_hashes(rules))).clone()
             }
-            _ => compute(rules),
+            _ => std::sync::Arc::new(rule_hashes(rules)),
         }
     }
 
-    /// Fills the per-point geometry table if `inp`'s geometry is not the one it holds.
-    fn ensure_geometry(&mut self, inp: &AssemblyInput, parallel: bool) -> u64 {
-        let rule_points = self.rules_hash(inp.rules, false);
-        let key = geometry_fingerprint(inp, rule_points);
+    /// Fills the per-point geometry table for the elements whose geometry (coordinates, rule
+    /// points) is not the one it holds; returns every element's geometry fingerprint and the
+    /// rules' hashes.
+    fn ensure_geometry(&mut self, inp: &AssemblyInput, parallel: bool) -> (Vec<u64>, std::sync::Arc<Vec<RuleHash>>) {
+        let hashes = self.rule_hashes(inp.rules);
         let el = inp.elements;
-        if self.geometry_of == Some(key) && self.geometry.len() == el.num_points() {
-            return key;
+        let keys: Vec<u64> = (0..el.len()).map(|e| element_geometry_fingerprint(inp, e, hashes[el.rule[e]])).collect();
+        if self.geometry.len() != el.num_points() || self.geometry_of.len() != el.len() {
+            self.geometry = vec![ShapeEval::default(); el.num_points()];
+            self.geometry_of = vec![None; el.len()];
         }
-        self.geometry = vec![ShapeEval::default(); el.num_points()];
         let ends = self.blocks[1..].to_vec();
         let blocks = split_mut(&mut self.geometry, ends.iter().map(|&b| el.point_offset[b]));
+        let held = split_mut(&mut self.geometry_of, ends.iter().copied());
         let starts = &self.blocks[..self.blocks.len() - 1];
-        let work = |((&b0, g), b1): ((&usize, &mut [ShapeEval]), usize)| {
+        let work = |(((&b0, g), of), b1): (((&usize, &mut [ShapeEval]), &mut [Option<u64>]), usize)| {
             let p0 = el.point_offset[b0];
             for e in b0..b1 {
+                if of[e - b0] == Some(keys[e]) {
+                    continue;
+                }
                 let nodes = &el.nodes[e];
                 let mut coords = [Point2::origin(); 4];
                 for a in 0..el.kind[e].num_nodes() {
@@ -446,16 +451,16 @@ impl Assembler {
                 }
                 let (pa, pb) = (el.point_offset[e] - p0, el.point_offset[e + 1] - p0);
                 point_geometry(el.kind[e], coords, &inp.rules[el.rule[e]], &mut g[pa..pb]);
+                of[e - b0] = Some(keys[e]);
             }
         };
-        let jobs: Vec<_> = starts.iter().zip(blocks).zip(ends.iter().copied()).collect();
+        let jobs: Vec<_> = starts.iter().zip(blocks).zip(held).zip(ends.iter().copied()).collect();
         if parallel {
             jobs.into_par_iter().for_each(work);
         } else {
             jobs.into_iter().for_each(work);
         }
-        self.geometry_of = Some(key);
-        key
+        (keys, hashes)
     }
 
     /// With `on`, the linear elastic elements of later assemblies take their internal force
@@ -501,37 +506,35 @@ impl Assembler {
 
     /// Evaluates all element kernels (in parallel if `parallel`) and scatters them.
     pub fn assemble(&mut self, inp: &AssemblyInput, out: AssemblyOutput, parallel: bool) {
-        let key = self.ensure_geometry(inp, parallel);
+        let (geometry_keys, hashes) = self.ensure_geometry(inp, parallel);
         let with_tangent = out.values.is_some();
-        let stiffness_key = (with_tangent || self.elastic_force_from_kept)
-            .then(|| stiffness_fingerprint(key, self.rules_hash(inp.rules, true)));
-        let geometry = &self.geometry;
         let el = inp.elements;
-        // The kept stiffnesses serve an assembly of their own geometry and rules only; a
-        // tangent assembly of another starts them anew.
-        let mut kept_usable = false;
-        if let Some(key) = stiffness_key {
-            if with_tangent && (self.elastic_ke_of != Some(key) || self.elastic_ke_valid.len() != el.len()) {
-                self.elastic_ke = vec![[0.0; 64]; el.len()];
-                self.elastic_ke_valid = vec![false; el.len()];
-                self.elastic_ke_of = Some(key);
-            }
-            kept_usable = self.elastic_ke_of == Some(key) && self.elastic_ke_valid.len() == el.len();
+        // The kept stiffnesses serve an assembly of their own element geometry, rules and
+        // material only (per element: a re-cut leaves most elements as they were).
+        let stiffness_keys: Vec<u64> = if with_tangent || self.elastic_force_from_kept {
+            (0..el.len()).map(|e| element_stiffness_fingerprint(inp, e, geometry_keys[e], hashes[el.rule[e]])).collect()
+        } else {
+            Vec::new()
+        };
+        if self.elastic_ke.len() != el.len() {
+            self.elastic_ke = vec![KeptStiffness { ke: [0.0; 64], of: None }; el.len()];
         }
+        let geometry = &self.geometry;
         let from_kept = self.elastic_force_from_kept;
         let ends = self.blocks[1..].to_vec();
         let ke_blocks = split_mut(&mut self.ke, ends.iter().copied());
         let kept_blocks = split_mut(&mut self.elastic_ke, ends.iter().copied());
-        let valid_blocks = split_mut(&mut self.elastic_ke_valid, ends.iter().copied());
         let fe_blocks = split_mut(&mut self.fe, ends.iter().copied());
         let st_blocks = split_mut(out.stress, ends.iter().map(|&b| el.point_offset[b]));
         let hs_blocks = split_mut(out.state_new, ends.iter().map(|&b| el.state_offset[b]));
         let starts = &self.blocks[..self.blocks.len() - 1];
-        let work = |(((((((&b0, ke), kept), valid), fe), st), hs), b1): ElementBlock| {
+        let work = |((((((&b0, ke), kept), fe), st), hs), b1): ElementBlock| {
             let p0 = el.point_offset[b0];
             let s0 = el.state_offset[b0];
             for e in b0..b1 {
                 let k = e - b0;
+                let key = stiffness_keys.get(e).copied();
+                let usable = key.is_some() && kept[k].of == key;
                 let kind = el.kind[e];
                 let (coords, u) = element_values(inp, e);
                 let (pa, pb) = (el.point_offset[e] - p0, el.point_offset[e + 1] - p0);
@@ -546,7 +549,7 @@ impl Assembler {
                     thickness: el.thickness[e],
                     state_old: &inp.state_old[el.state_offset[e]..el.state_offset[e + 1]],
                     geometry: Some(&geometry[el.point_offset[e]..el.point_offset[e + 1]]),
-                    elastic_ke: (kept_usable && valid[k]).then_some(&kept[k]),
+                    elastic_ke: usable.then_some(&kept[k].ke),
                     elastic_force_from_ke: from_kept,
                 };
                 let mut output = ElementOutput {
@@ -557,9 +560,8 @@ impl Assembler {
                     elastic: false,
                 };
                 element_kernel(&input, &mut output);
-                if with_tangent && output.elastic && !valid[k] {
-                    kept[k] = ke[k];
-                    valid[k] = true;
+                if with_tangent && output.elastic && !usable {
+                    kept[k] = KeptStiffness { ke: ke[k], of: key };
                 }
             }
         };
@@ -567,7 +569,6 @@ impl Assembler {
             .iter()
             .zip(ke_blocks)
             .zip(kept_blocks)
-            .zip(valid_blocks)
             .zip(fe_blocks)
             .zip(st_blocks)
             .zip(hs_blocks)
