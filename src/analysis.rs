@@ -576,8 +576,22 @@ impl<'m> StaticAnalysis<'m> {
         };
         let mut dt = t_end - state.time;
         // Points without material (moving surfaces) are skipped by the kernel and keep the
-        // stress they had: the trial buffer starts from the converged values.
-        self.trial_stress.copy_from_slice(&state.stress);
+        // stress they had: the trial buffer takes the converged values there. The kernel
+        // writes every other point at the first assembly, unless elastic elements take their
+        // force from kept stiffnesses (yielding runs): then all of them.
+        if self.assembler.elastic_force_from_kept() {
+            self.trial_stress.copy_from_slice(&state.stress);
+        } else {
+            let (el, rules) = (&self.model.elements, &self.disc.rules);
+            for e in 0..el.len() {
+                let points = el.point_offset[e]..el.point_offset[e + 1];
+                for (p, &w) in points.zip(&rules[el.rule[e]].weights) {
+                    if w == 0.0 {
+                        self.trial_stress[p] = state.stress[p];
+                    }
+                }
+            }
+        }
         self.ghost_offset = state.ghost.offset();
         self.line_search = false;
         while state.time < t_end || dt == 0.0 {

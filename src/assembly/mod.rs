@@ -302,6 +302,42 @@ impl Fingerprint {
 struct SharedRules {
     rules: std::sync::Weak<Vec<QuadratureRule>>,
     hashes: Option<std::sync::Arc<Vec<RuleHash>>>,
+    /// The element fingerprints over this table (see [`Assembler::element_keys`]), with the
+    /// hash of the element table and coordinates they were formed for.
+    keys: Option<(u64, ElementKeys)>,
+}
+
+/// Per element, the fingerprint of its point geometry and that of its elastic stiffness.
+#[derive(Clone)]
+struct ElementKeys {
+    geometry: std::sync::Arc<Vec<u64>>,
+    stiffness: std::sync::Arc<Vec<u64>>,
+}
+
+/// A hash of the coordinates and of every element's kind, nodes, rule index, material,
+/// formulation and thickness (their bits): what the element fingerprints depend on besides
+/// the rules.
+fn elements_fingerprint(inp: &AssemblyInput) -> u64 {
+    let mut h = Fingerprint::new(0xcbf2_9ce4_8422_2325);
+    for c in inp.coords {
+        h.mix(c.x);
+        h.mix(c.y);
+    }
+    let el = inp.elements;
+    for e in 0..el.len() {
+        let n = &el.nodes[e];
+        h.mix4([n[0] as f64, n[1] as f64, n[2] as f64, n[3] as f64]);
+        h.mix4([el.kind[e].num_nodes() as f64, el.rule[e] as f64, el.material[e] as f64, el.thickness[e]]);
+        h.mix(formulation_code(el.formulation[e]));
+    }
+    h.finish()
+}
+
+fn formulation_code(f: Formulation) -> f64 {
+    match f {
+        Formulation::Standard => 0.0,
+        Formulation::BBar => 1.0,
+    }
 }
 
 /// Hashes of one rule's points and of its weights (their bits, in order).
@@ -348,10 +384,7 @@ fn element_stiffness_fingerprint(inp: &AssemblyInput, e: usize, geometry: u64, r
     let mut h = Fingerprint::new(geometry);
     h.mix(f64::from_bits(rule.weights));
     h.mix(el.material[e] as f64);
-    h.mix(match el.formulation[e] {
-        Formulation::Standard => 0.0,
-        Formulation::BBar => 1.0,
-    });
+    h.mix(formulation_code(el.formulation[e]));
     h.mix(el.thickness[e]);
     h.finish()
 }
@@ -409,7 +442,7 @@ impl Assembler {
         let linked = |s: &SharedRules| s.rules.upgrade().is_some_and(|held| std::sync::Arc::ptr_eq(&held, rules));
         if !self.shared_rules.as_ref().is_some_and(linked) {
             let rules = std::sync::Arc::downgrade(rules);
-            self.shared_rules = Some(SharedRules { rules, hashes: None });
+            self.shared_rules = Some(SharedRules { rules, hashes: None, keys: None });
         }
     }
 
@@ -423,13 +456,36 @@ impl Assembler {
         }
     }
 
-    /// Fills the per-point geometry table for the elements whose geometry (coordinates, rule
-    /// points) is not the one it holds; returns every element's geometry fingerprint and the
-    /// rules' hashes.
-    fn ensure_geometry(&mut self, inp: &AssemblyInput, parallel: bool) -> (Vec<u64>, std::sync::Arc<Vec<RuleHash>>) {
+    /// Every element's fingerprints (geometry, stiffness), kept for a shared rule table while
+    /// the elements and coordinates are those they were formed for.
+    fn element_keys(&mut self, inp: &AssemblyInput) -> ElementKeys {
         let hashes = self.rule_hashes(inp.rules);
+        let of = elements_fingerprint(inp);
+        let shared = self
+            .shared_rules
+            .as_mut()
+            .filter(|s| s.rules.upgrade().is_some_and(|held| std::ptr::eq(held.as_slice(), inp.rules)));
+        if let Some((_, keys)) = shared.as_ref().and_then(|s| s.keys.as_ref()).filter(|(k, _)| *k == of) {
+            return keys.clone();
+        }
         let el = inp.elements;
-        let keys: Vec<u64> = (0..el.len()).map(|e| element_geometry_fingerprint(inp, e, hashes[el.rule[e]])).collect();
+        let geometry: Vec<u64> =
+            (0..el.len()).map(|e| element_geometry_fingerprint(inp, e, hashes[el.rule[e]])).collect();
+        let stiffness =
+            (0..el.len()).map(|e| element_stiffness_fingerprint(inp, e, geometry[e], hashes[el.rule[e]])).collect();
+        let keys = ElementKeys { geometry: std::sync::Arc::new(geometry), stiffness: std::sync::Arc::new(stiffness) };
+        if let Some(s) = shared {
+            s.keys = Some((of, keys.clone()));
+        }
+        keys
+    }
+
+    /// Fills the per-point geometry table for the elements whose geometry (coordinates, rule
+    /// points) is not the one it holds; returns every element's fingerprints.
+    fn ensure_geometry(&mut self, inp: &AssemblyInput, parallel: bool) -> ElementKeys {
+        let element_keys = self.element_keys(inp);
+        let keys = &element_keys.geometry;
+        let el = inp.elements;
         if self.geometry.len() != el.num_points() || self.geometry_of.len() != el.len() {
             self.geometry = vec![ShapeEval::default(); el.num_points()];
             self.geometry_of = vec![None; el.len()];
@@ -460,7 +516,7 @@ impl Assembler {
         } else {
             jobs.into_iter().for_each(work);
         }
-        (keys, hashes)
+        element_keys
     }
 
     /// With `on`, the linear elastic elements of later assemblies take their internal force
@@ -506,16 +562,12 @@ impl Assembler {
 
     /// Evaluates all element kernels (in parallel if `parallel`) and scatters them.
     pub fn assemble(&mut self, inp: &AssemblyInput, out: AssemblyOutput, parallel: bool) {
-        let (geometry_keys, hashes) = self.ensure_geometry(inp, parallel);
+        let keys = self.ensure_geometry(inp, parallel);
         let with_tangent = out.values.is_some();
         let el = inp.elements;
         // The kept stiffnesses serve an assembly of their own element geometry, rules and
         // material only (per element: a re-cut leaves most elements as they were).
-        let stiffness_keys: Vec<u64> = if with_tangent || self.elastic_force_from_kept {
-            (0..el.len()).map(|e| element_stiffness_fingerprint(inp, e, geometry_keys[e], hashes[el.rule[e]])).collect()
-        } else {
-            Vec::new()
-        };
+        let stiffness_keys: &[u64] = if with_tangent || self.elastic_force_from_kept { &keys.stiffness } else { &[] };
         if self.elastic_ke.len() != el.len() {
             self.elastic_ke = vec![KeptStiffness { ke: [0.0; 64], of: None }; el.len()];
         }
