@@ -293,7 +293,7 @@ fn assembler_geometry_follows_changed_rule_points() {
 /// the material flows). Bit for bit the tangent of a fresh assembler: J2 B-bar Quad4 and
 /// elastic Tri3 bent so that part of the points flow, assembled after an elastic assembly
 /// (every stiffness kept), then at the reversed bend from the plastic state; a re-cut weight
-/// (changed rule) drops what was kept.
+/// (changed rule) drops what its elements kept, and only theirs.
 #[test]
 fn kept_elastic_stiffnesses_give_the_fresh_tangent_bit_for_bit() {
     let (model, _) = mixed_model();
@@ -331,6 +331,13 @@ fn kept_elastic_stiffnesses_give_the_fresh_tangent_bit_for_bit() {
     let mut recut = disc.clone();
     let r = model.elements.rule[0];
     std::sync::Arc::make_mut(&mut recut.rules)[r].weights[0] *= 0.5;
+    assert_eq!(
+        assemble_from(&mut kept, (&model, &recut), &elastic, &virgin, true, true),
+        fresh(&recut, &elastic, &virgin)
+    );
+    // Kept per element: back to the first rules, the elements of rule `r` are integrated
+    // again and the others keep what they kept; bit for bit the fresh tangent either way.
+    assert_eq!(assemble_from(&mut kept, (&model, disc), &elastic, &virgin, true, true), fresh(disc, &elastic, &virgin));
     assert_eq!(
         assemble_from(&mut kept, (&model, &recut), &elastic, &virgin, true, true),
         fresh(&recut, &elastic, &virgin)
