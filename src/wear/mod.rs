@@ -340,8 +340,7 @@ pub fn swept_step_wear(
     let finite = set.pairs[ws.contact].sliding == crate::contact::Sliding::Finite;
     let lambda_prev = lambda.0.filter(|_| finite);
     let subs = sweep_positions(set, ws, surface, u_prev, u_end, lambda.1);
-    let mut total: Option<StepWear> = None;
-    for j in 0..subs {
+    let at = |j: usize| {
         let f = (j as f64 + 0.5) / subs as f64;
         let interpolated: Vec<f64>;
         let multipliers = match lambda_prev {
@@ -361,7 +360,18 @@ pub fn swept_step_wear(
             },
         };
         let x = sub_step_position(set, ws, coords, sub);
-        let sw = step_wear(set, hosts, ws, surface, sub, multipliers, &x);
+        step_wear(set, hosts, ws, surface, sub, multipliers, &x)
+    };
+    // The sub-positions are independent: paired side by side, summed in their order (the
+    // same sums on any thread count).
+    let parts: Vec<StepWear> = if subs > 1 {
+        use rayon::prelude::*;
+        (0..subs).into_par_iter().map(at).collect()
+    } else {
+        (0..subs).map(at).collect()
+    };
+    let mut total: Option<StepWear> = None;
+    for sw in parts {
         total = Some(match total {
             None => sw,
             Some(mut t) => {
