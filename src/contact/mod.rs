@@ -368,7 +368,11 @@ pub fn pair_rows(hosts: &[(&Mesh2, usize)], c: &ContactInfo, x: &dyn Fn(usize) -
         Some(vm) => {
             let mut slot = Vec::new();
             rows.into_iter()
-                .map(|r| ContactRow { normal: vm.expand(r.normal, &mut slot), tangent: vm.expand(r.tangent, &mut slot), ..r })
+                .map(|r| ContactRow {
+                    normal: vm.expand(r.normal, &mut slot),
+                    tangent: vm.expand(r.tangent, &mut slot),
+                    ..r
+                })
                 .collect()
         }
     }

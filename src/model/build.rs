@@ -427,7 +427,12 @@ impl ModelBuilder {
                     let rows = tying_rows(
                         &t.side,
                         &multipliers,
-                        &OtherSide::Embedded { host: &host.mesh, coords: &host.mesh.nodes, host_offset: host.node_offset, embedding: emb },
+                        &OtherSide::Embedded {
+                            host: &host.mesh,
+                            coords: &host.mesh.nodes,
+                            host_offset: host.node_offset,
+                            embedding: emb,
+                        },
                     );
                     (multipliers, rows)
                 }
@@ -562,7 +567,12 @@ impl ModelBuilder {
                 let (b, emb) = &cut_embeddings[i];
                 let host = &self.bodies[*b];
                 (
-                    OtherSide::Embedded { host: &host.mesh, coords: &host.mesh.nodes, host_offset: host.node_offset, embedding: emb },
+                    OtherSide::Embedded {
+                        host: &host.mesh,
+                        coords: &host.mesh.nodes,
+                        host_offset: host.node_offset,
+                        embedding: emb,
+                    },
                     PairedSide::Embedded { host: *b, embedding: emb.clone() },
                 )
             }

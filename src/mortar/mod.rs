@@ -557,13 +557,21 @@ fn for_each_mortar_point(
 /// `cos phi >= 1/2` there (else `q = n`), so `tan phi < 2`; with a margin far above round-off,
 /// both ends beyond the same end of `[0, 1]` leave no overlap.
 fn beside(a: Point2<f64>, d: Vector2<f64>, len: f64, n: Vector2<f64>, pa: Point2<f64>, pb: Point2<f64>) -> bool {
-    let ((lo_a, hi_a), (lo_b, hi_b)) = (projection_range(a, d, len, n, pa, 1e-9), projection_range(a, d, len, n, pb, 1e-9));
+    let ((lo_a, hi_a), (lo_b, hi_b)) =
+        (projection_range(a, d, len, n, pa, 1e-9), projection_range(a, d, len, n, pb, 1e-9));
     hi_a.max(hi_b) < 0.0 || lo_a.min(lo_b) > 1.0
 }
 
 /// The parameters on the mortar segment `a, a + d` that point `p` may project to (see
 /// [`beside`]), widened by `margin`.
-fn projection_range(a: Point2<f64>, d: Vector2<f64>, len: f64, n: Vector2<f64>, p: Point2<f64>, margin: f64) -> (f64, f64) {
+fn projection_range(
+    a: Point2<f64>,
+    d: Vector2<f64>,
+    len: f64,
+    n: Vector2<f64>,
+    p: Point2<f64>,
+    margin: f64,
+) -> (f64, f64) {
     let r = p - a;
     let (s, e) = (r.dot(&d) / (len * len), 2.0 * r.dot(&n).abs() / len);
     (s - e - margin, s + e + margin)
