@@ -244,8 +244,8 @@ struct KeptStiffness {
 }
 
 /// One parallel job of [`Assembler::assemble`]: its first element, its slices of the element
-/// stiffnesses, kept elastic stiffnesses and their flags, element forces, point stresses and
-/// point histories, and its end.
+/// stiffnesses, kept elastic stiffnesses with their fingerprints, element forces, point
+/// stresses and point histories, and its end.
 type ElementBlock<'a, 'b> = (
     (
         ((((&'b usize, &'a mut [[f64; 64]]), &'a mut [KeptStiffness]), &'a mut [[f64; 8]]), &'a mut [Stress4]),
