@@ -243,6 +243,9 @@ pub struct StaticAnalysis<'m> {
     /// Contact and friction sets of the last converged condensed step (for the interface
     /// stiffness the implicit wear jump needs).
     last_sets: Option<(Vec<bool>, Vec<FrictionStatus>)>,
+    /// Contact and friction sets the next condensed step's first interface iteration starts
+    /// from instead of the augmented-Lagrangian prediction (see [`Self::start_from_sets`]).
+    start_sets: Option<(Vec<bool>, Vec<FrictionStatus>)>,
     /// What the condensed pattern was built from (handed on with [`Self::into_reuse`]).
     reuse_key: Option<condensed::ReuseKey>,
     /// Whether the set-up reused the previous model's pattern and symbolic factorisation.
@@ -419,6 +422,7 @@ impl<'m> StaticAnalysis<'m> {
             line_search: false,
             last_gross_sliding: None,
             last_sets: None,
+            start_sets: None,
             reuse_key: Some(key),
             reused,
         })
@@ -484,6 +488,7 @@ impl<'m> StaticAnalysis<'m> {
             line_search: false,
             last_gross_sliding: None,
             last_sets: None,
+            start_sets: None,
             reuse_key: None,
             reused: false,
         })
@@ -1426,7 +1431,30 @@ impl<'m> StaticAnalysis<'m> {
             for (a, i) in cd.model_rows() {
                 mult[i] = lam0[i] + dlam[a];
             }
-            update_sets(&disc.contact, &mult, &sets.gaps, &sets.slip, it == 0, &mut sets.active, &mut sets.status);
+            let given = if it == 0 { self.start_sets.take() } else { None };
+            match given.filter(|(a, s)| a.len() == nc && s.len() == nfr) {
+                Some((active, status)) => {
+                    for k in 0..nc {
+                        sets.active[k] = active[k] && disc.contact.phi[k] > 0.0;
+                    }
+                    for j in 0..nfr {
+                        sets.status[j] = match status[j] {
+                            _ if !sets.active[disc.contact.friction_normal[j]] => FrictionStatus::Open,
+                            FrictionStatus::Open => FrictionStatus::Stick,
+                            st => st,
+                        };
+                    }
+                }
+                None => update_sets(
+                    &disc.contact,
+                    &mult,
+                    &sets.gaps,
+                    &sets.slip,
+                    it == 0,
+                    &mut sets.active,
+                    &mut sets.status,
+                ),
+            }
             self.last_active = sets.active.iter().filter(|&&a| a).count();
             // Rows outside the set stay open (checked after the solve).
             for k in (0..nc).filter(|&k| cd.live_of[nt + k].is_none()) {
@@ -1569,6 +1597,22 @@ impl<'m> StaticAnalysis<'m> {
         })?;
         cd.log.push(batch);
         Ok(())
+    }
+
+    /// The contact and friction sets of the last converged condensed step, if any.
+    pub fn converged_sets(&self) -> Option<&(Vec<bool>, Vec<FrictionStatus>)> {
+        self.last_sets.as_ref()
+    }
+
+    /// The next condensed step's active-set iterations start from `sets` (contact rows in
+    /// contact, friction status per friction row; rows this pairing leaves unpaired start open)
+    /// instead of the augmented-Lagrangian prediction from the start of the step. For a step
+    /// solved again in a nearby pairing (finite sliding): its first solve's converged sets are
+    /// all but the answer, where the prediction from the step's start moves the contact edge a
+    /// node or two per iteration. The iterations end at a set that reproduces itself, and its
+    /// solve is the same arithmetic whichever set they started from.
+    pub fn start_from_sets(&mut self, sets: (Vec<bool>, Vec<FrictionStatus>)) {
+        self.start_sets = Some(sets);
     }
 
     /// Interface stiffness of the last converged step (see [`GapSensitivity`]); `None` without

@@ -444,6 +444,7 @@ fn solve_paired_step<R>(
     let (mut change, mut last_change, mut estimate) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
     let mut iterations = 0;
     let mut prepared: Option<Discretisation> = None;
+    let mut start_sets = None;
     for pairing in 1..=MAX_PAIRINGS {
         let t0 = std::time::Instant::now();
         let paired = prepared.take().unwrap_or_else(|| current.repaired_at(model, &u_pair, &start.u));
@@ -455,6 +456,9 @@ fn solve_paired_step<R>(
         let handed = reuse.take().map(|r| if kept_bulk { r.with_same_bulk() } else { r });
         let mut analysis = StaticAnalysis::for_pairings(model, &paired, handed, surface_compliance)?;
         analysis.set_parallel(options.parallel);
+        if let Some(sets) = start_sets.take() {
+            analysis.start_from_sets(sets);
+        }
         // On a bulk already factored only the pairing's interface operator is formed.
         *(if kept_bulk { &mut timings.repairing } else { &mut timings.setup }) += t0.elapsed().as_secs_f64();
         timings.count_setup(&analysis);
@@ -499,7 +503,14 @@ fn solve_paired_step<R>(
             prepared = Some(next);
             timings.repairing += t0.elapsed().as_secs_f64();
         }
-        tracing::debug!(step, pairing, change, estimate, "finite sliding: step solved in its pairing");
+        tracing::debug!(
+            step,
+            pairing,
+            change,
+            estimate,
+            iterations = report.iterations,
+            "finite sliding: step solved in its pairing"
+        );
         let at_rest = pairing == 1 && guess.is_none() && !state_slid(&paired, state, &start.u);
         if estimate <= PAIRING_TOLERANCE || (pairing > 1 && change == 0.0) || at_rest {
             if let Err(e) = check_on_counter_surface(model, (current, &paired), state, step, t) {
@@ -513,6 +524,8 @@ fn solve_paired_step<R>(
             state.interface_log.clear();
             return out;
         }
+        // The next pairing's solve starts from this one's sets.
+        start_sets = analysis.converged_sets().cloned();
         *reuse = analysis.into_reuse();
         last_pressure = Some(pressure);
         u_pair.clone_from(&state.u);

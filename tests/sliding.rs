@@ -18,6 +18,7 @@
 
 mod common;
 use mortex::analysis::{AnalysisError, StaticAnalysis};
+use mortex::contact::FrictionStatus;
 use mortex::fem::kernel::Formulation;
 use mortex::fem::material::{Elastic, Material, PlaneHypothesis};
 use mortex::mesh::{generate, CellKind};
@@ -263,4 +264,34 @@ fn finite_sliding_monolithic_equals_condensed() {
     let (du, dl) = (rel(&c.u, &m.u), rel(&c.multipliers, &m.multipliers));
     assert!(du < 1e-9 && dl < 1e-9, "u {du:.2e}, lambda {dl:.2e}");
     assert_eq!(c.friction_status, m.friction_status);
+}
+
+/// A re-pairing solves its step again from the sets its first solve converged to
+/// (`StaticAnalysis::start_from_sets`): on the same pairing those sets are the answer, so the
+/// active-set iterations take one interface solve per pass, and the state is the first solve's
+/// bit for bit (the iterations end at a set that reproduces itself; its solve is the same
+/// arithmetic whichever set they started from). The drag's first sliding step: every row goes
+/// from stick (after the load) to slip.
+#[test]
+fn a_step_started_from_its_converged_sets_is_one_iteration_and_the_same_bits() {
+    let (model, _) = drag_model_with(false, Sliding::Small, 12, false);
+    let mut analysis = StaticAnalysis::new(&model).unwrap();
+    let mut state = analysis.initial_state();
+    for k in 0..2 {
+        analysis.advance_to(&mut state, k + 1, model.times[k]).unwrap();
+    }
+    let start = state.clone();
+    let first = analysis.advance_to(&mut state, 3, model.times[2]).unwrap();
+    let sets = analysis.converged_sets().cloned().unwrap();
+    let slip = sets.1.iter().filter(|s| matches!(s, FrictionStatus::Slip(_))).count();
+    assert!(slip > 0, "the step slides: {slip} slip rows");
+    let mut again = start.clone();
+    analysis.start_from_sets(sets);
+    let warm = analysis.advance_to(&mut again, 3, model.times[2]).unwrap();
+    assert!(first.iterations > warm.iterations, "{} iterations cold, {} warm", first.iterations, warm.iterations);
+    assert_eq!(warm.iterations, warm.newton_iterations, "one interface solve per pass");
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&state.u), bits(&again.u));
+    assert_eq!(bits(&state.multipliers), bits(&again.multipliers));
+    assert_eq!(state.friction_status, again.friction_status);
 }
