@@ -243,6 +243,10 @@ pub struct StaticAnalysis<'m> {
     /// Contact and friction sets of the last converged condensed step (for the interface
     /// stiffness the implicit wear jump needs).
     last_sets: Option<(Vec<bool>, Vec<FrictionStatus>)>,
+    /// The trial stresses at points without material equal the state's: copied at the first
+    /// step on this rule table, and kept so since no solve writes those points and a commit
+    /// swaps the two buffers. Handed on with the buffers to a re-pairing on the same bulk.
+    void_stresses_synced: bool,
     /// Contact and friction sets the next condensed step's first interface iteration starts
     /// from instead of the augmented-Lagrangian prediction (see [`Self::start_from_sets`]).
     start_sets: Option<(Vec<bool>, Vec<FrictionStatus>)>,
@@ -376,6 +380,7 @@ impl<'m> StaticAnalysis<'m> {
         let mut reuse = SolverReuse::new(key, self.assembler, solver, self.values, compliance);
         reuse.bulk = bulk;
         reuse.buffers = Some((self.trial_history, self.trial_stress, self.trial_f_int));
+        reuse.void_stresses_synced = self.void_stresses_synced;
         Some(if lost { reuse.without_values() } else { reuse })
     }
 
@@ -392,6 +397,7 @@ impl<'m> StaticAnalysis<'m> {
         compliance: bool,
     ) -> Result<Self, AnalysisError> {
         let mut reuse = reuse;
+        let void_stresses_synced = reuse.as_ref().is_some_and(|r| r.keeps_void_stresses());
         let (mut trial_history, mut trial_stress, mut trial_f_int) =
             reuse.as_mut().and_then(|r| r.buffers.take()).unwrap_or_default();
         // As allocated afresh, except the stresses: every step starts them from the state's.
@@ -423,6 +429,7 @@ impl<'m> StaticAnalysis<'m> {
             last_gross_sliding: None,
             last_sets: None,
             start_sets: None,
+            void_stresses_synced,
             reuse_key: Some(key),
             reused,
         })
@@ -489,6 +496,7 @@ impl<'m> StaticAnalysis<'m> {
             last_gross_sliding: None,
             last_sets: None,
             start_sets: None,
+            void_stresses_synced: false,
             reuse_key: None,
             reused: false,
         })
@@ -581,12 +589,14 @@ impl<'m> StaticAnalysis<'m> {
         };
         let mut dt = t_end - state.time;
         // Points without material (moving surfaces) are skipped by the kernel and keep the
-        // stress they had: the trial buffer takes the converged values there. The kernel
-        // writes every other point at the first assembly, unless elastic elements take their
-        // force from kept stiffnesses (yielding runs): then all of them.
+        // stress they had: the trial buffer takes the converged values there, once per rule
+        // table (see `void_stresses_synced`). The kernel writes every other point at the first
+        // assembly, unless elastic elements take their force from kept stiffnesses (yielding
+        // runs): then all of them are copied at every step.
         if self.assembler.elastic_force_from_kept() {
             self.trial_stress.copy_from_slice(&state.stress);
-        } else {
+        } else if !self.void_stresses_synced {
+            self.void_stresses_synced = true;
             let (el, rules) = (&self.model.elements, &self.disc.rules);
             for e in 0..el.len() {
                 let points = el.point_offset[e]..el.point_offset[e + 1];

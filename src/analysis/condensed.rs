@@ -387,6 +387,8 @@ pub struct SolverReuse {
     /// The analysis's trial buffers (history, stresses, internal force), refilled by the next
     /// analysis instead of allocated: a finite-sliding run sets up an analysis per pairing.
     pub(super) buffers: Option<TrialBuffers>,
+    /// The trial stresses of `buffers` at points without material equal the state's.
+    pub(super) void_stresses_synced: bool,
 }
 
 /// The rows and equations of a condensed set-up that depend on the bulk alone: the grounding
@@ -417,7 +419,23 @@ impl SolverReuse {
         values: Vec<f64>,
         compliance: Option<Compliance>,
     ) -> Self {
-        SolverReuse { key, assembler, solver, values, same_bulk: false, compliance, bulk: None, buffers: None }
+        SolverReuse {
+            key,
+            assembler,
+            solver,
+            values,
+            same_bulk: false,
+            compliance,
+            bulk: None,
+            buffers: None,
+            void_stresses_synced: false,
+        }
+    }
+
+    /// Whether the next analysis may take the trial stresses at points without material as
+    /// they are: the same bulk (so the same points without material) and synced buffers.
+    pub(super) fn keeps_void_stresses(&self) -> bool {
+        self.same_bulk && self.void_stresses_synced && self.buffers.is_some()
     }
 
     /// For a next model that differs from this one only in its contact rows (a re-pairing of
