@@ -1381,12 +1381,10 @@ impl<'m> StaticAnalysis<'m> {
         Ok(())
     }
 
-    /// The active-set iterations on the live interface rows for the bulk predictor `z`: each
-    /// iteration updates the sets from the current interface values, then solves the dense
-    /// interface system of their laws for the multiplier and row-value changes `dlam`, `dw`.
-    /// Stops when the sets repeat; fails (the caller cuts back) when they cycle, do not settle
-    /// within `max_set_iterations` (default: one per live contact row, at least the Newton
-    /// limit), or the interface system is singular.
+    /// The active-set iterations on the live interface rows for the bulk predictor `z` (see
+    /// [`Self::interface_iterations_from`]), from the sets handed to
+    /// [`Self::start_from_sets`] if any: should those fail, once more from the prediction
+    /// before the caller cuts back (a start far from the answer must not change the path).
     #[allow(clippy::too_many_arguments)]
     fn interface_iterations(
         &mut self,
@@ -1398,6 +1396,42 @@ impl<'m> StaticAnalysis<'m> {
         step: usize,
         t: f64,
     ) -> Result<InterfaceSolve, AnalysisError> {
+        let given = self.start_sets.take();
+        let warm = given.is_some();
+        let solve = self.interface_iterations_from(cd, (z, start, lam0), sets, given, step, t)?;
+        let InterfaceSolve::Failed(StepOutcome::NotConverged { iterations: spent, .. }) = solve else {
+            return Ok(solve);
+        };
+        if !warm {
+            return Ok(solve);
+        }
+        tracing::debug!(step, t, spent, "active-set iterations from the given sets failed: again from the prediction");
+        Ok(match self.interface_iterations_from(cd, (z, start, lam0), sets, None, step, t)? {
+            InterfaceSolve::Solved { dlam, dw, iterations } => {
+                InterfaceSolve::Solved { dlam, dw, iterations: iterations + spent }
+            }
+            failed => failed,
+        })
+    }
+
+    /// The active-set iterations on the live interface rows for the bulk predictor `z`: each
+    /// iteration updates the sets from the current interface values (the first from `given`
+    /// if any, else the augmented-Lagrangian prediction from the step's start), then solves
+    /// the dense interface system of their laws for the multiplier and row-value changes
+    /// `dlam`, `dw`. Stops when the sets repeat; fails (the caller cuts back) when they cycle,
+    /// do not settle within `max_set_iterations` (default: one per live contact row, at least
+    /// the Newton limit), or the interface system is singular.
+    #[allow(clippy::too_many_arguments)]
+    fn interface_iterations_from(
+        &mut self,
+        cd: &condensed::Condensed,
+        (z, start, lam0): (&[f64], &InterfaceStart, &[f64]),
+        sets: &mut ContactSets,
+        given: Option<(Vec<bool>, Vec<FrictionStatus>)>,
+        step: usize,
+        t: f64,
+    ) -> Result<InterfaceSolve, AnalysisError> {
+        let mut given = given;
         let (m, disc) = (self.model, self.disc);
         let p = m.newton;
         let (nt, nc, nfr) = (m.constraints.len(), disc.contact.rows.len(), disc.contact.friction_rows.len());
@@ -1441,7 +1475,7 @@ impl<'m> StaticAnalysis<'m> {
             for (a, i) in cd.model_rows() {
                 mult[i] = lam0[i] + dlam[a];
             }
-            let given = if it == 0 { self.start_sets.take() } else { None };
+            let given = if it == 0 { given.take() } else { None };
             match given.filter(|(a, s)| a.len() == nc && s.len() == nfr) {
                 Some((active, status)) => {
                     for k in 0..nc {

@@ -17,6 +17,7 @@
 //! any checkpoint needs nothing else.
 
 use crate::analysis::{AnalysisError, StaticAnalysis, StepReport};
+use crate::contact::FrictionStatus;
 use crate::model::{Discretisation, Model};
 use crate::state::SimState;
 use crate::wear::{accumulate_step_wear, apply_cycle_wear, cycle_plasticity, plastic_snapshot, JumpScheme};
@@ -124,7 +125,7 @@ where
                 &mut reuse,
                 same_bulk,
                 at_rest,
-                None,
+                (None, Default::default()),
                 step,
                 t,
                 options,
@@ -257,6 +258,7 @@ where
         let model: &Model = model;
         if model.has_finite_sliding() {
             state.wear.pairing_guess.resize(cycle.increments, vec![]);
+            state.wear.start_sets.resize(cycle.increments, Default::default());
             for i in first..cycle.increments {
                 let step = state.step + 1;
                 // The surfaces moved before the cycle's first increment: its set-up refactors.
@@ -265,6 +267,7 @@ where
                 // later (or a jump later) the surfaces meet almost there.
                 let guess = std::mem::take(&mut state.wear.pairing_guess[i]);
                 let guess = (guess.len() == state.u.len()).then_some(guess);
+                let sets = std::mem::take(&mut state.wear.start_sets[i]);
                 solve_paired_step(
                     model,
                     current,
@@ -272,13 +275,14 @@ where
                     reuse,
                     i > first,
                     false,
-                    guess.as_deref(),
+                    (guess.as_deref(), sets),
                     step,
                     step_time(i),
                     *options,
                     &mut solve_timings,
                     |disc, analysis, state, report, start| {
                         state.wear.pairing_guess[i].clone_from(&state.u);
+                        state.wear.start_sets[i] = analysis.converged_sets().cloned().unwrap_or_default();
                         let start = (start.u.as_slice(), start.multipliers.as_slice());
                         let report = integrate_step_wear(
                             (model, disc),
@@ -305,10 +309,13 @@ where
         analysis.resume(state)?;
         timings.setup += t0.elapsed().as_secs_f64();
         timings.count_setup(&analysis);
+        state.wear.start_sets.resize(cycle.increments, Default::default());
         for i in first..cycle.increments {
             let (u_prev, lambda_prev) = (state.u.clone(), state.multipliers.clone());
             let t1 = std::time::Instant::now();
+            analysis.start_from_sets(std::mem::take(&mut state.wear.start_sets[i]));
             let report = analysis.advance_to(state, state.step + 1, step_time(i))?;
+            state.wear.start_sets[i] = analysis.converged_sets().cloned().unwrap_or_default();
             timings.solve += t1.elapsed().as_secs_f64();
             let start = (u_prev.as_slice(), lambda_prev.as_slice());
             let report = integrate_step_wear(
@@ -431,7 +438,7 @@ fn solve_paired_step<R>(
     reuse: &mut Option<crate::analysis::SolverReuse>,
     same_bulk: bool,
     surface_compliance: bool,
-    guess: Option<&[f64]>,
+    (guess, sets): (Option<&[f64]>, (Vec<bool>, Vec<FrictionStatus>)),
     step: usize,
     t: f64,
     options: RunOptions,
@@ -444,7 +451,8 @@ fn solve_paired_step<R>(
     let (mut change, mut last_change, mut estimate) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
     let mut iterations = 0;
     let mut prepared: Option<Discretisation> = None;
-    let mut start_sets = None;
+    // Each solve starts from the sets the last one converged to (the first: those handed in).
+    let mut start_sets = Some(sets);
     for pairing in 1..=MAX_PAIRINGS {
         let t0 = std::time::Instant::now();
         let paired = prepared.take().unwrap_or_else(|| current.repaired_at(model, &u_pair, &start.u));

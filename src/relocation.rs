@@ -328,6 +328,7 @@ fn carry_over(prev: &SimState, s: &mut SimState) {
     s.wear.cycle = prev.wear.cycle;
     s.wear.computed_cycles = prev.wear.computed_cycles;
     s.wear.pairing_guess.clone_from(&prev.wear.pairing_guess);
+    s.wear.start_sets.clone_from(&prev.wear.start_sets);
     if s.stress.len() == prev.stress.len() {
         s.stress.clone_from(&prev.stress);
     }

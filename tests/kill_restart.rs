@@ -277,6 +277,13 @@ fn kill_during_wear(name: &str, cycles_line: &str, cycles: u64, edits: &[(&str, 
             checkpoint_bits(&cont, k_end) == bits_ref,
             "kill {i}: resumed from step {k}: final state differs from the uninterrupted run"
         );
+        // The same active-set iterations too: each step starts from the sets the last computed
+        // cycle converged to at its increment, which the checkpoint carries.
+        let iterations =
+            |f: &Path| hdf5::File::open(f).unwrap().dataset("series/iterations").unwrap().read_raw::<f64>().unwrap();
+        let (a, b) = (iterations(&reference), iterations(&cont));
+        let n = k_ref - k;
+        assert_eq!(a[a.len() - n..], b[b.len() - n..], "kill {i}: resumed from step {k}: iterations differ");
         resumed_from.push(k);
     }
     eprintln!("wear run{tag} ({computed} wear updates, {k_ref} steps, {wall:?}): resumed from steps {resumed_from:?}");

@@ -17,6 +17,7 @@
 //! Every value is stored as the f64 it is in memory (HDF5 native doubles), so reading a
 //! checkpoint gives back the identical state.
 
+use crate::contact::FrictionStatus;
 use crate::fem::material::{PlasticState, Stress4};
 use crate::model::Model;
 use crate::state::SimState;
@@ -155,7 +156,10 @@ fn read_ghost(c: &hdf5::Group, num_dofs: usize) -> Result<crate::state::GhostBir
 /// The wear state under `checkpoint/wear`: counters as attributes, per surface `i` the datasets
 /// `vertices_i` `(n, 2)`, `depth_i`, `cycle_volume_i` `(n)`, per surface `cycle_work`,
 /// `worn_area`, `work`, and the jump controller (`last_rate`, `last_change`, `predicted`, `predicted_area_rate`, attributes
-/// `last_jump`, `jump_before`, `decay`), and the implicit jump's linearisation of each
+/// `last_jump`, `jump_before`, `decay`), per increment `j` of the cycle where the next computed
+/// cycle starts: the finite-sliding pairing guess `pairing_guess_j` and the sets its step
+/// starts from, `start_active_j` and `start_status_j` (see [`read_start_sets`]; attributes
+/// `pairing_guesses`, `start_sets`: their counts), and the implicit jump's linearisation of each
 /// increment of the current cycle (group `increment_jumps`, see [`write_increment_jumps`]).
 fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> {
     let crate::state::WearState {
@@ -172,6 +176,7 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
         work,
         controller,
         pairing_guess,
+        start_sets,
         plastic_start,
         cycle_ratcheting,
         cycle_plastic_strain,
@@ -213,6 +218,13 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
     super::write_attr(&g, "pairing_guesses", &(pairing_guess.len() as u64))?;
     for (j, u) in pairing_guess.iter().enumerate() {
         vec1(&format!("pairing_guess_{j}"), u)?;
+    }
+    super::write_attr(&g, "start_sets", &(start_sets.len() as u64))?;
+    for (j, (active, status)) in start_sets.iter().enumerate() {
+        let active: Vec<u8> = active.iter().map(|&a| u8::from(a)).collect();
+        let status: Vec<u8> = status.iter().map(|&s| status_code(s)).collect();
+        g.new_dataset_builder().with_data(&Array1::from(active)).create(format!("start_active_{j}").as_str())?;
+        g.new_dataset_builder().with_data(&Array1::from(status)).create(format!("start_status_{j}").as_str())?;
     }
     vec1("plastic_start", plastic_start)?;
     super::write_attr(&g, "cycle_ratcheting", cycle_ratcheting)?;
@@ -354,6 +366,58 @@ fn read_pairing_guess(g: &hdf5::Group, model: &Model) -> Result<Vec<Vec<f64>>, S
         .collect()
 }
 
+/// A Coulomb status as stored in `start_status_j`: 0 open, 1 stick, 2 slip in the positive
+/// tangent direction, 3 in the negative one.
+fn status_code(s: FrictionStatus) -> u8 {
+    match s {
+        FrictionStatus::Open => 0,
+        FrictionStatus::Stick => 1,
+        FrictionStatus::Slip(true) => 2,
+        FrictionStatus::Slip(false) => 3,
+    }
+}
+
+/// The sets each increment's step starts from (see `WearState::start_sets`): per increment
+/// `j`, `start_active_j` (0/1 per contact row) and `start_status_j` (see [`status_code`]). A
+/// checkpoint written before they were kept has none (the steps then start from the
+/// prediction: the same solution).
+fn read_start_sets(g: &hdf5::Group, model: &Model) -> Result<Vec<(Vec<bool>, Vec<FrictionStatus>)>, String> {
+    let Ok(count) = g.attr("start_sets").and_then(|a| a.read_scalar::<u64>()) else {
+        return Ok(vec![]);
+    };
+    let increments = model.cycle.map_or(0, |c| c.increments);
+    if count as usize > increments {
+        return Err(format!("wear attribute start_sets is {count}, the cycle has {increments} increments"));
+    }
+    let codes = |name: String| {
+        g.dataset(&name).and_then(|d| d.read_raw::<u8>()).map_err(|e| format!("wear dataset {name}: {e}"))
+    };
+    (0..count)
+        .map(|j| {
+            let active = codes(format!("start_active_{j}"))?;
+            let status = codes(format!("start_status_{j}"))?;
+            let active = active
+                .iter()
+                .map(|&a| match a {
+                    0 | 1 => Ok(a == 1),
+                    _ => Err(format!("wear dataset start_active_{j}: value {a}, expected 0 or 1")),
+                })
+                .collect::<Result<Vec<bool>, String>>()?;
+            let status = status
+                .iter()
+                .map(|&c| match c {
+                    0 => Ok(FrictionStatus::Open),
+                    1 => Ok(FrictionStatus::Stick),
+                    2 => Ok(FrictionStatus::Slip(true)),
+                    3 => Ok(FrictionStatus::Slip(false)),
+                    _ => Err(format!("wear dataset start_status_{j}: value {c}, expected 0 to 3")),
+                })
+                .collect::<Result<Vec<FrictionStatus>, String>>()?;
+            Ok((active, status))
+        })
+        .collect()
+}
+
 /// The plastic strain at the start of the computed cycle (see `WearState::plastic_start`):
 /// empty, or five values per history point. A checkpoint written before it was kept has none.
 fn read_plastic_start(g: &hdf5::Group, model: &Model) -> Result<Vec<f64>, String> {
@@ -443,6 +507,7 @@ fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, 
         work,
         controller,
         pairing_guess: read_pairing_guess(&g, model)?,
+        start_sets: read_start_sets(&g, model)?,
         plastic_start: read_plastic_start(&g, model)?,
         // (A checkpoint written before they were kept: zero, as for elastic bodies.)
         cycle_ratcheting: g.attr("cycle_ratcheting").and_then(|a| a.read_scalar::<f64>()).unwrap_or(0.0),

@@ -20,7 +20,7 @@ use super::{
     vertex_measure, wear_coupling, wearing_resolution, worn_vertices, ControllerState, JumpContact, JumpOperator,
     JumpPolicy, JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel, PRESSURE_PREDICTION_TOLERANCE,
 };
-use crate::contact::ContactSet;
+use crate::contact::{ContactSet, FrictionStatus};
 use crate::fem::material::PlasticState;
 use crate::mesh::Mesh2;
 use crate::moving::FreeSurface;
@@ -60,6 +60,13 @@ pub struct WearState {
     /// converged to there (empty before the first), where the next cycle's step is paired
     /// first.
     pub pairing_guess: Vec<Vec<f64>>,
+    /// Per increment of the cycle: the contact rows in contact and the Coulomb status of each
+    /// friction row the last computed cycle converged to there (empty before the first). The
+    /// next cycle's step starts its active-set iterations from them: a jump later the contact
+    /// edges are a node or so from where they were, where the prediction from the step's
+    /// start moves them a node or two per iteration. The solution is the same bits (see
+    /// [`crate::analysis::StaticAnalysis::start_from_sets`]).
+    pub start_sets: Vec<(Vec<bool>, Vec<FrictionStatus>)>,
     /// Yielding bodies: `[eps_p (4 tensor components), alpha]` of every history point at the
     /// start of the current computed cycle (empty: the virgin state, all zero).
     pub plastic_start: Vec<f64>,
