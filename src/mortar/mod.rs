@@ -304,6 +304,15 @@ impl Chain {
     /// nearest multiplier node (values outside [0, 1] there, still a partition of unity);
     /// periodic chains wrap from the last node to the first; a single node is constant.
     pub fn hats(&self, s: f64) -> [(usize, f64); 2] {
+        let mut bisect = usize::MAX;
+        self.hats_from(s, &mut bisect)
+    }
+
+    /// [`Self::hats`], searching for the interval of `s` from `hint` (the interval found for
+    /// the last arc length, updated): the mortar points of a chain come in arc order, so the
+    /// search is a step or two instead of a bisection. The interval, hence the result, is that
+    /// of [`Self::hats`] whatever the hint.
+    pub fn hats_from(&self, s: f64, hint: &mut usize) -> [(usize, f64); 2] {
         let m = self.lm_at.len();
         let at = |j: usize| self.arc[self.lm_at[j]];
         if m == 1 {
@@ -316,7 +325,26 @@ impl Chain {
         }
         // Interval j (nodes j, j + 1) holding s; the end intervals extend to the chain ends.
         // The first j with s <= at(j + 1) (the arc grows along the chain), else the last.
-        let j = self.lm_at[1..].partition_point(|&v| self.arc[v] < s).min(m - 2);
+        let ends = &self.lm_at[1..];
+        let below = |i: usize| self.arc[ends[i]] < s;
+        let j = if *hint < ends.len() {
+            // The partition point of `below` (true on a prefix), walked to from the hint.
+            let mut i = *hint;
+            if below(i) {
+                while i < ends.len() && below(i) {
+                    i += 1;
+                }
+            } else {
+                while i > 0 && !below(i - 1) {
+                    i -= 1;
+                }
+            }
+            i
+        } else {
+            ends.partition_point(|&v| self.arc[v] < s)
+        };
+        *hint = j.min(ends.len().saturating_sub(1));
+        let j = j.min(m - 2);
         let (s0, s1) = (at(j), at(j + 1));
         let mut phi = (s1 - s) / (s1 - s0);
         if j > 0 && j < m - 2 {
@@ -480,6 +508,7 @@ fn for_each_mortar_point(
     let (gx, gw) = gauss_legendre(4);
     let mut cand = Vec::new();
     for ch in &lm.chains {
+        let mut hint = 0;
         for k in 0..ch.vertices.len() - 1 {
             let (va, vb) = (ch.vertices[k], ch.vertices[k + 1]);
             let (a, b) = (side.points[va], side.points[vb]);
@@ -489,8 +518,8 @@ fn for_each_mortar_point(
             // the hats' parameter at both ends of the segment (its points take theirs from
             // `arc[k] + tau len`, between the two).
             if let Some(rows) = rows {
-                let [(a0, _), (a1, _)] = ch.hats(ch.arc[k]);
-                let [(b0, _), (b1, _)] = ch.hats(ch.arc[k] + len);
+                let [(a0, _), (a1, _)] = ch.hats_from(ch.arc[k], &mut hint);
+                let [(b0, _), (b1, _)] = ch.hats_from(ch.arc[k] + len, &mut hint);
                 if ![a0, a1, b0, b1].iter().any(|&l| rows[ch.first_lm + l]) {
                     continue;
                 }
@@ -530,7 +559,7 @@ fn for_each_mortar_point(
                 for (x, w) in gx.iter().zip(&gw) {
                     let tau = lo + 0.5 * (x + 1.0) * (hi - lo);
                     let sigma = (tau - ta) / (tb - ta);
-                    let local = ch.hats(ch.arc[k] + tau * len);
+                    let local = ch.hats_from(ch.arc[k] + tau * len, &mut hint);
                     f(&MortarPoint {
                         va,
                         vb,
@@ -779,6 +808,33 @@ fn nrm_dist(a: Point2<f64>, d: Vector2<f64>, p: Point2<f64>) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The hinted interval search gives the bisection's hats bit for bit, from any hint and
+        /// for arc lengths in any order (a graded open chain, coarse-grained multipliers: several
+        /// segments per interval; points beyond both ends).
+        #[test]
+        fn hats_from_any_hint_are_the_bisections(
+            grading in 1.0f64..3.0,
+            coarse in 1.0f64..4.0,
+            s in proptest::collection::vec(-0.2f64..1.2, 1..40),
+            hint in 0usize..40,
+        ) {
+            let n = 24;
+            let xs: Vec<f64> = (0..n).map(|i| (i as f64 / (n - 1) as f64).powf(grading)).collect();
+            let side = MortarSide { nodes: (0..n).collect(), points: xs.iter().map(|&x| Point2::new(x, 0.0)).collect(), closed: false };
+            let lm = build_multipliers(&side, MultiplierSpace::CoarseGrained, coarse / n as f64);
+            let ch = &lm.chains[0];
+            let total = ch.arc[ch.arc.len() - 1];
+            let mut h = hint;
+            for &f in &s {
+                let (a, b) = (ch.hats(f * total), ch.hats_from(f * total, &mut h));
+                prop_assert_eq!((a[0].0, a[1].0), (b[0].0, b[1].0));
+                prop_assert_eq!((a[0].1.to_bits(), a[1].1.to_bits()), (b[0].1.to_bits(), b[1].1.to_bits()));
+            }
+        }
+    }
 
     /// Mortar side: the top of a lower body along y = 0, x in [0, 4] (5 nodes, ids 0..4, body
     /// below so the polyline runs right-to-left). Other side: the bottom of an upper body along
