@@ -84,9 +84,9 @@ fn benches(c: &mut Criterion) {
     let rows: Vec<Vec<(usize, f64)>> =
         top.windows(2).map(|w| w.iter().map(|&n| (model.initial().dofs.eq[2 * n + 1], 0.5)).collect()).collect();
     // faer factors small matrices simplicially; forward substitution needs supernodes.
-    if solver.congruence(&rows, 0).is_some() {
+    if solver.congruence(&rows, 0, 0).is_some() {
         g.bench_function(format!("interface_operator_forward_substitution_{}_rows", rows.len()), |b| {
-            b.iter(|| black_box(solver.congruence(&rows, 0).map(|d| d[(0, 0)])))
+            b.iter(|| black_box(solver.congruence(&rows, 0, 0).map(|d| d[(0, 0)])))
         });
     } else {
         eprintln!("simplicial factor at this size: no forward-substitution bench");
