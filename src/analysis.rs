@@ -1042,7 +1042,7 @@ impl<'m> StaticAnalysis<'m> {
             },
             self.parallel,
         );
-        for &(i, j, v) in &disc.penalty {
+        for &(i, j, v) in disc.penalty.iter() {
             self.trial_f_int[i] += v * u[j];
         }
         for &(i, f) in &self.ghost_offset {
@@ -1342,7 +1342,7 @@ impl<'m> StaticAnalysis<'m> {
         for (f, v) in self.trial_f_int.iter_mut().zip(&f_du) {
             *f += v;
         }
-        for &(i, j, v) in &disc.penalty {
+        for &(i, j, v) in disc.penalty.iter() {
             self.trial_f_int[i] += v * du[j];
         }
     }

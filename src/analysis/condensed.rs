@@ -523,7 +523,7 @@ pub(super) fn setup(
             let pairs = merged_pairs(m.ghost_reach(), regularisation.iter().map(|&(i, j, _)| (i, j)).collect());
             let equations = solver_equations(m);
             let key = ReuseKey { eq: equations.eq.clone(), elements: m.elements.len(), pairs };
-            let mut penalty = disc.penalty.clone();
+            let mut penalty = disc.penalty.to_vec();
             penalty.extend_from_slice(&regularisation);
             let structure = bulk_structure(m, reuse, &key, &equations, &penalty)?;
             (BulkRows { grounds, rho_tie, rho_ground, equations }, key, structure)

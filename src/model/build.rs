@@ -132,11 +132,11 @@ impl ModelBuilder {
             if constraints.is_empty() && contact.rows.is_empty() { linear_solver } else { LinearSolverKind::Lu };
         let initial = Discretisation {
             rules: std::sync::Arc::new(elements.rules),
-            dofs: dofs.map,
+            dofs: std::sync::Arc::new(dofs.map),
             cuts: std::sync::Arc::new(hosts.cuts),
-            held: dofs.held,
-            penalty: hosts.penalty_parts.iter().flatten().copied().collect(),
-            penalty_parts: hosts.penalty_parts,
+            held: std::sync::Arc::new(dofs.held),
+            penalty: std::sync::Arc::new(hosts.penalty_parts.iter().flatten().copied().collect()),
+            penalty_parts: std::sync::Arc::new(hosts.penalty_parts),
             contact,
             surfaces,
         };

@@ -19,15 +19,17 @@ pub struct Discretisation {
     /// with the re-pairings of a surface position (a re-pairing changes the contact rows only).
     pub rules: std::sync::Arc<Vec<QuadratureRule>>,
     /// Free and constrained DOFs: prescribed ones, and nodes switched off for lack of material.
-    pub dofs: DofMap,
+    /// This and the ghost-penalty and held-DOF tables below are shared, like the rules, with
+    /// the re-pairings of a surface position.
+    pub dofs: std::sync::Arc<DofMap>,
     /// Cut state of each body's cells (`None`: not cut by any surface).
     pub cuts: std::sync::Arc<Vec<Option<CutMesh>>>,
     /// Per body: DOFs switched off (no material in their support), held at their last value.
-    pub held: Vec<Vec<usize>>,
+    pub held: std::sync::Arc<Vec<Vec<usize>>>,
     /// Ghost-penalty entries per body; `penalty` is their concatenation.
-    pub penalty_parts: Vec<Vec<(usize, usize, f64)>>,
+    pub penalty_parts: std::sync::Arc<Vec<Vec<(usize, usize, f64)>>>,
     /// Constant extra stiffness `(dof_i, dof_j, value)`: ghost penalty on cut bodies.
-    pub penalty: Vec<(usize, usize, f64)>,
+    pub penalty: std::sync::Arc<Vec<(usize, usize, f64)>>,
     /// Mortar contact: pairs, their weighted-gap and slip rows (multipliers after the ties).
     pub contact: ContactSet,
     /// Free virtual surfaces (cuts), where they are now.
@@ -236,10 +238,10 @@ impl Discretisation {
         }
         if !moved.is_empty() {
             self.refresh_contact_rows(model, &moved);
-            self.penalty = self.penalty_parts.iter().flatten().copied().collect();
+            self.penalty = std::sync::Arc::new(self.penalty_parts.iter().flatten().copied().collect());
             let mut constrained: Vec<usize> = model.prescribed.iter().map(|p| p.0).collect();
             constrained.extend(self.held.iter().flatten().copied());
-            self.dofs = DofMap::new(model.num_nodes(), &constrained);
+            self.dofs = std::sync::Arc::new(DofMap::new(model.num_nodes(), &constrained));
             if self.dofs.num_free == 0 {
                 return Err(ModelError::NoFreeDofs);
             }
@@ -331,7 +333,7 @@ impl Discretisation {
             }
             std::sync::Arc::make_mut(&mut self.rules)[r] = rule;
         }
-        self.penalty_parts[b] = if model.ghost_penalty > 0.0 {
+        std::sync::Arc::make_mut(&mut self.penalty_parts)[b] = if model.ghost_penalty > 0.0 {
             let young = model.materials[body.material].elastic().young;
             let faces =
                 crate::cut::ghost_faces(&body.mesh, &band.adjacency, &cm, body.node_offset, young, model.ghost_penalty);
@@ -339,7 +341,8 @@ impl Discretisation {
         } else {
             vec![]
         };
-        self.held[b] = held_dofs(&cm, body.node_offset, &model.prescribed, &self.penalty_parts[b]);
+        let held = held_dofs(&cm, body.node_offset, &model.prescribed, &self.penalty_parts[b]);
+        std::sync::Arc::make_mut(&mut self.held)[b] = held;
         std::sync::Arc::make_mut(&mut self.cuts)[b] = Some(cm);
         Ok(())
     }
