@@ -1396,7 +1396,9 @@ impl<'m> StaticAnalysis<'m> {
         step: usize,
         t: f64,
     ) -> Result<InterfaceSolve, AnalysisError> {
-        let given = self.start_sets.take();
+        // Sets of another row layout (another pairing's model) are no start.
+        let (nc, nfr) = (self.disc.contact.rows.len(), self.disc.contact.friction_rows.len());
+        let given = self.start_sets.take().filter(|(a, s)| a.len() == nc && s.len() == nfr);
         let warm = given.is_some();
         let solve = self.interface_iterations_from(cd, (z, start, lam0), sets, given, step, t)?;
         let InterfaceSolve::Failed(StepOutcome::NotConverged { iterations: spent, .. }) = solve else {
@@ -1476,7 +1478,7 @@ impl<'m> StaticAnalysis<'m> {
                 mult[i] = lam0[i] + dlam[a];
             }
             let given = if it == 0 { given.take() } else { None };
-            match given.filter(|(a, s)| a.len() == nc && s.len() == nfr) {
+            match given {
                 Some((active, status)) => {
                     for k in 0..nc {
                         sets.active[k] = active[k] && disc.contact.phi[k] > 0.0;

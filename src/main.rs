@@ -594,10 +594,14 @@ fn run(
                     );
                 }
             }
+            // Condensed contact: one bulk solve per pass (per Newton iteration of yielding
+            // bodies), several active-set iterations each; monolithic: Newton iterations.
+            let bulk: usize = bulk_its.iter().map(|(its, steps)| its * steps).sum();
             println!(
-                "{}: {} steps, {} Newton iterations, {:.2} s -> {} (+ {})",
+                "{}: {} steps, {} bulk solves, {} iterations (contact active set, Newton), {:.2} s -> {} (+ {})",
                 c.name,
                 state.step - first_step,
+                bulk,
                 total_its,
                 started.elapsed().as_secs_f64(),
                 file.display(),
