@@ -19,8 +19,8 @@ use nalgebra::DMatrix;
 
 pub use crate::contact::FrictionStatus;
 use crate::contact::{
-    friction_couplings, gross_sliding, row_laws, slide_from_pairing, update_sets, zero_open_multipliers, ContactSet,
-    RowLaw,
+    friction_couplings, given_sets, gross_sliding, row_laws, slide_from_pairing, update_sets, zero_open_multipliers,
+    ContactSet, RowLaw,
 };
 
 mod condensed;
@@ -1480,16 +1480,7 @@ impl<'m> StaticAnalysis<'m> {
             let given = if it == 0 { given.take() } else { None };
             match given {
                 Some((active, status)) => {
-                    for k in 0..nc {
-                        sets.active[k] = active[k] && disc.contact.phi[k] > 0.0;
-                    }
-                    for j in 0..nfr {
-                        sets.status[j] = match status[j] {
-                            _ if !sets.active[disc.contact.friction_normal[j]] => FrictionStatus::Open,
-                            FrictionStatus::Open => FrictionStatus::Stick,
-                            st => st,
-                        };
-                    }
+                    given_sets(&disc.contact, (&active, &status), &mut sets.active, &mut sets.status)
                 }
                 None => update_sets(
                     &disc.contact,
@@ -1529,22 +1520,7 @@ impl<'m> StaticAnalysis<'m> {
                 tracing::warn!(step, t, it, "condensed interface system is singular");
                 return failed(it);
             };
-            for (a, law) in laws.iter().enumerate() {
-                match *law {
-                    condensed::Law::Gap(b) => {
-                        dw[a] = b;
-                        dlam[a] = x[a];
-                    }
-                    condensed::Law::Fixed(l) => {
-                        dw[a] = x[a];
-                        dlam[a] = l;
-                    }
-                    condensed::Law::Slip { normal, s, rest } => {
-                        dw[a] = x[a];
-                        dlam[a] = s * x[normal] + rest;
-                    }
-                }
-            }
+            condensed::Law::unpack(&laws, &x, &mut dlam, &mut dw);
         }
         Ok(InterfaceSolve::Solved { dlam, dw, iterations })
     }

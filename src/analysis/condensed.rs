@@ -752,6 +752,20 @@ pub(super) enum Law {
     Slip { normal: usize, s: f64, rest: f64 },
 }
 
+impl Law {
+    /// The row-value and multiplier changes `dw`, `dlam` of the live rows from the solution
+    /// `x` of their laws' system (per row: the unknown the law leaves free).
+    pub(super) fn unpack(laws: &[Law], x: &DVector<f64>, dlam: &mut [f64], dw: &mut [f64]) {
+        for (a, law) in laws.iter().enumerate() {
+            (dw[a], dlam[a]) = match *law {
+                Law::Gap(b) => (b, x[a]),
+                Law::Fixed(l) => (x[a], l),
+                Law::Slip { normal, s, rest } => (x[a], s * x[normal] + rest),
+            };
+        }
+    }
+}
+
 impl Condensed {
     /// Per live row, its law for the sets `row_law`; `w0` the live rows' values at the start of
     /// the step, `lam0` the multipliers there, `slip0` the friction rows' slips so far.

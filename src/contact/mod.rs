@@ -345,6 +345,27 @@ pub fn update_sets(
     }
 }
 
+/// Sets given from elsewhere (a step's first solve, the last computed cycle at the same
+/// increment), made consistent with this pairing: rows it leaves unpaired are open, friction
+/// rows follow their normal row (open where it is open, sticking where it closes).
+pub fn given_sets(
+    m: &ContactSet,
+    (given_active, given_status): (&[bool], &[FrictionStatus]),
+    active: &mut [bool],
+    status: &mut [FrictionStatus],
+) {
+    for (k, a) in active.iter_mut().enumerate() {
+        *a = given_active[k] && m.phi[k] > 0.0;
+    }
+    for (j, st) in status.iter_mut().enumerate() {
+        *st = match given_status[j] {
+            _ if !active[m.friction_normal[j]] => FrictionStatus::Open,
+            FrictionStatus::Open => FrictionStatus::Stick,
+            given => given,
+        };
+    }
+}
+
 /// Sets the multipliers of open contact nodes (normal and tangential) to exactly zero.
 pub fn zero_open_multipliers(m: &ContactSet, mult: &mut [f64], active: &[bool], status: &[FrictionStatus]) {
     let (nt, nc) = (m.first_multiplier, m.rows.len());
