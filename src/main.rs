@@ -212,7 +212,9 @@ fn main() -> ExitCode {
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
     tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).init();
-    let result = match cli.command {
+    // The work runs on a worker of the pool, not beside it: on a machine with as many cores as
+    // workers, the idle workers' spinning would otherwise compete with the serial parts.
+    let dispatch = move || match cli.command {
         Command::Run { case, output, quiet, restart, from_step } => run(case, output, quiet, restart, from_step),
         Command::Check { case } => check(case),
         Command::Study { study: StudyCommand::Sweep { file, runs } } => study_sweep(&file, study_execution(runs)),
@@ -266,6 +268,10 @@ fn main() -> ExitCode {
             Some(segments) => bench_embed(n, segments, repeat),
             None => bench(n, repeat, serial),
         },
+    };
+    let result = match rayon::ThreadPoolBuilder::new().build() {
+        Ok(pool) => pool.install(dispatch),
+        Err(_) => dispatch(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
