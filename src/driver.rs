@@ -125,7 +125,7 @@ where
                 &mut reuse,
                 same_bulk,
                 at_rest,
-                (None, Default::default()),
+                PairingStart::default(),
                 step,
                 t,
                 options,
@@ -259,6 +259,8 @@ where
         if model.has_finite_sliding() {
             state.wear.pairing_guess.resize(cycle.increments, vec![]);
             state.wear.start_sets.resize(cycle.increments, Default::default());
+            // The first pairing of the next increment, formed beside this one's check.
+            let mut ahead: Option<Discretisation> = None;
             for i in first..cycle.increments {
                 let step = state.step + 1;
                 // The surfaces moved before the cycle's first increment: its set-up refactors.
@@ -268,6 +270,15 @@ where
                 let guess = std::mem::take(&mut state.wear.pairing_guess[i]);
                 let guess = (guess.len() == state.u.len()).then_some(guess);
                 let sets = std::mem::take(&mut state.wear.start_sets[i]);
+                // The next increment's guess (the surfaces hold still until the cycle's end).
+                let next_guess = state.wear.pairing_guess.get(i + 1).filter(|g| g.len() == state.u.len()).cloned();
+                let pairing_start = PairingStart {
+                    guess: guess.as_deref(),
+                    sets,
+                    first_pairing: ahead.take().filter(|_| guess.is_some()),
+                    next_guess: next_guess.as_deref(),
+                    ahead: Some(&mut ahead),
+                };
                 solve_paired_step(
                     model,
                     current,
@@ -275,7 +286,7 @@ where
                     reuse,
                     i > first,
                     false,
-                    (guess.as_deref(), sets),
+                    pairing_start,
                     step,
                     step_time(i),
                     *options,
@@ -438,19 +449,22 @@ fn solve_paired_step<R>(
     reuse: &mut Option<crate::analysis::SolverReuse>,
     same_bulk: bool,
     surface_compliance: bool,
-    (guess, sets): (Option<&[f64]>, (Vec<bool>, Vec<FrictionStatus>)),
+    pairing_start: PairingStart,
     step: usize,
     t: f64,
     options: RunOptions,
     timings: &mut RunTimings,
     then: impl FnOnce(&Discretisation, &StaticAnalysis, &mut SimState, StepReport, &StepStart) -> Result<R, AnalysisError>,
 ) -> Result<R, AnalysisError> {
+    let PairingStart { guess, sets, first_pairing, next_guess, ahead } = pairing_start;
     start.save(state);
     let mut u_pair = guess.map_or_else(|| state.u.clone(), <[f64]>::to_vec);
     let mut last_pressure: Option<Vec<f64>> = None;
     let (mut change, mut last_change, mut estimate) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
     let mut iterations = 0;
-    let mut prepared: Option<Discretisation> = None;
+    let mut prepared: Option<Discretisation> = first_pairing;
+    // The next step's first pairing, formed beside this step's check at its first solution.
+    let mut upcoming: Option<Discretisation> = None;
     // Each solve starts from the sets the last one converged to (the first: those handed in).
     let mut start_sets = Some(sets);
     for pairing in 1..=MAX_PAIRINGS {
@@ -501,7 +515,19 @@ fn solve_paired_step<R>(
         // change below the tolerance settles the step without a second solve.
         if pairing == 1 && guess.is_some() {
             let t0 = std::time::Instant::now();
-            let next = current.repaired_at(model, &state.u, &start.u);
+            // The next step starts where this one ends if it settles here: its first pairing
+            // (at its guess, slips from this solution) is formed side by side with the check.
+            let next = match next_guess {
+                Some(g) if ahead.is_some() => {
+                    let (next, after) = rayon::join(
+                        || current.repaired_at(model, &state.u, &start.u),
+                        || current.repaired_at(model, g, &state.u),
+                    );
+                    upcoming = Some(after);
+                    next
+                }
+                _ => current.repaired_at(model, &state.u, &start.u),
+            };
             timings.pairings += t0.elapsed().as_secs_f64();
             if let Some(linear) = linear_pairing_change(model, (&paired, &next), &analysis, state) {
                 change = linear;
@@ -526,6 +552,9 @@ fn solve_paired_step<R>(
                 return Err(e);
             }
             report.iterations = iterations;
+            if let (1, Some(slot)) = (pairing, ahead) {
+                *slot = upcoming;
+            }
             let out = then(&paired, &analysis, state, report, start);
             *reuse = analysis.into_reuse();
             // The interface log of a per-step operator means nothing to the next step.
@@ -540,6 +569,21 @@ fn solve_paired_step<R>(
     }
     start.restore(state);
     Err(AnalysisError::PairingNotSettled { step, time: t, pairings: MAX_PAIRINGS, change })
+}
+
+/// Where a finite-sliding step's fixed point on the pairing starts.
+#[derive(Default)]
+struct PairingStart<'a> {
+    /// Paired first at this guess of the step's end (`None`: at its start).
+    guess: Option<&'a [f64]>,
+    /// Contact and friction sets the first solve starts from.
+    sets: (Vec<bool>, Vec<FrictionStatus>),
+    /// The first pairing (at `guess`), already formed beside the last step's check.
+    first_pairing: Option<Discretisation>,
+    /// The next step's guess: its first pairing is formed beside this step's check and left
+    /// in `ahead` if this step settles at its first solution (the next one starts there).
+    next_guess: Option<&'a [f64]>,
+    ahead: Option<&'a mut Option<Discretisation>>,
 }
 
 /// What the solve of a finite-sliding step changes in the state, saved at the step's start so
