@@ -557,18 +557,25 @@ pub fn task(runs: &Path, index: usize, exe: &Path) -> Result<(), StudyError> {
     };
     let case = PathBuf::from(case);
     let t0 = Instant::now();
-    let status = run_process(&case, exe)?.wait().map_err(io_err(exe))?;
+    let status = run_process(&case, exe, 1)?.wait().map_err(io_err(exe))?;
     let dir = case.parent().unwrap_or(Path::new(".")).to_path_buf();
     write_figures(&dir, status, t0.elapsed().as_secs_f64())
 }
 
-/// `mortex run --quiet <case> -o result.h5` next to the case, its output in `run.log`.
-fn run_process(case: &Path, exe: &Path) -> Result<std::process::Child, StudyError> {
+/// `mortex run --quiet <case> -o result.h5` next to the case, its output in `run.log`. With
+/// `parallel` runs at once each takes its share of the cores as threads (unless
+/// `RAYON_NUM_THREADS` says otherwise): more threads than cores spin against each other.
+fn run_process(case: &Path, exe: &Path, parallel: usize) -> Result<std::process::Child, StudyError> {
     let dir = case.parent().unwrap_or(Path::new("."));
     let log_path = dir.join("run.log");
     let log = std::fs::File::create(&log_path).map_err(io_err(&log_path))?;
     let err = log.try_clone().map_err(io_err(&log_path))?;
-    std::process::Command::new(exe)
+    let mut command = std::process::Command::new(exe);
+    if parallel > 1 && std::env::var_os("RAYON_NUM_THREADS").is_none() {
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        command.env("RAYON_NUM_THREADS", (cores / parallel).max(1).to_string());
+    }
+    command
         .arg("run")
         .arg("--quiet")
         .arg(case)
@@ -599,7 +606,7 @@ fn run_all(cases: &[(PathBuf, String)], parallel: usize, exe: &Path) -> Result<(
     while !todo.is_empty() || !running.is_empty() {
         while running.len() < parallel {
             let Some(i) = todo.pop() else { break };
-            let child = run_process(&cases[i].0, exe)?;
+            let child = run_process(&cases[i].0, exe, parallel)?;
             tracing::info!(run = i, case = %cases[i].0.display(), "sweep run started");
             running.push((i, child, Instant::now()));
         }
