@@ -280,7 +280,8 @@ fn main() -> ExitCode {
             None => bench(n, repeat, serial),
         },
     };
-    let result = match rayon::ThreadPoolBuilder::new().build() {
+    // The main thread's stack size (8 MiB) for the worker that runs the command.
+    let result = match rayon::ThreadPoolBuilder::new().stack_size(8 << 20).build() {
         Ok(pool) => pool.install(dispatch),
         Err(_) => dispatch(),
     };
