@@ -515,19 +515,9 @@ fn solve_paired_step<R>(
         // change below the tolerance settles the step without a second solve.
         if pairing == 1 && guess.is_some() {
             let t0 = std::time::Instant::now();
-            // The next step starts where this one ends if it settles here: its first pairing
-            // (at its guess, slips from this solution) is formed side by side with the check.
-            let next = match next_guess {
-                Some(g) if ahead.is_some() => {
-                    let (next, after) = rayon::join(
-                        || current.repaired_at(model, &state.u, &start.u),
-                        || current.repaired_at(model, g, &state.u),
-                    );
-                    upcoming = Some(after);
-                    next
-                }
-                _ => current.repaired_at(model, &state.u, &start.u),
-            };
+            let next;
+            (next, upcoming) =
+                paired_at_solution(model, current, (&state.u, &start.u), next_guess.filter(|_| ahead.is_some()));
             timings.pairings += t0.elapsed().as_secs_f64();
             if let Some(linear) = linear_pairing_change(model, (&paired, &next), &analysis, state) {
                 change = linear;
@@ -569,6 +559,25 @@ fn solve_paired_step<R>(
     }
     start.restore(state);
     Err(AnalysisError::PairingNotSettled { step, time: t, pairings: MAX_PAIRINGS, change })
+}
+
+/// The pairing of `current` at a step's solution `u` (slips from the step's start `u_start`)
+/// and, side by side with it, the next step's first pairing at its guess `next_guess` (slips
+/// from `u`: the next step starts where this one ends if it settles here).
+fn paired_at_solution(
+    model: &Model,
+    current: &Discretisation,
+    (u, u_start): (&[f64], &[f64]),
+    next_guess: Option<&[f64]>,
+) -> (Discretisation, Option<Discretisation>) {
+    match next_guess {
+        Some(g) => {
+            let (at_solution, after) =
+                rayon::join(|| current.repaired_at(model, u, u_start), || current.repaired_at(model, g, u));
+            (at_solution, Some(after))
+        }
+        None => (current.repaired_at(model, u, u_start), None),
+    }
 }
 
 /// Where a finite-sliding step's fixed point on the pairing starts.
