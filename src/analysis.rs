@@ -25,7 +25,7 @@ use crate::contact::{
 
 mod condensed;
 pub use crate::wear::GapSensitivity;
-pub use condensed::SolverReuse;
+pub use condensed::{PreparedRows, SolverReuse};
 
 /// How one Newton solve of a load increment ended (the caller cuts back when not converged).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -347,6 +347,26 @@ impl<'m> StaticAnalysis<'m> {
         } else {
             Self::with_condensation(model, disc, false)
         }
+    }
+
+    /// The interface rows and operator of `disc`, this analysis's model re-paired (the next
+    /// step of finite sliding on the same bulk), formed on this analysis's factor while it is
+    /// still read (the step's wear integration and output): handed to the next analysis with
+    /// [`SolverReuse::with_prepared`], whose set-up would form the same. `None` where that
+    /// set-up forms them otherwise (yielding bodies, a tangent factor, surface compliance) or
+    /// if forming them fails (the next set-up then meets the failure itself).
+    pub fn prepare_rows(&self, disc: &Discretisation) -> Option<PreparedRows> {
+        let c = self.condensed.as_ref()?;
+        if self.model.has_plasticity() || c.tangent || c.compliance.is_some() {
+            return None;
+        }
+        let bulk = condensed::BulkRows {
+            grounds: c.ground_rows.clone(),
+            rho_tie: c.rho_tie,
+            rho_ground: c.rho_ground,
+            equations: c.equations.clone(),
+        };
+        condensed::interface_rows(self.model, disc, bulk, None, &self.solver).ok().map(PreparedRows)
     }
 
     /// The solver structure this analysis can hand to the next model's (condensed only).

@@ -16,7 +16,7 @@
 //! and the state alone (surface positions from the time, pairings from `u`), so a resume from
 //! any checkpoint needs nothing else.
 
-use crate::analysis::{AnalysisError, StaticAnalysis, StepReport};
+use crate::analysis::{AnalysisError, PreparedRows, StaticAnalysis, StepReport};
 use crate::contact::FrictionStatus;
 use crate::model::{Discretisation, Model};
 use crate::state::SimState;
@@ -259,8 +259,9 @@ where
         if model.has_finite_sliding() {
             state.wear.pairing_guess.resize(cycle.increments, vec![]);
             state.wear.start_sets.resize(cycle.increments, Default::default());
-            // The first pairing of the next increment, formed beside this one's check.
-            let mut ahead: Option<Discretisation> = None;
+            // The first pairing of the next increment, formed beside this one's check, and
+            // its interface rows, formed beside this one's wear and output.
+            let mut ahead: Option<(Discretisation, Option<PreparedRows>)> = None;
             for i in first..cycle.increments {
                 let step = state.step + 1;
                 // The surfaces moved before the cycle's first increment: its set-up refactors.
@@ -457,6 +458,7 @@ fn solve_paired_step<R>(
     then: impl FnOnce(&Discretisation, &StaticAnalysis, &mut SimState, StepReport, &StepStart) -> Result<R, AnalysisError>,
 ) -> Result<R, AnalysisError> {
     let PairingStart { guess, sets, first_pairing, next_guess, ahead } = pairing_start;
+    let (first_pairing, mut prepared_rows) = first_pairing.map_or((None, None), |(d, rows)| (Some(d), rows));
     start.save(state);
     let mut u_pair = guess.map_or_else(|| state.u.clone(), <[f64]>::to_vec);
     let mut last_pressure: Option<Vec<f64>> = None;
@@ -476,6 +478,11 @@ fn solve_paired_step<R>(
         let t0 = std::time::Instant::now();
         let kept_bulk = same_bulk || pairing > 1;
         let handed = reuse.take().map(|r| if kept_bulk { r.with_same_bulk() } else { r });
+        // The first pairing's rows, if formed beforehand on this bulk.
+        let handed = match (handed, prepared_rows.take()) {
+            (Some(r), Some(rows)) if kept_bulk => Some(r.with_prepared(rows)),
+            (handed, _) => handed,
+        };
         let mut analysis = StaticAnalysis::for_pairings(model, &paired, handed, surface_compliance)?;
         analysis.set_parallel(options.parallel);
         if let Some(sets) = start_sets.take() {
@@ -542,10 +549,8 @@ fn solve_paired_step<R>(
                 return Err(e);
             }
             report.iterations = iterations;
-            if let (1, Some(slot)) = (pairing, ahead) {
-                *slot = upcoming;
-            }
-            let out = then(&paired, &analysis, state, report, start);
+            let next = ahead.zip(upcoming).filter(|_| pairing == 1);
+            let out = settled(&analysis, next, || then(&paired, &analysis, state, report, start));
             *reuse = analysis.into_reuse();
             // The interface log of a per-step operator means nothing to the next step.
             state.interface_log.clear();
@@ -559,6 +564,28 @@ fn solve_paired_step<R>(
     }
     start.restore(state);
     Err(AnalysisError::PairingNotSettled { step, time: t, pairings: MAX_PAIRINGS, change })
+}
+
+/// A settled step handed on (`hand_on`: its wear integration and output). If the next step
+/// starts where it settled (`next`: its slot and its first pairing), the next step's interface
+/// rows and operator are formed on this step's factor beside it, and both go into the slot.
+fn settled<R>(
+    analysis: &StaticAnalysis,
+    next: Option<(&mut Option<(Discretisation, Option<PreparedRows>)>, Discretisation)>,
+    hand_on: impl FnOnce() -> R,
+) -> R {
+    match next {
+        Some((slot, next)) => {
+            let mut rows = None;
+            let out = rayon::in_place_scope(|s| {
+                s.spawn(|_| rows = analysis.prepare_rows(&next));
+                hand_on()
+            });
+            *slot = Some((next, rows));
+            out
+        }
+        None => hand_on(),
+    }
 }
 
 /// The pairing of `current` at a step's solution `u` (slips from the step's start `u_start`)
@@ -587,12 +614,13 @@ struct PairingStart<'a> {
     guess: Option<&'a [f64]>,
     /// Contact and friction sets the first solve starts from.
     sets: (Vec<bool>, Vec<FrictionStatus>),
-    /// The first pairing (at `guess`), already formed beside the last step's check.
-    first_pairing: Option<Discretisation>,
+    /// The first pairing (at `guess`), already formed beside the last step's check, with its
+    /// interface rows if they were formed too.
+    first_pairing: Option<(Discretisation, Option<PreparedRows>)>,
     /// The next step's guess: its first pairing is formed beside this step's check and left
     /// in `ahead` if this step settles at its first solution (the next one starts there).
     next_guess: Option<&'a [f64]>,
-    ahead: Option<&'a mut Option<Discretisation>>,
+    ahead: Option<&'a mut Option<(Discretisation, Option<PreparedRows>)>>,
 }
 
 /// What the solve of a finite-sliding step changes in the state, saved at the step's start so

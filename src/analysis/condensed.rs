@@ -389,7 +389,14 @@ pub struct SolverReuse {
     pub(super) buffers: Option<TrialBuffers>,
     /// The trial stresses of `buffers` at points without material equal the state's.
     pub(super) void_stresses_synced: bool,
+    /// The next model's interface rows with their operator, formed on this bulk beforehand
+    /// (see [`crate::analysis::StaticAnalysis::prepare_rows`]); used on the same bulk only.
+    prepared: Option<Condensed>,
 }
+
+/// A next pairing's interface rows and operator, formed on a bulk already factored while the
+/// analysis of the last pairing is still at work (see [`SolverReuse::with_prepared`]).
+pub struct PreparedRows(pub(super) Condensed);
 
 /// The rows and equations of a condensed set-up that depend on the bulk alone: the grounding
 /// rows, the regularisation weights of ties and grounding rows, the equations of `K_rho`.
@@ -429,7 +436,16 @@ impl SolverReuse {
             bulk: None,
             buffers: None,
             void_stresses_synced: false,
+            prepared: None,
         }
+    }
+
+    /// The next model's interface rows, formed beforehand on this bulk by
+    /// [`crate::analysis::StaticAnalysis::prepare_rows`] for exactly that model (its pairing):
+    /// the set-up takes them instead of forming them (the same arithmetic: the same bits).
+    pub fn with_prepared(mut self, rows: PreparedRows) -> Self {
+        self.prepared = Some(rows.0);
+        self
     }
 
     /// Whether the next analysis may take the trial stresses at points without material as
@@ -504,17 +520,24 @@ pub(super) fn setup(
 ) -> Result<(Assembler, SparseSolver, Vec<f64>, Condensed, ReuseKey, bool), LinearSolverError> {
     let nt = m.constraints.len();
     let all: Vec<&Vec<(usize, f64)>> = disc.multiplier_rows(m).collect();
-    let g0: Vec<f64> = disc.contact.g0.clone();
-    let g_min = (0..g0.len())
-        .filter(|&k| disc.contact.phi[k] > 0.0)
-        .map(|k| g0[k] / disc.contact.phi[k])
-        .fold(f64::INFINITY, f64::min);
     let e_max = m.materials.iter().map(|mat| mat.elastic().young).fold(0.0, f64::max);
     let t0 = std::time::Instant::now();
+    let mut prepared = None;
     let (bulk, key, (assembler, solver, kept, reused)) = match reuse {
         // A re-pairing on the same bulk: the grounding rows, the regularisation, the equations
         // and the structure key are functions of the bulk alone, kept with it.
-        Some(SolverReuse { key, assembler, solver, values, same_bulk: true, compliance, bulk: Some(bulk), .. }) => {
+        Some(SolverReuse {
+            key,
+            assembler,
+            solver,
+            values,
+            same_bulk: true,
+            compliance,
+            bulk: Some(bulk),
+            prepared: rows,
+            ..
+        }) => {
+            prepared = rows;
             (bulk, key, (assembler, solver, Some((values, compliance)), true))
         }
         reuse => {
@@ -534,13 +557,13 @@ pub(super) fn setup(
     assembler.share_rules(&disc.rules);
     let (kept_values, mut kept_compliance) = kept.map_or((None, None), |(v, c)| (Some(v), c));
     let ts = t0.elapsed().as_secs_f64();
-    let (values, t1, t2) = match kept_values {
-        Some(values) if values.len() == assembler.pattern.nnz() => (values, ts, ts),
+    let (values, t1, t2, bulk_kept) = match kept_values {
+        Some(values) if values.len() == assembler.pattern.nnz() => (values, ts, ts, true),
         _ => {
             kept_compliance = None;
             let values = factor_bulk(m, disc, &mut assembler, &mut solver, &equations, e_max, parallel)?;
             let (t1, t2) = (ts, t0.elapsed().as_secs_f64());
-            (values, t1, t2)
+            (values, t1, t2, false)
         }
     };
     // Many re-pairings on the same bulk (finite sliding, surfaces at rest): the operator of
@@ -559,15 +582,57 @@ pub(super) fn setup(
         None
     };
     let t3 = t0.elapsed().as_secs_f64();
+    let n_grounds = grounds.len();
+    let bulk = BulkRows { grounds, rho_tie, rho_ground, equations };
+    // Rows formed beforehand on this very factor (the bulk kept, no surface compliance).
+    let cd = match prepared {
+        Some(cd) if bulk_kept && compliance.is_none() => cd,
+        _ => interface_rows(m, disc, bulk, compliance, &solver)?,
+    };
+    tracing::info!(
+        set = cd.live.len(),
+        grounds = n_grounds,
+        points = m.elements.num_points(),
+        elements = m.elements.len(),
+        rho_tie,
+        reused,
+        pattern_symbolic_s = ts,
+        bulk_kept,
+        assembly_and_factor_s = t2 - t1,
+        compliance_s = t3 - t2,
+        delassus_s = t0.elapsed().as_secs_f64() - t3,
+        "interface condensation: K_rho factored, Delassus operator formed"
+    );
+    Ok((assembler, solver, values, cd, key, reused))
+}
+
+/// The interface rows of `disc` on a bulk already factored (`solver`, with its grounding rows,
+/// regularisation and equations `bulk`): the grounding rows, the ties and the contact rows near
+/// contact (with their friction rows), and their operator.
+pub(super) fn interface_rows(
+    m: &Model,
+    disc: &Discretisation,
+    bulk: BulkRows,
+    compliance: Option<Compliance>,
+    solver: &SparseSolver,
+) -> Result<Condensed, LinearSolverError> {
+    let nt = m.constraints.len();
+    let n_rows = disc.multiplier_rows(m).count();
+    let g0 = &disc.contact.g0;
+    let g_min = (0..g0.len())
+        .filter(|&k| disc.contact.phi[k] > 0.0)
+        .map(|k| g0[k] / disc.contact.phi[k])
+        .fold(f64::INFINITY, f64::min);
+    let BulkRows { grounds, rho_tie, rho_ground, equations } = bulk;
     let mut cd = Condensed {
         live: vec![],
-        live_of: vec![None; all.len()],
+        live_of: vec![None; n_rows],
         rows_free: vec![],
         rho: vec![],
         d: DMatrix::zeros(0, 0),
         fixed: 0,
         log: vec![],
-        grounds: all.len(),
+        grounds: n_rows,
         equations,
         compliance,
         tangent: false,
@@ -578,32 +643,17 @@ pub(super) fn setup(
         spare_factor: None,
     };
     for (g, row) in grounds.iter().enumerate() {
-        cd.live.push(all.len() + g);
+        cd.live.push(n_rows + g);
         cd.rows_free.push(free_row(disc, &cd.equations, row));
         cd.rho.push(rho_ground);
     }
     let ties: Vec<usize> = (0..nt).collect();
     cd.push(m, disc, &ties, rho_tie);
     cd.fixed = cd.live.len();
-    cd.push(m, disc, &with_friction(m, disc, &near_rows(disc, &g0, CANDIDATE_MARGIN, g_min)), 0.0);
-    cd.extend_operator(&solver, 0)?;
-    let n_grounds = grounds.len();
+    cd.push(m, disc, &with_friction(m, disc, &near_rows(disc, g0, CANDIDATE_MARGIN, g_min)), 0.0);
+    cd.extend_operator(solver, 0)?;
     cd.ground_rows = grounds;
-    tracing::info!(
-        set = cd.live.len(),
-        grounds = n_grounds,
-        points = m.elements.num_points(),
-        elements = m.elements.len(),
-        rho_tie,
-        reused,
-        pattern_symbolic_s = ts,
-        bulk_kept = t2 == ts,
-        assembly_and_factor_s = t2 - t1,
-        compliance_s = t3 - t2,
-        delassus_s = t0.elapsed().as_secs_f64() - t3,
-        "interface condensation: K_rho factored, Delassus operator formed"
-    );
-    Ok((assembler, solver, values, cd, key, reused))
+    Ok(cd)
 }
 
 /// The pattern, assembler and symbolic factorisation of `K_rho`: those handed in `reuse` when
