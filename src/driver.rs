@@ -475,22 +475,9 @@ fn solve_paired_step<R>(
         let pairing_time = t0.elapsed().as_secs_f64();
         timings.repairing += pairing_time;
         timings.pairings += pairing_time;
-        let t0 = std::time::Instant::now();
         let kept_bulk = same_bulk || pairing > 1;
-        let handed = reuse.take().map(|r| if kept_bulk { r.with_same_bulk() } else { r });
-        // The first pairing's rows, if formed beforehand on this bulk.
-        let handed = match (handed, prepared_rows.take()) {
-            (Some(r), Some(rows)) if kept_bulk => Some(r.with_prepared(rows)),
-            (handed, _) => handed,
-        };
-        let mut analysis = StaticAnalysis::for_pairings(model, &paired, handed, surface_compliance)?;
-        analysis.set_parallel(options.parallel);
-        if let Some(sets) = start_sets.take() {
-            analysis.start_from_sets(sets);
-        }
-        // On a bulk already factored only the pairing's interface operator is formed.
-        *(if kept_bulk { &mut timings.repairing } else { &mut timings.setup }) += t0.elapsed().as_secs_f64();
-        timings.count_setup(&analysis);
+        let bulk = (kept_bulk, prepared_rows.take(), surface_compliance);
+        let mut analysis = pairing_analysis(model, &paired, reuse, bulk, start_sets.take(), options, timings)?;
         if pairing > 1 {
             start.restore(state);
         }
@@ -564,6 +551,34 @@ fn solve_paired_step<R>(
     }
     start.restore(state);
     Err(AnalysisError::PairingNotSettled { step, time: t, pairings: MAX_PAIRINGS, change })
+}
+
+/// The analysis of one pairing of a finite-sliding step, its solve starting from `sets`. On
+/// a bulk already factored (`kept_bulk`) only the pairing's interface rows and operator are
+/// formed, or taken as `rows` if they were prepared on it beforehand.
+fn pairing_analysis<'m>(
+    model: &'m Model,
+    paired: &'m Discretisation,
+    reuse: &mut Option<crate::analysis::SolverReuse>,
+    (kept_bulk, rows, surface_compliance): (bool, Option<PreparedRows>, bool),
+    sets: Option<(Vec<bool>, Vec<FrictionStatus>)>,
+    options: RunOptions,
+    timings: &mut RunTimings,
+) -> Result<StaticAnalysis<'m>, AnalysisError> {
+    let t0 = std::time::Instant::now();
+    let handed = reuse.take().map(|r| match (kept_bulk, rows) {
+        (true, Some(rows)) => r.with_same_bulk().with_prepared(rows),
+        (true, None) => r.with_same_bulk(),
+        (false, _) => r,
+    });
+    let mut analysis = StaticAnalysis::for_pairings(model, paired, handed, surface_compliance)?;
+    analysis.set_parallel(options.parallel);
+    if let Some(sets) = sets {
+        analysis.start_from_sets(sets);
+    }
+    *(if kept_bulk { &mut timings.repairing } else { &mut timings.setup }) += t0.elapsed().as_secs_f64();
+    timings.count_setup(&analysis);
+    Ok(analysis)
 }
 
 /// A settled step handed on (`hand_on`: its wear integration and output). If the next step
