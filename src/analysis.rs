@@ -171,6 +171,9 @@ pub struct StepReport {
     /// consistent tangent of yielding bodies; one per step for elastic bodies by condensation).
     pub newton_iterations: usize,
     pub cutbacks: usize,
+    /// Pieces the step was solved in by the wear loop (1: whole; more: an increment of a
+    /// finite-sliding cycle cut into sub-steps, each re-paired).
+    pub sub_steps: usize,
     /// Final relative residual.
     pub residual: f64,
 }
@@ -208,10 +211,30 @@ pub enum AnalysisError {
          body off the other); shorten the stroke ([[bcs]]) or extend the surface"
     )]
     OffCounterSurface { step: usize, time: f64, pair: String, percent: f64 },
+    #[error(
+        "step {step}: the increment was cut into sub-steps and sub-step {pieces} (to time {time}, length \
+         {length:.3e}) failed: {source}"
+    )]
+    IncrementCut { step: usize, time: f64, pieces: usize, length: f64, source: Box<AnalysisError> },
     #[error("step {step} (time {time}): moving the virtual surfaces: {source}")]
     Surface { step: usize, time: f64, source: crate::model::ModelError },
     #[error(transparent)]
     Wear(#[from] crate::wear::WearError),
+}
+
+impl AnalysisError {
+    /// The failure of a solve that a shorter step may avoid: Newton not converging, the
+    /// pairing of a finite-sliding step not settling, a contact leaving its counter-surface
+    /// (the check sees the pairing of the step's end: a step sliding far reads it where the
+    /// other body no longer is).
+    pub fn shorter_step_may_help(&self) -> bool {
+        matches!(
+            self,
+            AnalysisError::Newton(_)
+                | AnalysisError::PairingNotSettled { .. }
+                | AnalysisError::OffCounterSurface { .. }
+        )
+    }
 }
 
 pub struct StaticAnalysis<'m> {
@@ -605,6 +628,7 @@ impl<'m> StaticAnalysis<'m> {
             iterations: 0,
             newton_iterations: 0,
             cutbacks: 0,
+            sub_steps: 1,
             residual: 0.0,
         };
         let mut dt = t_end - state.time;

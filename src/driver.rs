@@ -254,67 +254,21 @@ where
         let n = state.wear.cycle;
         let step_time = |i: usize| cycle.start + cycle.period * (n as f64 + (i + 1) as f64 / cycle.increments as f64);
         let first = state.wear.increment;
-        let Self { model, current, reuse, backup, options, timings, observer } = self;
-        let model: &Model = model;
-        if model.has_finite_sliding() {
+        if self.model.has_finite_sliding() {
             state.wear.pairing_guess.resize(cycle.increments, vec![]);
             state.wear.start_sets.resize(cycle.increments, Default::default());
             // The first pairing of the next increment, formed beside this one's check, and
             // its interface rows, formed beside this one's wear and output.
             let mut ahead: Option<(Discretisation, Option<PreparedRows>)> = None;
             for i in first..cycle.increments {
-                let step = state.step + 1;
-                // The surfaces moved before the cycle's first increment: its set-up refactors.
-                let mut solve_timings = RunTimings::default();
-                // First paired where the last computed cycle ended this increment: a cycle
-                // later (or a jump later) the surfaces meet almost there.
-                let guess = std::mem::take(&mut state.wear.pairing_guess[i]);
-                let guess = (guess.len() == state.u.len()).then_some(guess);
-                let sets = std::mem::take(&mut state.wear.start_sets[i]);
-                // The next increment's guess (the surfaces hold still until the cycle's end).
-                let next_guess = state.wear.pairing_guess.get(i + 1).filter(|g| g.len() == state.u.len()).cloned();
-                let pairing_start = PairingStart {
-                    guess: guess.as_deref(),
-                    sets,
-                    first_pairing: ahead.take().filter(|_| guess.is_some()),
-                    next_guess: next_guess.as_deref(),
-                    ahead: Some(&mut ahead),
-                };
-                solve_paired_step(
-                    model,
-                    current,
-                    (state, backup),
-                    reuse,
-                    i > first,
-                    false,
-                    pairing_start,
-                    step,
-                    step_time(i),
-                    *options,
-                    &mut solve_timings,
-                    |disc, analysis, state, report, start| {
-                        state.wear.pairing_guess[i].clone_from(&state.u);
-                        state.wear.start_sets[i] = analysis.converged_sets().cloned().unwrap_or_default();
-                        let start = (start.u.as_slice(), start.multipliers.as_slice());
-                        let report = integrate_step_wear(
-                            (model, disc),
-                            analysis,
-                            state,
-                            start,
-                            report,
-                            i,
-                            n,
-                            cycle.increments,
-                            timings,
-                        )?;
-                        observer(&report, state, model, disc)
-                            .map_err(|msg| AnalysisError::Observer { step: report.step, msg })
-                    },
-                )?;
-                timings.add(&solve_timings);
+                let (step, end, bulk_set_up) = (state.step + 1, step_time(i), i > first);
+                let inc = Increment { i, n, increments: cycle.increments, step, end, bulk_set_up };
+                self.finite_increment(state, &inc, &mut ahead)?;
             }
             return Ok(());
         }
+        let Self { model, current, reuse, options, timings, observer, .. } = self;
+        let model: &Model = model;
         let t0 = std::time::Instant::now();
         let mut analysis = StaticAnalysis::with_reuse(model, current, reuse.take())?;
         analysis.set_parallel(options.parallel);
@@ -330,17 +284,9 @@ where
             state.wear.start_sets[i] = analysis.converged_sets().cloned().unwrap_or_default();
             timings.solve += t1.elapsed().as_secs_f64();
             let start = (u_prev.as_slice(), lambda_prev.as_slice());
-            let report = integrate_step_wear(
-                (model, current),
-                &analysis,
-                state,
-                start,
-                report,
-                i,
-                n,
-                cycle.increments,
-                timings,
-            )?;
+            let (step, end) = (report.step, step_time(i));
+            let inc = Increment { i, n, increments: cycle.increments, step, end, bulk_set_up: true };
+            let report = integrate_step_wear((model, current), &analysis, state, start, report, &inc, timings)?;
             if i + 1 == cycle.increments {
                 state.interface_log.clear();
             }
@@ -350,38 +296,243 @@ where
         *reuse = analysis.into_reuse();
         Ok(())
     }
+
+    /// Increment `inc` of a finite-sliding computed cycle: solved whole, paired first where the
+    /// last computed cycle ended it; if that solve fails in a way a shorter step can avoid, or
+    /// its sweep cannot be trusted (see [`crate::wear::sweep_check`]), solved again from its
+    /// start in sub-steps (see [`Self::sub_stepped_increment`]).
+    fn finite_increment(
+        &mut self,
+        state: &mut SimState,
+        inc: &Increment,
+        ahead: &mut Option<(Discretisation, Option<PreparedRows>)>,
+    ) -> Result<(), AnalysisError> {
+        let i = inc.i;
+        // First paired where the last computed cycle ended this increment: a cycle later (or
+        // a jump later) the surfaces meet almost there.
+        let guess = std::mem::take(&mut state.wear.pairing_guess[i]);
+        let guess = (guess.len() == state.u.len()).then_some(guess);
+        let sets = std::mem::take(&mut state.wear.start_sets[i]);
+        // The next increment's guess (the surfaces hold still until the cycle's end).
+        let next_guess = state.wear.pairing_guess.get(i + 1).filter(|g| g.len() == state.u.len()).cloned();
+        let pairing_start = PairingStart {
+            guess: guess.as_deref(),
+            sets,
+            first_pairing: ahead.take().filter(|_| guess.is_some()),
+            next_guess: next_guess.as_deref(),
+            ahead: Some(&mut *ahead),
+        };
+        let t_start = state.time;
+        // The surfaces moved before the cycle's first increment: its set-up refactors.
+        let piece = Piece { end: inc.end, last: true, check_sweep: true, pieces: 1, same_bulk: inc.bulk_set_up };
+        let cause = match self.solve_piece(state, inc, piece, pairing_start) {
+            Ok(Trial::Accepted) => return Ok(()),
+            Ok(Trial::Cut(check)) => StepCut::Sweep(check),
+            Err(e) if e.shorter_step_may_help() => StepCut::Failed(e),
+            Err(e) => return Err(e),
+        };
+        // The whole increment's solve is dropped, with the pairing it formed for the next one.
+        self.backup.restore(state);
+        *ahead = None;
+        self.sub_stepped_increment(state, inc, t_start, cause)
+    }
+
+    /// Increment `inc` solved from its start (time `t_start`) in sub-steps, each re-paired
+    /// from where the last one ended and its wear swept and added to the cycle's. A sweep that
+    /// cannot be trusted splits the increment evenly into pieces sliding at most
+    /// [`crate::wear::SWEEP_WIDTH_FRACTION`] of the contact's width; a failure a shorter step
+    /// may avoid halves the piece (down to `1 /` [`crate::wear::MAX_SUB_STEPS`] of the
+    /// increment), and an accepted piece after a failure lets the next be twice as long, up
+    /// to the split's length. Only the increment's end is handed to the observer (it is what
+    /// the case records).
+    fn sub_stepped_increment(
+        &mut self,
+        state: &mut SimState,
+        inc: &Increment,
+        t_start: f64,
+        cause: StepCut,
+    ) -> Result<(), AnalysisError> {
+        let length = inc.end - t_start;
+        let shortest = length / crate::wear::MAX_SUB_STEPS as f64;
+        tracing::debug!(step = inc.step, cycle = inc.n + 1, increment = inc.i + 1, cause = %cause, "increment cut into sub-steps");
+        let split = match &cause {
+            StepCut::Sweep(check) => check.pieces().clamp(2, crate::wear::MAX_SUB_STEPS),
+            StepCut::Failed(_) => 2,
+        };
+        let longest = length / split as f64;
+        // Pieces sized by the sweep are not checked again (their slide is the split's).
+        let check_sweep = matches!(cause, StepCut::Failed(_));
+        let (mut t, mut dt, mut pieces, mut cut) = (t_start, longest, 0usize, cause);
+        while t < inc.end {
+            dt = dt.min(inc.end - t);
+            // A piece ending within round-off of the increment's end is its end.
+            let last = t + dt >= inc.end - 1e-9 * length;
+            let end = if last { inc.end } else { t + dt };
+            let may_cut = dt > shortest * (1.0 + 1e-9);
+            // The whole increment was tried on this bulk: a structure handed on is its.
+            let piece = Piece { end, last, check_sweep: check_sweep && may_cut, pieces: pieces + 1, same_bulk: true };
+            match self.solve_piece(state, inc, piece, PairingStart::default()) {
+                Ok(Trial::Accepted) => {
+                    (t, pieces) = (end, pieces + 1);
+                    dt = (2.0 * dt).min(longest);
+                    continue;
+                }
+                Ok(Trial::Cut(check)) => cut = StepCut::Sweep(check),
+                Err(e) if e.shorter_step_may_help() && may_cut => cut = StepCut::Failed(e),
+                Err(e) => {
+                    return Err(AnalysisError::IncrementCut {
+                        step: inc.step,
+                        time: end,
+                        pieces: pieces + 1,
+                        length: dt,
+                        source: Box::new(e),
+                    })
+                }
+            }
+            tracing::debug!(step = inc.step, time = end, cause = %cut, "sub-step halved");
+            self.backup.restore(state);
+            dt *= 0.5;
+        }
+        if pieces > 1 {
+            tracing::info!(
+                step = inc.step,
+                cycle = inc.n + 1,
+                increment = inc.i + 1,
+                sub_steps = pieces,
+                cause = %cut,
+                "increment solved in sub-steps"
+            );
+        }
+        Ok(())
+    }
+
+    /// Solves one piece of increment `inc` (the whole or a sub-step) from the state; hands
+    /// the increment's end to the wear integration and the observer, or adds a sub-step's
+    /// wear to the cycle's, unless the piece's sweep cannot be trusted and it may be cut.
+    fn solve_piece(
+        &mut self,
+        state: &mut SimState,
+        inc: &Increment,
+        piece: Piece,
+        pairing_start: PairingStart,
+    ) -> Result<Trial, AnalysisError> {
+        let Self { model, current, reuse, backup, options, timings, observer } = self;
+        let model: &Model = model;
+        let mut solve_timings = RunTimings::default();
+        let out = solve_paired_step(
+            model,
+            current,
+            (state, backup),
+            reuse,
+            piece.same_bulk,
+            false,
+            pairing_start,
+            inc.step,
+            piece.end,
+            *options,
+            &mut solve_timings,
+            |disc, analysis, state, mut report, start| {
+                if piece.check_sweep {
+                    let check = crate::wear::sweep_check(
+                        &disc.contact,
+                        (&start.u, &state.u),
+                        (&start.multipliers, &state.multipliers),
+                    );
+                    if let Some(check) = check.filter(|c| !c.acceptable()) {
+                        return Ok(Trial::Cut(check));
+                    }
+                }
+                let begin = (start.u.as_slice(), start.multipliers.as_slice());
+                if !piece.last {
+                    let t1 = std::time::Instant::now();
+                    accumulate_sub_step_wear((model, disc), analysis, state, begin);
+                    timings.wear += t1.elapsed().as_secs_f64();
+                    return Ok(Trial::Accepted);
+                }
+                state.wear.pairing_guess[inc.i].clone_from(&state.u);
+                state.wear.start_sets[inc.i] = analysis.converged_sets().cloned().unwrap_or_default();
+                report.sub_steps = piece.pieces;
+                let report = integrate_step_wear((model, disc), analysis, state, begin, report, inc, timings)?;
+                observer(&report, state, model, disc)
+                    .map_err(|msg| AnalysisError::Observer { step: report.step, msg })?;
+                Ok(Trial::Accepted)
+            },
+        );
+        timings.add(&solve_timings);
+        out
+    }
 }
 
-#[allow(clippy::too_many_arguments)]
-/// The wear of increment `i` of computed cycle `n` that just converged (from the displacements
-/// and multipliers `start`), and at the cycle's last increment the cycle's wear applied with
-/// its jump.
+/// One increment of a computed cycle: its index `i` in cycle `n` (of `increments`), the
+/// output step it records, its end time, and whether an increment before it in this pass set
+/// the bulk up on the current surfaces.
+struct Increment {
+    i: usize,
+    n: u64,
+    increments: usize,
+    step: usize,
+    end: f64,
+    bulk_set_up: bool,
+}
+
+/// A piece of an increment being solved: where it ends, whether that is the increment's end,
+/// whether its sweep is checked, its number among the pieces, and whether a solve before it
+/// set the bulk up on the current surfaces.
+#[derive(Clone, Copy)]
+struct Piece {
+    end: f64,
+    last: bool,
+    /// Whether a sweep that cannot be trusted cuts the piece.
+    check_sweep: bool,
+    pieces: usize,
+    same_bulk: bool,
+}
+
+/// What the solve of a piece came to.
+enum Trial {
+    Accepted,
+    /// Converged, but its sweep cannot be trusted: the piece is to be cut.
+    Cut(crate::wear::SweepCheck),
+}
+
+/// Why an increment was cut.
+enum StepCut {
+    Sweep(crate::wear::SweepCheck),
+    Failed(AnalysisError),
+}
+
+impl std::fmt::Display for StepCut {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StepCut::Sweep(c) => write!(
+                f,
+                "the pressure field changed by {:.0}% of the load while sliding {:.3e}, {:.1} contact widths",
+                100.0 * c.change,
+                c.slide,
+                c.slide / c.width.max(f64::MIN_POSITIVE)
+            ),
+            StepCut::Failed(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+/// The wear of increment `inc` that just converged (from the displacements and multipliers
+/// `start`), and at the cycle's last increment the cycle's wear applied with its jump.
 fn integrate_step_wear(
     (m, disc): (&Model, &Discretisation),
     analysis: &StaticAnalysis,
     state: &mut SimState,
     start: (&[f64], &[f64]),
     mut report: StepReport,
-    i: usize,
-    n: u64,
-    increments: usize,
+    inc: &Increment,
     timings: &mut RunTimings,
 ) -> Result<StepReport, AnalysisError> {
     let t1 = std::time::Instant::now();
+    let Increment { i, n, increments, .. } = *inc;
     report.cycle = n as usize + 1;
     report.increment = i + 1;
+    accumulate_sub_step_wear((m, disc), analysis, state, start);
     let scene = disc.wear_scene(m);
-    let sensitivity = match m.wear.scheme {
-        JumpScheme::Implicit => analysis.gap_sensitivity_with_open_rows(),
-        JumpScheme::Explicit => None,
-    };
-    accumulate_step_wear(
-        &scene,
-        &mut state.wear,
-        (start.0, &state.u),
-        (Some(start.1), &state.multipliers),
-        sensitivity,
-    );
     state.wear.increment = i + 1;
     if i + 1 == increments {
         let count = m.cycle.map_or(1, |c| c.count as u64);
@@ -399,6 +550,28 @@ fn integrate_step_wear(
     }
     timings.wear += t1.elapsed().as_secs_f64();
     Ok(report)
+}
+
+/// Adds the wear of a converged step (from the displacements and multipliers `start`) to the
+/// cycle's, with its linearisation for the implicit jump.
+fn accumulate_sub_step_wear(
+    (m, disc): (&Model, &Discretisation),
+    analysis: &StaticAnalysis,
+    state: &mut SimState,
+    start: (&[f64], &[f64]),
+) {
+    let scene = disc.wear_scene(m);
+    let sensitivity = match m.wear.scheme {
+        JumpScheme::Implicit => analysis.gap_sensitivity_with_open_rows(),
+        JumpScheme::Explicit => None,
+    };
+    accumulate_step_wear(
+        &scene,
+        &mut state.wear,
+        (start.0, &state.u),
+        (Some(start.1), &state.multipliers),
+        sensitivity,
+    );
 }
 
 /// Re-pairings of one finite-sliding step at most before it is refused (the pairing of a step

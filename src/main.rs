@@ -222,7 +222,10 @@ fn main() -> ExitCode {
     };
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
-    tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).init();
+    // Colour only on a terminal: a redirected log keeps no escape codes.
+    use std::io::IsTerminal;
+    let ansi = std::io::stderr().is_terminal();
+    tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).with_ansi(ansi).init();
     // The work runs on a worker of the pool, not beside it: on a machine with as many cores as
     // workers, the idle workers' spinning would otherwise compete with the serial parts.
     let dispatch = move || match cli.command {
@@ -554,7 +557,11 @@ fn run(
     let first_step = state.step;
     let bar = progress_bar(quiet, wear_cycles, model, &state);
     let started = std::time::Instant::now();
+    let log_lines = !quiet && !std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let mut last_line = started;
     let mut total_its = 0;
+    // Finite-sliding wear increments solved in sub-steps, and the sub-steps in all.
+    let (mut cut_increments, mut sub_steps) = (0usize, 0usize);
     // Yielding bodies: how many bulk Newton iterations each increment took.
     let mut bulk_its: std::collections::BTreeMap<usize, usize> = std::collections::BTreeMap::new();
     let res = {
@@ -564,6 +571,9 @@ fn run(
                         disc: &mortex::model::Discretisation|
          -> Result<(), String> {
             total_its += r.iterations;
+            if r.sub_steps > 1 {
+                (cut_increments, sub_steps) = (cut_increments + 1, sub_steps + r.sub_steps);
+            }
             *bulk_its.entry(r.newton_iterations).or_default() += 1;
             writer.write_step(step_model, disc, r, s).map_err(|e| e.to_string())?;
             let cycle = if step_model.cycle.is_some() {
@@ -571,25 +581,37 @@ fn run(
             } else {
                 String::new()
             };
-            if wear_cycles.is_some() {
+            let message = if let Some(n) = wear_cycles {
                 let w = &s.wear;
                 let deepest = w.depth.iter().flatten().fold(0.0_f64, |a, &b| a.max(b));
-                bar.set_message(format!(
-                    "computed {}, jump {}, inc {}, max wear depth {}, {} it",
+                bar.set_position(w.cycle);
+                format!(
+                    "cycle {}/{n}: computed {}, jump {}, inc {}, max wear depth {}, {} it",
+                    w.cycle,
                     w.computed_cycles,
                     w.jump,
                     r.increment,
                     units.length(deepest),
                     r.iterations
-                ));
-                bar.set_position(w.cycle);
+                )
             } else {
-                bar.set_message(format!(
-                    "{cycle}t = {:.4}, lambda = {:.4}, {} it, res {:.1e}",
-                    r.time, r.load_factor, r.iterations, r.residual
-                ));
                 bar.inc(1);
+                format!(
+                    "step {}/{}: {cycle}t = {:.4}, lambda = {:.4}, {} it, res {:.1e}",
+                    r.step,
+                    step_model.times.len(),
+                    r.time,
+                    r.load_factor,
+                    r.iterations,
+                    r.residual
+                )
+            };
+            // Off a terminal the bar draws nothing: a line every PROGRESS_LINE_SECONDS instead.
+            if log_lines && last_line.elapsed().as_secs_f64() >= PROGRESS_LINE_SECONDS {
+                eprintln!("{}: {message} ({:.0} s)", c.name, started.elapsed().as_secs_f64());
+                last_line = std::time::Instant::now();
             }
+            bar.set_message(message);
             Ok(())
         };
         mortex::driver::run(model, &mut state, mortex::driver::RunOptions { parallel: !c.serial }, observer)
@@ -625,11 +647,21 @@ fn run(
                 file.display(),
                 file.with_extension("xdmf").display()
             );
+            if cut_increments > 0 {
+                println!(
+                    "{}: {cut_increments} increments solved in sub-steps ({sub_steps} sub-steps in all; \
+                     /series/sub_steps per step)",
+                    c.name
+                );
+            }
             Ok(())
         }
         Err(e) => Err(format!("{e} (converged steps up to {} kept in {})", state.step, file.display())),
     }
 }
+
+/// Seconds between progress lines of a run whose stderr is not a terminal (a log file).
+const PROGRESS_LINE_SECONDS: f64 = 30.0;
 
 /// The state a run starts from and its output file: the initial state, or a checkpoint of
 /// `restart` (whose continuation never overwrites the file it resumes from).
@@ -649,7 +681,15 @@ fn starting_state(
     let out = output.unwrap_or_else(|| {
         let name = file.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
         let stem = name.trim_end_matches(".partial").trim_end_matches(".h5");
-        file.with_file_name(format!("{stem}_from{}.h5", cp.step))
+        // Never over an earlier continuation (finished or not) of the same file and step.
+        let taken = |p: &PathBuf| p.exists() || PathBuf::from(format!("{}.partial", p.display())).exists();
+        (1..)
+            .map(|k| match k {
+                1 => file.with_file_name(format!("{stem}_from{}.h5", cp.step)),
+                _ => file.with_file_name(format!("{stem}_from{}_{k}.h5", cp.step)),
+            })
+            .find(|p| !taken(p))
+            .unwrap_or_else(|| file.with_file_name(format!("{stem}_from{}.h5", cp.step)))
     });
     let same = |a: &std::path::Path, b: &std::path::Path| {
         a == b || matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y)
@@ -679,9 +719,9 @@ fn progress_bar(
     };
     bar.set_position(if wear_cycles.is_some() { state.wear.cycle } else { state.step as u64 });
     let template = if wear_cycles.is_some() {
-        "{spinner} [{elapsed_precise}] {bar:40} cycle {pos}/{len} (eta {eta}) {msg}"
+        "{spinner} [{elapsed_precise}] {bar:40} (eta {eta}) {msg}"
     } else {
-        "{spinner} [{elapsed_precise}] {bar:40} step {pos}/{len} {msg}"
+        "{spinner} [{elapsed_precise}] {bar:40} {msg}"
     };
     bar.set_style(ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_bar()));
     bar

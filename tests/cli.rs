@@ -300,6 +300,36 @@ fn restart_from_a_checkpoint() {
     assert_eq!(before, std::fs::read(d.join("full.h5")).unwrap(), "the earlier result must be untouched");
 }
 
+/// A wear run's checkpoint records the path it was written on: a restart under a case whose
+/// `[steps] increments` (or `cycle`, a curve, a load) changed is refused with the key named,
+/// the earlier result untouched; `[steps] cycles` may change (a run extended). Two
+/// continuations of one file and step without `--output` are both kept, under two names.
+#[test]
+fn wear_restart_refuses_a_changed_path_and_keeps_every_continuation() {
+    let d = tmpdir("wear_restart");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("wear_cases/uniform_wear.toml")).unwrap();
+    assert!(text.contains("cycles = 20") && text.contains("increments = 4"));
+    let case = text.replace("cycles = 20", "cycles = 3") + "\n[output]\ncheckpoint_every = 1\n";
+    std::fs::write(d.join("wear.toml"), &case).unwrap();
+    let (ok, out) = run(&["run", "wear.toml", "--quiet", "-o", "full.h5"], &d);
+    assert!(ok, "{out}");
+    let before = std::fs::read(d.join("full.h5")).unwrap();
+    std::fs::write(d.join("changed.toml"), case.replace("increments = 4", "increments = 8")).unwrap();
+    let (ok, out) = run(&["run", "changed.toml", "--quiet", "--restart", "full.h5", "--from-step", "3"], &d);
+    assert!(!ok && out.contains("[steps] increments") && !out.contains("panicked"), "{out}");
+    assert!(!d.join("full_from3.h5").exists(), "a refused restart writes nothing");
+    // One more cycle: the path is the same.
+    std::fs::write(d.join("longer.toml"), case.replace("cycles = 3", "cycles = 4")).unwrap();
+    for name in ["full_from3.h5", "full_from3_2.h5"] {
+        let (ok, out) = run(&["run", "longer.toml", "--quiet", "--restart", "full.h5", "--from-step", "3"], &d);
+        assert!(ok && d.join(name).exists(), "{name}: {out}");
+    }
+    let steps = |f: &str| hdf5::File::open(d.join(f)).unwrap().group("steps").unwrap().member_names().unwrap();
+    assert_eq!(steps("full_from3.h5"), steps("full_from3_2.h5"));
+    assert_eq!(before, std::fs::read(d.join("full.h5")).unwrap(), "the earlier result must be untouched");
+}
+
 /// `plot`: a PNG of the contact profile (1000 x 700 pixels, read from the PNG header) for the
 /// last or a chosen step of the shipped Cattaneo-Mindlin case; bad requests (no contact in the
 /// result, unknown pair, missing step, bad x range) are clear errors.

@@ -185,7 +185,7 @@ fn checkpoint_bits(file: &Path, step: usize) -> Vec<u64> {
     }
     let w = c.group("wear").unwrap();
     group_bits(&w, &mut b);
-    for a in ["cycle", "computed_cycles", "increment", "jump", "last_jump", "jump_before"] {
+    for a in ["cycle", "computed_cycles", "increment", "cycle_steps", "jump", "last_jump", "jump_before"] {
         b.push(w.attr(a).unwrap().read_scalar::<u64>().unwrap());
     }
     b.push(w.attr("decay").unwrap().read_scalar::<f64>().unwrap().to_bits());
@@ -288,5 +288,49 @@ fn kill_during_wear(name: &str, cycles_line: &str, cycles: u64, edits: &[(&str, 
     }
     eprintln!("wear run{tag} ({computed} wear updates, {k_ref} steps, {wall:?}): resumed from steps {resumed_from:?}");
     assert!(resumed_from.len() >= 3, "most kills must land mid-run (resumed from {resumed_from:?})");
+    clean_scratch();
+}
+
+/// kill -9 during reciprocating sliding whose increments are solved in sub-steps (the shipped
+/// `pin_on_plate`, 2 cycles, a checkpoint every step: every increment reaching a stroke end is
+/// cut into about 15 pieces), then `--restart`: the cycle's wear summed over the pieces, the
+/// count of its steps and their linearisations are part of the state, bit for bit.
+#[test]
+fn kill_minus_nine_during_sub_stepped_sliding_wear_then_resume_is_bit_identical() {
+    use std::process::{Command, Stdio};
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("wear_cases/pin_on_plate.toml"))
+        .unwrap()
+        .replace("cycles = 3", "cycles = 2")
+        .replace("checkpoint_every = 100", "checkpoint_every = 1");
+    assert!(text.contains("cycles = 2") && text.contains("checkpoint_every = 1"));
+    let case = tmpfile("kill_pin.toml");
+    std::fs::write(&case, text).unwrap();
+    let reference = tmpfile("kill_pin_ref.h5");
+    let started = std::time::Instant::now();
+    let status = Command::new(env!("CARGO_BIN_EXE_mortex"))
+        .args(["run", case.to_str().unwrap(), "--quiet", "-o", reference.to_str().unwrap()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let wall = started.elapsed();
+    let f = hdf5::File::open(&reference).unwrap();
+    let sub_steps = f.dataset("series/sub_steps").unwrap().read_raw::<u64>().unwrap();
+    assert!(sub_steps.iter().filter(|&&n| n > 1).count() >= 4, "increments must be cut: {sub_steps:?}");
+    drop(f);
+    let k_ref = *checkpoint::available_steps(&reference).unwrap().last().unwrap();
+    let bits_ref = checkpoint_bits(&reference, k_ref);
+    let mut resumed_from = vec![];
+    for (i, fraction) in [0.4, 0.7].into_iter().enumerate() {
+        let Some((k, cont)) = kill_then_resume(&case, &format!("kill_pin_{i}"), wall.mul_f64(fraction), false, k_ref)
+        else {
+            continue;
+        };
+        assert!(checkpoint_bits(&cont, k_ref) == bits_ref, "kill {i}: resumed from step {k}: final state differs");
+        resumed_from.push(k);
+    }
+    assert!(!resumed_from.is_empty(), "a kill must land mid-run");
     clean_scratch();
 }

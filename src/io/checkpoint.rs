@@ -46,14 +46,71 @@ pub enum CheckpointError {
         reached.map(|k| format!(", at output step {k}")).unwrap_or_default()
     )]
     StoppedBeforeCheckpoint { path: String, reached: Option<usize> },
+    #[error(
+        "{path}: the checkpoint of step {step} was written on another path: the case's {key} changed since; a \
+         restart continues the run it was written by (restore {key}, or start the changed case again without \
+         --restart)"
+    )]
+    PathChanged { path: String, step: usize, key: &'static str },
 }
 
 const HISTORY_COLS: usize = 9;
 
+/// The inputs that fix the path a wear run follows, as checkpoint attributes (`path_*`, each
+/// a count or a hash of a list of numbers): a restart under a case that changed one of them
+/// would continue another run from this one's state (its cycle's wear, pairing guesses and
+/// jump history belong to the old path). `[steps] cycles` is not among them (a restart may
+/// extend a run). Runs without wear check their output times instead and may change their
+/// load path after the checkpoint: none.
+fn path_keys(model: &Model) -> Vec<(&'static str, u64)> {
+    if model.wear.is_empty() || model.cycle.is_none() {
+        return vec![];
+    }
+    let hash = |values: &mut dyn Iterator<Item = f64>| {
+        // FNV-1a over the values' bits: any change of a value or of the count changes it.
+        values.fold(0xcbf2_9ce4_8422_2325_u64, |h, v| (h ^ v.to_bits()).wrapping_mul(0x0100_0000_01b3))
+    };
+    let points = |p: &crate::model::LoadPath| p.points.iter().flat_map(|&(t, f)| [t, f]).collect::<Vec<_>>();
+    let mut keys = vec![
+        ("path_steps", hash(&mut points(&model.load_path).into_iter())),
+        ("path_curves", hash(&mut model.curves.iter().flat_map(points))),
+        (
+            "path_loads",
+            hash(
+                &mut model
+                    .prescribed
+                    .iter()
+                    .flat_map(|&(d, v)| [d as f64, v])
+                    .chain(model.prescribed_curve.iter().map(|&c| c as f64))
+                    .chain(model.f_ext.iter().copied())
+                    .chain(model.f_ext_curves.iter().flatten().copied()),
+            ),
+        ),
+    ];
+    if let Some(c) = &model.cycle {
+        keys.push(("path_increments", c.increments as u64));
+        keys.push(("path_ramp_increments", c.ramp_increments as u64));
+        keys.push(("path_cycle", hash(&mut [c.start, c.period].into_iter())));
+    }
+    keys
+}
+
+/// The case key a `path_*` attribute stands for.
+fn path_key_name(key: &str) -> &'static str {
+    match key {
+        "path_steps" => "[steps] path",
+        "path_curves" => "[[curves]]",
+        "path_loads" => "[[loads]] / [[bcs]]",
+        "path_increments" => "[steps] increments",
+        "path_ramp_increments" => "[steps] ramp_increments",
+        _ => "[steps] cycle",
+    }
+}
+
 /// Writes the checkpoint of `state` into the step group `g`. The state is destructured field
 /// by field: a field added to [`SimState`] (or to the wear state and its controller) does not
 /// compile until the checkpoint writes it, and [`read`] builds the state by a full literal.
-pub(super) fn write(g: &hdf5::Group, state: &SimState) -> hdf5::Result<()> {
+pub(super) fn write(g: &hdf5::Group, state: &SimState, model: &Model) -> hdf5::Result<()> {
     let SimState {
         step,
         time,
@@ -76,6 +133,9 @@ pub(super) fn write(g: &hdf5::Group, state: &SimState) -> hdf5::Result<()> {
     super::write_attr(&c, "time", time)?;
     super::write_attr(&c, "load_factor", load_factor)?;
     super::write_attr(&c, "dissipation", dissipation)?;
+    for (key, value) in path_keys(model) {
+        super::write_attr(&c, key, &value)?;
+    }
     let vec1 = |name: &str, v: &[f64]| c.new_dataset_builder().with_data(&Array1::from(v.to_vec())).create(name);
     vec1("u", u)?;
     vec1("f_int", f_int)?;
@@ -172,6 +232,7 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
         cycle_volume,
         cycle_work,
         cycle_jumps,
+        cycle_steps,
         worn_area,
         work,
         controller,
@@ -191,9 +252,13 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
         predicted_area_rate,
     } = controller;
     let g = c.create_group("wear")?;
-    for (name, v) in
-        [("cycle", *cycle), ("computed_cycles", *computed_cycles), ("increment", *increment as u64), ("jump", *jump)]
-    {
+    for (name, v) in [
+        ("cycle", *cycle),
+        ("computed_cycles", *computed_cycles),
+        ("increment", *increment as u64),
+        ("jump", *jump),
+        ("cycle_steps", *cycle_steps as u64),
+    ] {
         super::write_attr(&g, name, &v)?;
     }
     let vec1 = |name: &str, v: &[f64]| g.new_dataset_builder().with_data(&Array1::from(v.to_vec())).create(name);
@@ -277,9 +342,10 @@ fn read_increment_jumps(g: &hdf5::Group, model: &Model) -> Result<Vec<crate::wea
         .attr("count")
         .and_then(|a| a.read_scalar::<u64>())
         .map_err(|e| format!("wear increment_jumps attribute count: {e}"))? as usize;
-    let increments = model.cycle.map_or(0, |c| c.increments);
-    if count > increments {
-        return Err(format!("wear increment_jumps count is {count}, the cycle has {increments} increments"));
+    // One per solved step: at most the cycle's increments, each cut into sub-steps.
+    let most = model.cycle.map_or(0, |c| c.increments) * crate::wear::MAX_SUB_STEPS;
+    if count > most {
+        return Err(format!("wear increment_jumps count is {count}, the cycle has at most {most} steps"));
     }
     let contact_rows = model.initial().contact.rows.len();
     let vertices: Vec<usize> =
@@ -467,9 +533,10 @@ fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, 
     }
     let predicted = vec_f64("predicted")?;
     let (rows, increments) = (model.initial().contact.rows.len(), model.cycle.map_or(1, |c| c.increments));
-    if !predicted.is_empty() && predicted.len() != rows * increments {
+    // One block of rows per step of the cycle: an increment solved in sub-steps has more.
+    if !predicted.is_empty() && (rows == 0 || predicted.len() % rows != 0 || predicted.len() < rows * increments) {
         return Err(format!(
-            "wear dataset predicted has {} values, the model {rows} contact rows at {increments} increments",
+            "wear dataset predicted has {} values, the model {rows} contact rows at {increments} increments or more",
             predicted.len(),
         ));
     }
@@ -492,17 +559,20 @@ fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, 
         predicted,
         predicted_area_rate,
     };
+    let increment = attr_u64("increment")? as usize;
     // A full literal: a new wear-state field does not compile until it is read here.
     let w = crate::state::WearState {
         cycle: attr_u64("cycle")?,
         computed_cycles: attr_u64("computed_cycles")?,
-        increment: attr_u64("increment")? as usize,
+        increment,
         jump: attr_u64("jump")?,
         vertices,
         depth,
         cycle_volume,
         cycle_work,
         cycle_jumps: read_increment_jumps(&g, model)?,
+        // (A checkpoint written before increments were cut into sub-steps: one step each.)
+        cycle_steps: g.attr("cycle_steps").and_then(|a| a.read_scalar::<u64>()).map_or(increment, |n| n as usize),
         worn_area,
         work,
         controller,
@@ -630,6 +700,14 @@ pub fn read(path: &Path, step: Option<usize>, model: &Model) -> Result<SimState,
         }
     };
     let time = attr_f64("time")?;
+    // (A checkpoint written before the path was recorded has none of these attributes.)
+    for (key, expected) in path_keys(model) {
+        if let Ok(found) = c.attr(key).and_then(|a| a.read_scalar::<u64>()) {
+            if found != expected {
+                return Err(CheckpointError::PathChanged { path: p.clone(), step, key: path_key_name(key) });
+            }
+        }
+    }
     // Wear runs jump cycles: their steps are not the case's output times one for one.
     let wear = if model.wear.is_empty() {
         if step > model.times.len() {

@@ -8,7 +8,8 @@
 //!   integration-point coordinates (all bodies, point order).
 //! * `/series/` (every output step, one row each, extendable chunked datasets): `step`,
 //!   `cycle`, `increment`, `iterations`, `newton_iterations` (u64: contact active-set and bulk
-//!   Newton iterations), `time`, `load_factor`, `residual`;
+//!   Newton iterations), `sub_steps` (u64: the pieces a finite-sliding wear increment was
+//!   solved in, 1 if whole), `time`, `load_factor`, `residual`;
 //!   `/series/contacts/<pair>/{pressure, shear, slip, accumulated_slip, nodal_pressure,
 //!   nodal_shear}` `(steps, l)`, `status` u8 `(steps, l)`, `position` `(steps, l, 2)`,
 //!   `/series/contacts/dissipation`;
@@ -275,7 +276,7 @@ impl Series {
     fn create(file: &hdf5::File, model: &Model) -> hdf5::Result<Series> {
         let g = file.create_group("series")?;
         let mut scalars = vec![];
-        for name in ["step", "cycle", "increment", "iterations", "newton_iterations"] {
+        for name in ["step", "cycle", "increment", "iterations", "newton_iterations", "sub_steps"] {
             scalars.push(g.new_dataset::<u64>().chunk(SERIES_CHUNK * 16).shape(0..).create(name)?);
         }
         for name in ["time", "load_factor", "residual"] {
@@ -335,12 +336,13 @@ impl Series {
             report.increment as u64,
             report.iterations as u64,
             report.newton_iterations as u64,
+            report.sub_steps as u64,
         ];
         for (ds, v) in self.scalars.iter().zip(ints) {
             ds.resize(k + 1)?;
             ds.write_slice(&[v], s![k..k + 1])?;
         }
-        for (ds, v) in self.scalars[5..].iter().zip([report.time, report.load_factor, report.residual]) {
+        for (ds, v) in self.scalars[ints.len()..].iter().zip([report.time, report.load_factor, report.residual]) {
             ds.resize(k + 1)?;
             ds.write_slice(&[v], s![k..k + 1])?;
         }
@@ -683,7 +685,7 @@ impl ResultWriter {
                 cg.new_dataset_builder().with_data(&Array1::from(vec![state.dissipation])).create("dissipation")?;
             }
             if checkpoint {
-                checkpoint::write(&g, state)?;
+                checkpoint::write(&g, state, model)?;
             }
             Ok(())
         })();
@@ -695,7 +697,7 @@ impl ResultWriter {
             self.last_flush = std::time::Instant::now();
         }
         if checkpoint {
-            self.write_side_checkpoint(report, state)?;
+            self.write_side_checkpoint(report, state, model)?;
         }
         self.append_contact_rows(model, &fields, report)?;
         self.steps.push((report.step, report.time, report.load_factor, full));
@@ -704,7 +706,7 @@ impl ResultWriter {
 
     /// The latest checkpoint alone in `<partial>.checkpoint`: written to a temporary file, then
     /// renamed over the previous one (atomic), so a kill at any moment leaves a whole one.
-    fn write_side_checkpoint(&self, report: &StepReport, state: &SimState) -> Result<(), OutputError> {
+    fn write_side_checkpoint(&self, report: &StepReport, state: &SimState, model: &Model) -> Result<(), OutputError> {
         let side = checkpoint::side_path(&self.partial_path);
         let tmp = PathBuf::from(format!("{}.tmp", side.display()));
         let res: hdf5::Result<()> = (|| {
@@ -712,7 +714,7 @@ impl ResultWriter {
             let g = f.create_group("steps")?.create_group(&format!("{:06}", report.step))?;
             write_attr(&g, "time", &report.time)?;
             write_attr(&g, "load_factor", &report.load_factor)?;
-            checkpoint::write(&g, state)?;
+            checkpoint::write(&g, state, model)?;
             f.flush()
         })();
         res.map_err(h5err(&tmp, &format!("writing the checkpoint of step {}", report.step)))?;

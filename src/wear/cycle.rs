@@ -47,9 +47,12 @@ pub struct WearState {
     pub cycle_volume: Vec<Vec<f64>>,
     /// `int p |ds|` (Archard) or `int |q ds|` (energy) of the current cycle, per surface.
     pub cycle_work: Vec<f64>,
-    /// Implicit jump: the linearisation of each converged increment of the current cycle
-    /// (see [`IncrementJump`]); fewer than the cycle's increments: the jump is explicit.
+    /// Implicit jump: the linearisation of each converged step of the current cycle (see
+    /// [`IncrementJump`]); fewer than the cycle's steps: the jump is explicit.
     pub cycle_jumps: Vec<IncrementJump>,
+    /// Steps whose wear the current cycle holds: one per increment, more where an increment
+    /// was solved in sub-steps (see [`crate::wear::sweep_check`]).
+    pub cycle_steps: usize,
     /// Worn area (`sum_i depth_i int N_i`) and the time integral of the wear work, per surface
     /// (jumps included): `worn_area = k * work` is the wear balance.
     pub worn_area: Vec<f64>,
@@ -177,6 +180,7 @@ pub fn accumulate_step_wear(
         wear.cycle_work[w] += sw.work;
         steps.push(sw);
     }
+    wear.cycle_steps += 1;
     if let Some(sens) = sensitivity.filter(|s| !s.rows.is_empty()) {
         if let Some(jump) = IncrementJump::of(scene, sens, u, multipliers, &steps) {
             wear.cycle_jumps.push(jump);
@@ -327,9 +331,12 @@ pub fn apply_cycle_wear(scene: &WearScene<'_>, wear: &mut WearState, count: u64,
     // that ratchets more per cycle than that is not jumped over at all.
     let plastic_cap = ratcheting_cap(wear.cycle_ratcheting, scene.model.ratcheting_tolerance);
     let ratcheting = jump && plastic_cap <= 1;
-    // Implicit where the scheme asks for it and every increment of the cycle was linearised.
-    let linearised =
-        jump && !ratcheting && scene.model.scheme == JumpScheme::Implicit && wear.cycle_jumps.len() == scene.increments;
+    // Implicit where the scheme asks for it and every step of the cycle was linearised.
+    let linearised = jump
+        && !ratcheting
+        && scene.model.scheme == JumpScheme::Implicit
+        && wear.cycle_steps >= scene.increments
+        && wear.cycle_jumps.len() == wear.cycle_steps;
     let scheme = if linearised { JumpScheme::Implicit } else { JumpScheme::Explicit };
     let mut dn = if jump {
         let resolution = scene
@@ -388,6 +395,7 @@ pub fn apply_cycle_wear(scene: &WearScene<'_>, wear: &mut WearState, count: u64,
         (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates)
     };
     wear.cycle_jumps.clear();
+    wear.cycle_steps = 0;
     for (k, ws) in scene.model.surfaces.iter().enumerate() {
         let measure = &cycle.measures[k];
         let inc = depth_increment(&rates[k], measure, dn);
