@@ -390,6 +390,62 @@ fn pin_on_plate_case() {
     assert!((area[last] / (K * P * 4.0 * CYCLES) - 1.0).abs() < 5e-3, "worn area {}", area[last]);
 }
 
+/// Coarse-grained multipliers by one rule whether or not the other side wears: the pin of
+/// `pin_on_plate` on a twice finer arc (241 vertices), pressed on a plate whose top cells are
+/// 20 um wide and much thinner. A wearing plate's top becomes a virtual surface in its host
+/// cells: its spacing must be the cell's extent along the surface (the edge's length of the
+/// unworn plate), not the cell's square-root area, which coarse-grained less and left a
+/// two-node checkerboard (multipliers 933 / 220 MPa alternating against p0 = 432). After the
+/// unworn ramp the multipliers fall from the middle outward, and the peak nodal traction is
+/// within 6% of Hertz's p0 (three multiplier rows span the contact's 59 um, 22 um apart).
+#[test]
+fn coarse_grained_multipliers_follow_one_rule_whether_or_not_a_side_wears() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("wear_cases/pin_on_plate.toml"))
+        .unwrap()
+        .replace("grading = [1.0, 0.1]", "grading = [1.0, 0.02]")
+        .replace("divisions = [20, 120]", "divisions = [20, 240]")
+        .replace("cycles = 3", "cycles = 1");
+    assert!(text.contains("[1.0, 0.02]") && text.contains("[20, 240]") && text.contains("cycles = 1"));
+    let (i, j) = (text.find("[[wear]]").unwrap(), text.find("[steps]").unwrap());
+    let unworn = format!("{}{}", &text[..i], &text[j..]);
+    let nodes = |t: &str| {
+        let case = mortex::case::parse(t, "pin", &root.join("wear_cases"), "pin").unwrap_or_else(|e| panic!("{e}"));
+        let disc = case.model.initial();
+        assert_eq!(disc.contact.pairs.len(), 1);
+        disc.contact.pairs[0].multipliers.num_nodes
+    };
+    let (wearing, not_wearing) = (nodes(&text), nodes(&unworn));
+    assert_eq!(wearing, not_wearing, "multiplier nodes with and without wear");
+    assert!(wearing < 200, "{wearing} multiplier nodes: the 241-vertex arc is not coarse-grained");
+    let case = ResultFiles::in_scratch("cases", "pin_fine.toml");
+    std::fs::write(&*case, &text).unwrap();
+    let out = ResultFiles::in_scratch("cases", "pin_fine.h5");
+    let status = Command::new(env!("CARGO_BIN_EXE_mortex"))
+        .args(["run", case.to_str().unwrap(), "--quiet", "-o", out.to_str().unwrap()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let f = hdf5::File::open(&out).unwrap();
+    let lambda = read2(&f, "series/contacts/track/pressure");
+    let nodal = read2(&f, "series/contacts/track/nodal_pressure");
+    let x = f.dataset("series/contacts/track/position").unwrap().read_dyn::<f64>().unwrap();
+    let mut pressed: Vec<(f64, f64)> =
+        (0..lambda.ncols()).filter(|&k| lambda[[0, k]] > 0.0).map(|k| (x[[0, k, 0]], lambda[[0, k]])).collect();
+    pressed.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let peak = (0..pressed.len()).max_by(|&a, &b| pressed[a].1.total_cmp(&pressed[b].1)).unwrap();
+    for k in 1..pressed.len() {
+        let rising = pressed[k].1 > pressed[k - 1].1;
+        assert_eq!(rising, k <= peak, "multipliers not single-peaked (a checkerboard): {pressed:?}");
+    }
+    // Hertz, plane strain: E* from both bodies, a = sqrt(4 P R / (pi E*)), p0 = 2 P / (pi a).
+    let e_star = 1.0 / ((1.0 - 0.3f64.powi(2)) / 210000.0 + (1.0 - 0.33f64.powi(2)) / 70000.0);
+    let a = (4.0 * 20.0 * 2.0 / (std::f64::consts::PI * e_star)).sqrt();
+    let p0 = 2.0 * 20.0 / (std::f64::consts::PI * a);
+    let nodal_peak = nodal.row(0).iter().fold(0.0_f64, |m, &v| m.max(v));
+    assert!((nodal_peak / p0 - 1.0).abs() < 0.06, "peak nodal traction {nodal_peak} against p0 = {p0}");
+}
+
 /// Hertz line contact (`hertz`, see its header): the peak pressure and the contact half-width
 /// (from the load and the peak, `a = 2 P / (pi p_max)`) against Johnson's `p0` and `a`, 1% each
 /// (the block is a finite 40 x 20 mm body, about 0.2% stiffer than the half-space at this `a`;

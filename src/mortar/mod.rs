@@ -385,13 +385,31 @@ pub fn other_side_spacing(side: &MortarSide, other: &OtherSide, reach: f64) -> V
                 None => own,
                 Some(i) => match other {
                     OtherSide::Edges { points, .. } => (points[i][1] - points[i][0]).norm(),
+                    // The host cell's extent along the piece: what the edge's length is to a
+                    // real surface (the same rule whether or not a surface is virtual).
                     OtherSide::Embedded { host, embedding, .. } => {
-                        crate::surface::cell_size(&crate::surface::cell_polygon(host, embedding.pieces[i].cell))
+                        let piece = &embedding.pieces[i];
+                        let poly = crate::surface::cell_polygon(host, piece.cell);
+                        cell_extent_along(&poly, piece.b - piece.a)
+                            .unwrap_or_else(|| crate::surface::cell_size(&poly))
                     }
                 },
             }
         })
         .collect()
+}
+
+/// Width of a cell's polygon projected on direction `d` (`None` for a degenerate `d`).
+fn cell_extent_along(poly: &[Point2<f64>], d: nalgebra::Vector2<f64>) -> Option<f64> {
+    let n = d.norm();
+    if n <= 0.0 || !n.is_finite() {
+        return None;
+    }
+    let t = d / n;
+    let (lo, hi) = poly.iter().map(|p| p.coords.dot(&t)).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), s| {
+        (lo.min(s), hi.max(s))
+    });
+    Some(hi - lo)
 }
 
 /// Distance from `p` to the segment `a b`.
