@@ -750,7 +750,7 @@ impl<'m> StaticAnalysis<'m> {
             // under a prescribed stroke that is ordinary gross slip, not a missing equilibrium;
             // if the cut-backs run out so, it is reported as gross sliding).
             if !res.is_finite() || (it > 0 && res > p.divergence_factor * first_res.max(p.rtol)) {
-                self.last_gross_sliding = gross_sliding(&sets.status);
+                self.last_gross_sliding = self.unrestrained_gross_sliding(&sets.status);
                 return Ok(StepOutcome::NotConverged { iterations: it, residual: res });
             }
             if !set_changed && (res <= p.rtol || norms.all_zero()) {
@@ -770,7 +770,7 @@ impl<'m> StaticAnalysis<'m> {
                     // never changes, so there the failure is final (insufficient supports).
                     Err(e) if !linear => {
                         tracing::warn!(step, t, it, error = %e, "tangent factorisation failed");
-                        self.last_gross_sliding = gross_sliding(&sets.status);
+                        self.last_gross_sliding = self.unrestrained_gross_sliding(&sets.status);
                         return Ok(StepOutcome::NotConverged { iterations: it, residual: res });
                     }
                     Err(source) => return Err(NewtonError::Linear { step, iteration: it, source }.into()),
@@ -786,7 +786,7 @@ impl<'m> StaticAnalysis<'m> {
             // The open-node equation lambda = 0 is linear: its Newton step is exact.
             zero_open_multipliers(&disc.contact, &mut mu, &sets.active, &sets.status);
         }
-        self.last_gross_sliding = gross_sliding(&sets.status);
+        self.last_gross_sliding = self.unrestrained_gross_sliding(&sets.status);
         Ok(StepOutcome::NotConverged { iterations: p.max_iterations, residual: res })
     }
 
@@ -1177,7 +1177,7 @@ impl<'m> StaticAnalysis<'m> {
                         (dlam, dw)
                     }
                     InterfaceSolve::Failed(outcome) => {
-                        self.last_gross_sliding = gross_sliding(&sets.status);
+                        self.last_gross_sliding = self.unrestrained_gross_sliding(&sets.status);
                         return Ok(outcome);
                     }
                 };
@@ -1289,6 +1289,36 @@ impl<'m> StaticAnalysis<'m> {
         res
     }
 
+    /// Gross sliding that a free body explains: every contact node in contact slips one way
+    /// ([`gross_sliding`]) and a body those friction rows act on has no prescribed displacement
+    /// along the slip (a component of at least 0.3 of the slip direction). Where every such
+    /// body is held along it (a prescribed stroke), slipping everywhere is the stroke's doing
+    /// and says nothing about why a step failed: `None`, and the failure reports its facts.
+    fn unrestrained_gross_sliding(&self, status: &[FrictionStatus]) -> Option<usize> {
+        let slipping = gross_sliding(status)?;
+        let rows = &self.disc.contact.friction_rows;
+        let (mut along, mut dofs) = ([0.0_f64; 2], vec![]);
+        for (j, _) in status.iter().enumerate().filter(|(_, s)| matches!(s, FrictionStatus::Slip(_))) {
+            for &(d, v) in rows.get(j).into_iter().flatten() {
+                along[d % 2] += v.abs();
+                dofs.push(d);
+            }
+        }
+        let norm = along[0].hypot(along[1]);
+        if norm <= 0.0 {
+            return Some(slipping);
+        }
+        let body_of = |dof: usize| {
+            let node = dof / 2;
+            self.model.bodies.iter().position(|b| (b.node_offset..b.node_offset + b.mesh.nodes.len()).contains(&node))
+        };
+        let bodies: std::collections::BTreeSet<usize> = dofs.iter().filter_map(|&d| body_of(d)).collect();
+        let held = |b: usize| {
+            self.model.prescribed.iter().any(|&(d, _)| along[d % 2] >= 0.3 * norm && body_of(d) == Some(b))
+        };
+        bodies.iter().any(|&b| !held(b)).then_some(slipping)
+    }
+
     /// Whether a condensed step that missed the tolerance after `pass` of `passes` stops here
     /// (the caller cuts back). Elastic bodies: a pass repeats only to refine round-off, so gross
     /// sliding (every node slipping one way) is an error at once. Yielding bodies: Newton goes
@@ -1305,7 +1335,7 @@ impl<'m> StaticAnalysis<'m> {
     ) -> Result<bool, AnalysisError> {
         let out_of_passes = !res.is_finite() || pass + 1 == passes;
         if !self.model.has_plasticity() {
-            if let Some(slipping) = gross_sliding(status) {
+            if let Some(slipping) = self.unrestrained_gross_sliding(status) {
                 return Err(AnalysisError::GrossSliding { step, time: t, slipping });
             }
             return Ok(out_of_passes);
@@ -1315,7 +1345,7 @@ impl<'m> StaticAnalysis<'m> {
         let diverged = !self.line_search && res > DIVERGED * first;
         let stalled = diverged || (pass >= STALLED_AFTER && res > first);
         if out_of_passes || stalled {
-            self.last_gross_sliding = gross_sliding(status);
+            self.last_gross_sliding = self.unrestrained_gross_sliding(status);
             return Ok(true);
         }
         Ok(false)

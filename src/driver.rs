@@ -331,14 +331,19 @@ where
             Err(e) if e.shorter_step_may_help() => StepCut::Failed(e),
             Err(e) => return Err(e),
         };
-        // The whole increment's solve is dropped, with the pairing it formed for the next one.
+        // The whole increment's solve is dropped, with the pairing it formed for the next one;
+        // a converged one tells how fast the displacements move along it.
+        let whole_u = matches!(cause, StepCut::Sweep(_)).then(|| state.u.clone());
         self.backup.restore(state);
         *ahead = None;
-        self.sub_stepped_increment(state, inc, t_start, cause)
+        let length = inc.end - t_start;
+        let rate = whole_u.map(|end| end.iter().zip(&state.u).map(|(e, s)| (e - s) / length).collect());
+        self.sub_stepped_increment(state, inc, t_start, cause, rate)
     }
 
     /// Increment `inc` solved from its start (time `t_start`) in sub-steps, each re-paired
-    /// from where the last one ended and its wear swept and added to the cycle's. A sweep that
+    /// from where the last one ended (first at the end the displacements' `rate`, per unit of
+    /// time, predicts) and its wear swept and added to the cycle's. A sweep that
     /// cannot be trusted splits the increment evenly into pieces sliding at most
     /// [`crate::wear::SWEEP_WIDTH_FRACTION`] of the contact's width; a failure a shorter step
     /// may avoid halves the piece (down to `1 /` [`crate::wear::MAX_SUB_STEPS`] of the
@@ -351,6 +356,7 @@ where
         inc: &Increment,
         t_start: f64,
         cause: StepCut,
+        mut rate: Option<Vec<f64>>,
     ) -> Result<(), AnalysisError> {
         let length = inc.end - t_start;
         let shortest = length / crate::wear::MAX_SUB_STEPS as f64;
@@ -371,8 +377,18 @@ where
             let may_cut = dt > shortest * (1.0 + 1e-9);
             // The whole increment was tried on this bulk: a structure handed on is its.
             let piece = Piece { end, last, check_sweep: check_sweep && may_cut, pieces: pieces + 1, same_bulk: true };
-            match self.solve_piece(state, inc, piece, PairingStart::default()) {
+            // Paired first where the displacements, moving as fast as over the last piece (or
+            // the whole increment's solve), would end this one: a sliding contact's pairing
+            // then settles in one or two re-pairings instead of three or four.
+            let guess: Option<Vec<f64>> =
+                rate.as_ref().map(|r| state.u.iter().zip(r).map(|(u, r)| u + r * (end - t)).collect());
+            let u_start = rate.is_some().then(|| state.u.clone());
+            let pairing_start = PairingStart { guess: guess.as_deref(), ..PairingStart::default() };
+            match self.solve_piece(state, inc, piece, pairing_start) {
                 Ok(Trial::Accepted) => {
+                    if let Some(u0) = u_start {
+                        rate = Some(state.u.iter().zip(&u0).map(|(u, u0)| (u - u0) / (end - t)).collect());
+                    }
                     (t, pieces) = (end, pieces + 1);
                     dt = (2.0 * dt).min(longest);
                     continue;
