@@ -1313,9 +1313,8 @@ impl<'m> StaticAnalysis<'m> {
             self.model.bodies.iter().position(|b| (b.node_offset..b.node_offset + b.mesh.nodes.len()).contains(&node))
         };
         let bodies: std::collections::BTreeSet<usize> = dofs.iter().filter_map(|&d| body_of(d)).collect();
-        let held = |b: usize| {
-            self.model.prescribed.iter().any(|&(d, _)| along[d % 2] >= 0.3 * norm && body_of(d) == Some(b))
-        };
+        let held =
+            |b: usize| self.model.prescribed.iter().any(|&(d, _)| along[d % 2] >= 0.3 * norm && body_of(d) == Some(b));
         bodies.iter().any(|&b| !held(b)).then_some(slipping)
     }
 

@@ -425,7 +425,7 @@ fn check(path: PathBuf) -> Result<(), String> {
         mortex::fem::material::PlaneHypothesis::PlaneStress => "plane stress",
     };
     println!(
-        "  hypothesis: {hypothesis}; units: {}",
+        "  hypothesis: {hypothesis}; numbers read as given, labelled in {} ([problem] units)",
         if c.units == case::Units::Metre { "m, N, Pa" } else { "mm, N, MPa" }
     );
     for (i, mat) in m.materials.iter().enumerate() {
@@ -444,10 +444,10 @@ fn check(path: PathBuf) -> Result<(), String> {
             m.material_names[b.material]
         );
         for (name, v) in &b.mesh.node_sets {
-            println!("    node set '{name}': {} nodes", v.len());
+            println!("    node set '{name}': {}", plural(v.len(), "node"));
         }
         for (name, v) in &b.mesh.edge_sets {
-            println!("    edge set '{name}': {} edges", v.len());
+            println!("    edge set '{name}': {}", plural(v.len(), "edge"));
         }
         for (name, v) in &b.mesh.cell_sets {
             println!("    cell set '{name}': {} cells", v.len());
@@ -657,6 +657,15 @@ fn run(
             Ok(())
         }
         Err(e) => Err(format!("{e} (converged steps up to {} kept in {})", state.step, file.display())),
+    }
+}
+
+/// `n` things, in the singular for one (`1 node`, `3 nodes`).
+fn plural(n: usize, thing: &str) -> String {
+    if n == 1 {
+        format!("1 {thing}")
+    } else {
+        format!("{n} {thing}s")
     }
 }
 

@@ -130,8 +130,13 @@ fn bad_inputs_give_clear_errors() {
         &d,
         "unknown_key",
         &GOOD.replace("poisson = 0.3", "poisson = 0.3\ndensity = 7.8"),
-        &["unknown_key.toml", "unknown field `density`"],
+        &["unknown_key.toml", "not a valid case", "unknown field `density`"],
     );
+    // A negative wear coefficient quoted as written (-5e-8), not as -0.00000005.
+    let worn = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("wear_cases/uniform_wear.toml"))
+        .unwrap()
+        .replace("coefficient = ", "coefficient = -5e-8 # ");
+    expect_error(&d, "negative_k", &worn, &["negative_k.toml", "coefficient", "got -5e-8"]);
     expect_error(&d, "nu_half", &GOOD.replace("poisson = 0.3", "poisson = 0.5"), &["materials[0].poisson", "nu < 0.5"]);
     expect_error(
         &d,

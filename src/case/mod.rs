@@ -40,6 +40,7 @@
 use crate::fem::kernel::Formulation;
 use crate::fem::material::{Elastic, J2Plastic, Material, PlaneHypothesis};
 use crate::mesh::{generate, gmsh, CellKind, Mesh2};
+use crate::model::Num;
 use crate::model::{ContactOther, LoadPath, Model, ModelBuilder, ModelError};
 use crate::mortar::MultiplierSpace;
 use crate::solver::linear::LinearSolverKind;
@@ -54,6 +55,9 @@ pub enum CaseError {
     Io { path: String, source: std::io::Error },
     #[error("{path}: invalid TOML: {message}")]
     Toml { path: String, message: String },
+    /// Valid TOML that does not fit the case format (an unknown key, a wrong type).
+    #[error("{path}: not a valid case (the TOML itself reads): {message}")]
+    Format { path: String, message: String },
     #[error("{path}: key '{key}': {message}")]
     Invalid { path: String, key: String, message: String },
 }
@@ -366,7 +370,7 @@ pub struct FineZone {
 /// of `n` divisions.
 fn fine_zone_lines(zone: &FineZone, fraction: f64, n: usize, what: &str) -> Result<Vec<f64>, String> {
     if !(zone.width > 0.0 && fraction > 0.0 && fraction < 1.0) {
-        return Err(format!("fine_zone.width must be positive and less than the {what} (got {})", zone.width));
+        return Err(format!("fine_zone.width must be positive and less than the {what} (got {})", Num(zone.width)));
     }
     if zone.divisions == 0 || zone.divisions + 2 > n {
         return Err(format!(
@@ -583,14 +587,14 @@ impl Ctx<'_> {
         if v.is_finite() {
             Ok(v)
         } else {
-            Err(self.err(key, format!("must be a finite number, got {v}")))
+            Err(self.err(key, format!("must be a finite number, got {}", Num(v))))
         }
     }
     fn positive(&self, key: &str, v: f64) -> Result<f64, CaseError> {
         if v.is_finite() && v > 0.0 {
             Ok(v)
         } else {
-            Err(self.err(key, format!("must be positive and finite, got {v}")))
+            Err(self.err(key, format!("must be positive and finite, got {}", Num(v))))
         }
     }
 }
@@ -685,8 +689,14 @@ pub fn parse_with_nodes(
     name: &str,
     nodes: &[(String, Vec<Point2<f64>>)],
 ) -> Result<Case, CaseError> {
-    let mut raw: CaseFile =
-        toml::from_str(text).map_err(|e| CaseError::Toml { path: path.to_string(), message: e.to_string() })?;
+    let mut raw: CaseFile = toml::from_str(text).map_err(|e| {
+        let (path, message) = (path.to_string(), e.to_string());
+        if text.parse::<toml::Table>().is_ok() {
+            CaseError::Format { path, message }
+        } else {
+            CaseError::Toml { path, message }
+        }
+    })?;
     let cx = Ctx { path };
     let hyp = raw.problem.hypothesis;
     let mut b = ModelBuilder::new(hyp);
@@ -716,7 +726,7 @@ pub fn parse_with_nodes(
 
     if let Some(g) = raw.solver.ghost_penalty {
         if !(g.is_finite() && g >= 0.0) {
-            return Err(cx.err("solver.ghost_penalty", format!("must be finite and >= 0, got {g}")));
+            return Err(cx.err("solver.ghost_penalty", format!("must be finite and >= 0, got {}", Num(g))));
         }
         b.set_ghost_penalty(g);
     }
@@ -852,9 +862,10 @@ fn add_materials<'a>(
                     [("isotropic_hardening", m.isotropic_hardening), ("kinematic_hardening", m.kinematic_hardening)]
                 {
                     if !(v.is_finite() && v >= 0.0) {
-                        return Err(
-                            cx.err(k(f), format!("must be finite and >= 0 (softening is not supported), got {v}"))
-                        );
+                        return Err(cx.err(
+                            k(f),
+                            format!("must be finite and >= 0 (softening is not supported), got {}", Num(v)),
+                        ));
                     }
                 }
                 Material::J2Plastic(J2Plastic {
@@ -1189,9 +1200,10 @@ fn add_contacts(
         };
         let name = c.name.clone().unwrap_or_else(|| format!("contact{i}"));
         if !(c.friction.is_finite() && c.friction >= 0.0) {
-            return Err(
-                cx.err(k("friction"), format!("the friction coefficient must be finite and >= 0, got {}", c.friction))
-            );
+            return Err(cx.err(
+                k("friction"),
+                format!("the friction coefficient must be finite and >= 0, got {}", Num(c.friction)),
+            ));
         }
         let sliding = c.sliding.unwrap_or_else(|| scene_sliding(raw, c, contact_spacing[i], wear_cuts));
         let params = crate::model::ContactParams {
@@ -1264,13 +1276,13 @@ fn add_cycle_jump(cx: &Ctx, j: &CycleJumpSpec, wear: &[WearSpec], b: &mut ModelB
     }
     if let Some(sm) = j.smoothing {
         if !(sm.is_finite() && sm >= 0.0) {
-            return Err(cx.err("cycle_jump.smoothing", format!("must be finite and >= 0, got {sm}")));
+            return Err(cx.err("cycle_jump.smoothing", format!("must be finite and >= 0, got {}", Num(sm))));
         }
         b.set_wear_smoothing(sm);
     }
     if let Some(tol) = j.ratcheting_tolerance {
         if !(tol.is_finite() && tol >= 0.0) {
-            return Err(cx.err("cycle_jump.ratcheting_tolerance", format!("must be finite and >= 0, got {tol}")));
+            return Err(cx.err("cycle_jump.ratcheting_tolerance", format!("must be finite and >= 0, got {}", Num(tol))));
         }
         b.set_ratcheting_tolerance(tol);
     }
@@ -1296,7 +1308,9 @@ fn jump_policy(cx: &Ctx, j: &CycleJumpSpec) -> Result<crate::wear::JumpPolicy, C
             let (f, m, pc) = (j.depth_fraction, j.max_jump, j.pressure_change);
             let depth_fraction = f.unwrap_or(0.1);
             if !(depth_fraction.is_finite() && depth_fraction > 0.0 && depth_fraction <= 1.0) {
-                return Err(cx.err("cycle_jump.depth_fraction", format!("must be in (0, 1], got {depth_fraction}")));
+                return Err(
+                    cx.err("cycle_jump.depth_fraction", format!("must be in (0, 1], got {}", Num(depth_fraction)))
+                );
             }
             let max_jump = m.unwrap_or(1_000_000);
             if max_jump == 0 {
@@ -1304,15 +1318,16 @@ fn jump_policy(cx: &Ctx, j: &CycleJumpSpec) -> Result<crate::wear::JumpPolicy, C
             }
             let pressure_change = pc.unwrap_or(crate::wear::DEFAULT_PRESSURE_CHANGE);
             if !(pressure_change.is_finite() && pressure_change > 0.0) {
-                return Err(
-                    cx.err("cycle_jump.pressure_change", format!("must be finite and > 0, got {pressure_change}"))
-                );
+                return Err(cx.err(
+                    "cycle_jump.pressure_change",
+                    format!("must be finite and > 0, got {}", Num(pressure_change)),
+                ));
             }
             let prediction_tolerance = j.prediction_tolerance.unwrap_or(crate::wear::DEFAULT_PREDICTION_TOLERANCE);
             if !(prediction_tolerance.is_finite() && prediction_tolerance > 0.0) {
                 return Err(cx.err(
                     "cycle_jump.prediction_tolerance",
-                    format!("must be finite and > 0, got {prediction_tolerance}"),
+                    format!("must be finite and > 0, got {}", Num(prediction_tolerance)),
                 ));
             }
             crate::wear::JumpPolicy::Adaptive { depth_fraction, max_jump, pressure_change, prediction_tolerance }
@@ -1444,7 +1459,7 @@ fn output_times(
 fn newton_params(cx: &Ctx, solver: &SolverSpec) -> Result<NewtonParams, CaseError> {
     let np = solver.newton;
     if !(np.rtol > 0.0 && np.rtol < 1.0) {
-        return Err(cx.err("solver.newton.rtol", format!("must be in (0, 1), got {}", np.rtol)));
+        return Err(cx.err("solver.newton.rtol", format!("must be in (0, 1), got {}", Num(np.rtol))));
     }
     if np.max_iterations == 0 {
         return Err(cx.err("solver.newton.max_iterations", "must be at least 1"));
@@ -1520,7 +1535,7 @@ fn build_mesh(spec: &MeshSpec, base: &Path) -> Result<Mesh2, String> {
         MeshSpec::Gmsh { .. } => vec![],
     };
     if let Some(v) = floats.iter().find(|v| !v.is_finite()) {
-        return Err(format!("mesh parameters must be finite numbers (got {v})"));
+        return Err(format!("mesh parameters must be finite numbers (got {})", Num(*v)));
     }
     if let Some(d) = divisions {
         if d[0].checked_mul(d[1]).and_then(|n| n.checked_mul(4)).is_none_or(|n| n > 4 * MAX_GENERATED_CELLS) {

@@ -136,18 +136,20 @@ pub(super) fn write(g: &hdf5::Group, state: &SimState, model: &Model) -> hdf5::R
     for (key, value) in path_keys(model) {
         super::write_attr(&c, key, &value)?;
     }
-    let vec1 = |name: &str, v: &[f64]| c.new_dataset_builder().with_data(&Array1::from(v.to_vec())).create(name);
+    // Sparse datasets (a third or more zeros: the plastic history of elastic bodies, slips of
+    // open rows) are compressed (lossless); dense ones stored as they are.
+    let vec1 = |name: &str, v: &[f64]| super::put(&c, name, &Array1::from(v.to_vec()));
     vec1("u", u)?;
     vec1("f_int", f_int)?;
     vec1("multipliers", multipliers)?;
     vec1("slip_increment", slip_increment)?;
     vec1("accumulated_slip", accumulated_slip)?;
-    c.new_dataset_builder().with_data(&Array1::from(friction_status.clone())).create("friction_status")?;
+    super::put(&c, "friction_status", &Array1::from(friction_status.clone()))?;
     let h: Vec<f64> = history
         .iter()
         .flat_map(|p| p.eps_p.iter().chain(p.back.iter()).copied().chain(std::iter::once(p.alpha)))
         .collect();
-    c.new_dataset_builder().with_data(&super::array2(history.len(), HISTORY_COLS, h)).create("history")?;
+    super::put(&c, "history", &super::array2(history.len(), HISTORY_COLS, h))?;
     let s: Vec<f64> = stress.iter().flat_map(|s| [s[0], s[1], s[2], s[3]]).collect();
     c.new_dataset_builder().with_data(&super::array2(stress.len(), 4, s)).create("stress")?;
     let rows: Vec<u64> = interface_log.iter().flatten().map(|&r| r as u64).collect();
@@ -261,7 +263,7 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
     ] {
         super::write_attr(&g, name, &v)?;
     }
-    let vec1 = |name: &str, v: &[f64]| g.new_dataset_builder().with_data(&Array1::from(v.to_vec())).create(name);
+    let vec1 = |name: &str, v: &[f64]| super::put(&g, name, &Array1::from(v.to_vec()));
     for (i, verts) in vertices.iter().enumerate() {
         let flat: Vec<f64> = verts.iter().flat_map(|p| [p[0], p[1]]).collect();
         g.new_dataset_builder()

@@ -107,7 +107,10 @@ pub fn read_profile(path: &Path, step: Option<usize>, pair: Option<&str>) -> Res
     };
     let Some(row) = row else {
         return match step {
-            Some(s) => Err(err(format!("no output step {s} (steps {:?}..{:?})", steps.first(), steps.last()))),
+            Some(s) => Err(err(match (steps.first(), steps.last()) {
+                (Some(a), Some(b)) => format!("no output step {s} (the result holds steps {a} to {b})"),
+                _ => format!("no output step {s} (the result holds no step)"),
+            })),
             None => Err(err("the result holds no step".into())),
         };
     };

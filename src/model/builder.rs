@@ -138,7 +138,7 @@ impl ModelBuilder {
     ) -> Result<(), ModelError> {
         let err = |key: &'static str, msg: String| ModelError::Wear { surface: name.to_string(), key, msg };
         if !(coefficient.is_finite() && coefficient >= 0.0) {
-            return Err(err("coefficient", format!("must be finite and >= 0, got {coefficient}")));
+            return Err(err("coefficient", format!("must be finite and >= 0, got {}", super::Num(coefficient))));
         }
         if !(max_depth.is_finite() && max_depth > 0.0) {
             return Err(err("max_depth", format!("must be finite and > 0, got {max_depth}")));

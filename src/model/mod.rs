@@ -95,6 +95,21 @@ pub use builder::ModelBuilder;
 pub use discretisation::Discretisation;
 pub use load::{Cycle, LoadPath};
 
+/// A number as a message quotes it: plain where that is short (`0.3`, `-2.5`, `210000`),
+/// in exponent form otherwise (`-5e-8`, not `-0.00000005`).
+pub struct Num(pub f64);
+
+impl std::fmt::Display for Num {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let a = self.0.abs();
+        if a == 0.0 || !a.is_finite() || (1e-3..1e7).contains(&a) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
 #[derive(Debug, Clone)]
 pub struct Model {
     pub hypothesis: PlaneHypothesis,

@@ -390,8 +390,7 @@ pub fn other_side_spacing(side: &MortarSide, other: &OtherSide, reach: f64) -> V
                     OtherSide::Embedded { host, embedding, .. } => {
                         let piece = &embedding.pieces[i];
                         let poly = crate::surface::cell_polygon(host, piece.cell);
-                        cell_extent_along(&poly, piece.b - piece.a)
-                            .unwrap_or_else(|| crate::surface::cell_size(&poly))
+                        cell_extent_along(&poly, piece.b - piece.a).unwrap_or_else(|| crate::surface::cell_size(&poly))
                     }
                 },
             }
@@ -406,9 +405,10 @@ fn cell_extent_along(poly: &[Point2<f64>], d: nalgebra::Vector2<f64>) -> Option<
         return None;
     }
     let t = d / n;
-    let (lo, hi) = poly.iter().map(|p| p.coords.dot(&t)).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), s| {
-        (lo.min(s), hi.max(s))
-    });
+    let (lo, hi) = poly
+        .iter()
+        .map(|p| p.coords.dot(&t))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), s| (lo.min(s), hi.max(s)));
     Some(hi - lo)
 }
 
