@@ -945,9 +945,27 @@ fn check_on_counter_surface(
     for c in paired.contact.pairs.iter().filter(|c| c.sliding == crate::contact::Sliding::Finite) {
         let rows = c.first_row..c.first_row + c.multipliers.num_nodes;
         let p_max = rows.clone().map(|k| -state.multipliers[nt + k]).fold(0.0_f64, f64::max);
+        let mut ends: Option<Vec<usize>> = None;
         for k in rows {
             let (phi_ref, phi) = (base.contact.phi[k], paired.contact.phi[k]);
             if -state.multipliers[nt + k] > 1e-6 * p_max && phi_ref > 0.0 && phi < END_OF_SURFACE_SHARE * phi_ref {
+                // The end of the counter-surface is the cause only where the row is paired to
+                // it (its row couples the DOFs of an end segment); elsewhere (a steep wall
+                // of a deep groove facing part of the support beyond the pairing's reach) the
+                // row is solved on the share it has.
+                let ends = ends.get_or_insert_with(|| counter_surface_end_dofs(model, c));
+                if !paired.contact.rows[k].iter().any(|&(d, v)| v != 0.0 && ends.binary_search(&d).is_ok()) {
+                    tracing::warn!(
+                        step,
+                        time = t,
+                        pair = %c.name,
+                        row = k - c.first_row,
+                        percent = 100.0 * phi / phi_ref,
+                        "a node carrying pressure is paired over part of its support away from the ends of its \
+                         counter-surface (a steep wall beyond the pairing's reach?); solved on that share"
+                    );
+                    continue;
+                }
                 return Err(AnalysisError::OffCounterSurface {
                     step,
                     time: t,
@@ -958,6 +976,33 @@ fn check_on_counter_surface(
         }
     }
     Ok(())
+}
+
+/// The DOFs (sorted) of the end segments of contact `c`'s counter-surface: the end nodes of an
+/// open chain of real edges, the host cells' nodes of an open virtual surface's first and last
+/// pieces (none for a closed surface).
+fn counter_surface_end_dofs(model: &Model, c: &crate::contact::ContactInfo) -> Vec<usize> {
+    let mut nodes: Vec<usize> = match &c.other {
+        crate::contact::PairedSide::Edges(edges) => {
+            let mut count = std::collections::BTreeMap::<usize, usize>::new();
+            for &n in edges.iter().flatten() {
+                *count.entry(n).or_default() += 1;
+            }
+            count.into_iter().filter(|&(_, k)| k == 1).map(|(n, _)| n).collect()
+        }
+        crate::contact::PairedSide::Embedded { host, embedding } if !embedding.closed => {
+            let body = &model.bodies[*host];
+            [embedding.pieces.first(), embedding.pieces.last()]
+                .into_iter()
+                .flatten()
+                .flat_map(|p| body.mesh.cells[p.cell].nodes().iter().map(|&n| body.node_offset + n).collect::<Vec<_>>())
+                .collect()
+        }
+        crate::contact::PairedSide::Embedded { .. } => vec![],
+    };
+    nodes.sort_unstable();
+    nodes.dedup();
+    nodes.iter().flat_map(|&n| [2 * n, 2 * n + 1]).collect()
 }
 
 /// Whether a converged step moved the paired surfaces at all from the start state (a step at

@@ -369,10 +369,15 @@ pub fn apply_cycle_wear(scene: &WearScene<'_>, wear: &mut WearState, count: u64,
     if jump && wear.computed_cycles == 0 {
         check_something_wears(scene, &cycle.rates, count)?;
     }
-    // The cycle's wear volumes and work as applied: the computed ones, or (implicit) those at
-    // the end-of-jump pressure. A jump of one cycle is the computed cycle itself (the run
-    // without jumps): no correction.
-    let (volumes, works, rates) = if linearised && dn > 1 {
+    // The cycle's wear volumes and work as applied: the computed ones (explicit), or
+    // (implicit) those at the end-of-jump pressure. A computed cycle not jumped over (dN = 1)
+    // is taken implicitly too (backward Euler over
+    // the cycle): the roughness mode of an element-scale ripple on a contact of stiffness
+    // `E*/h` has, for one cycle's wear of slide `S`, the amplification `1 - a` explicitly and
+    // `1 / (1 + a)` implicitly, `a = (E*/h) k S`: explicit oscillates past `a = 1` and diverges
+    // past 2 (accelerated coefficients reach hundreds: the contact rests on islands), implicit
+    // decays at any `a`, and the two agree to `a^2` where `a` is small.
+    let (volumes, works, rates) = if linearised {
         match implicit_correction(scene, wear, &cycle, &mut dn) {
             Some((volumes, works)) => {
                 let rates = cycle.of_volumes(&volumes);
@@ -382,8 +387,17 @@ pub fn apply_cycle_wear(scene: &WearScene<'_>, wear: &mut WearState, count: u64,
                 }
                 (volumes, works, rates)
             }
+            None if dn == 1 => {
+                // A singular linearisation: the cycle as computed (explicit).
+                wear.controller.forget_prediction();
+                (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates)
+            }
             None => {
-                tracing::warn!(cycle = wear.cycle, "implicit wear jump: singular system; one explicit cycle");
+                tracing::warn!(
+                    cycle = wear.cycle,
+                    "implicit wear jump: the linearised interface system is singular (a contact row with no \
+                     stiffness); this cycle's wear is applied as computed, without a jump"
+                );
                 dn = 1;
                 wear.controller.last_jump = 1;
                 wear.controller.forget_prediction();
@@ -564,21 +578,19 @@ fn implicit_correction(
         }
     }
     let (n, dp) = bounded_implicit_jump(scene.model.jump, &mut controller, *dn, &contact.pressure, &weights, &solve)?;
-    if n == 1 {
-        // A jump of one cycle is the computed cycle itself: no correction.
-        controller.forget_prediction();
-        wear.controller = controller;
-        *dn = 1;
-        return Some((wear.cycle_volume.clone(), wear.cycle_work.clone()));
-    }
-    controller.predicted = all_pressure;
-    let nrows = scene.contact.rows.len();
-    let mut first = 0;
-    for (i, j) in jumps.iter().enumerate() {
-        for (r, &k) in j.sensitivity.rows.iter().enumerate() {
-            controller.predicted[i * nrows + k] += dp[first + r];
+    if n > 1 {
+        controller.predicted = all_pressure;
+        let nrows = scene.contact.rows.len();
+        let mut first = 0;
+        for (i, j) in jumps.iter().enumerate() {
+            for (r, &k) in j.sensitivity.rows.iter().enumerate() {
+                controller.predicted[i * nrows + k] += dp[first + r];
+            }
+            first += j.sensitivity.rows.len();
         }
-        first += j.sensitivity.rows.len();
+    } else {
+        // One cycle (not jumped over): nothing is predicted for the next computed cycle.
+        controller.forget_prediction();
     }
     wear.controller = controller;
     tracing::debug!(
