@@ -194,6 +194,12 @@ pub enum AnalysisError {
     )]
     GrossSliding { step: usize, time: f64, slipping: usize },
     #[error(
+        "step {step} (time {time}): body '{body}' is held along {axis} by contact alone (nothing of it is \
+         prescribed along {axis}) and its load along {axis}, {load:.4e} in all, pulls it away from its contacts: \
+         nothing holds it; prescribe its {axis} displacement somewhere, or reverse the load"
+    )]
+    PulledOffContact { step: usize, time: f64, body: String, axis: char, load: f64 },
+    #[error(
         "step {step} (time {time}): contact nodes slid {slide:.3e} from their pairing, more than the contact \
          width {width:.3e}: beyond small sliding (use sliding = \"finite\" on the pair, smaller increments, or \
          check for a tangential load above mu times the normal load)"
@@ -676,6 +682,9 @@ impl<'m> StaticAnalysis<'m> {
                     if report.cutbacks > params.max_cutbacks {
                         if let Some(slipping) = self.last_gross_sliding {
                             return Err(AnalysisError::GrossSliding { step, time: t_try, slipping });
+                        }
+                        if let Some((body, axis, load)) = self.pulled_off_contact(t_try) {
+                            return Err(AnalysisError::PulledOffContact { step, time: t_try, body, axis, load });
                         }
                         return Err(NewtonError::NotConverged {
                             step,
@@ -1287,6 +1296,61 @@ impl<'m> StaticAnalysis<'m> {
             }
         }
         res
+    }
+
+    /// A body that only contact holds along `x` or `y` (no prescribed DOF of it along the axis,
+    /// no constraint row coupling it to another body) while its load along that axis pulls it
+    /// away from its contacts (against the sum of their outward normals): `(body, axis, net
+    /// load)`. Checked where a step failed: no contact can hold such a body.
+    fn pulled_off_contact(&self, t: f64) -> Option<(String, char, f64)> {
+        let m = self.model;
+        let mut f = vec![0.0; m.num_dofs()];
+        m.external_force(t, &mut f);
+        let scale = f.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+        if scale == 0.0 {
+            return None;
+        }
+        let body_of_node =
+            |n: usize| m.bodies.iter().position(|b| (b.node_offset..b.node_offset + b.mesh.nodes.len()).contains(&n));
+        for (b, body) in m.bodies.iter().enumerate() {
+            let in_body = |d: usize| body_of_node(d / 2) == Some(b);
+            let coupled = m
+                .constraints
+                .iter()
+                .any(|row| row.iter().any(|&(d, _)| in_body(d)) && row.iter().any(|&(d, _)| !in_body(d)));
+            if coupled {
+                continue;
+            }
+            // The outward normals of this body's contact surfaces, summed over the pairs.
+            let mut normal = [0.0_f64; 2];
+            for c in &self.disc.contact.pairs {
+                let other = match &c.other {
+                    crate::contact::PairedSide::Edges(edges) => edges.first().and_then(|e| body_of_node(e[0])),
+                    crate::contact::PairedSide::Embedded { host, .. } => Some(*host),
+                };
+                let sign = if c.mortar == b {
+                    1.0
+                } else if other == Some(b) {
+                    -1.0
+                } else {
+                    continue;
+                };
+                for n in &c.multipliers.normals {
+                    normal[0] += sign * n.x;
+                    normal[1] += sign * n.y;
+                }
+            }
+            for (axis, name) in [(0, 'x'), (1, 'y')] {
+                if m.prescribed.iter().any(|&(d, _)| d % 2 == axis && in_body(d)) {
+                    continue;
+                }
+                let load: f64 = (0..body.mesh.nodes.len()).map(|n| f[2 * (body.node_offset + n) + axis]).sum();
+                if load.abs() > 1e-9 * scale && load * normal[axis] < 0.0 {
+                    return Some((body.name.clone(), name, load));
+                }
+            }
+        }
+        None
     }
 
     /// Gross sliding that a free body explains: every contact node in contact slips one way

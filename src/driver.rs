@@ -930,6 +930,9 @@ fn linear_pairing_change(
 /// stretch of the surfaces, about the strain).
 const END_OF_SURFACE_SHARE: f64 = 0.9;
 
+/// Warnings of a partly paired pressed node away from the counter-surface's ends per process.
+const PARTIAL_SHARE_WARNINGS: usize = 3;
+
 /// A converged finite-sliding step whose contact reached the end of the counter-surface: a node
 /// carrying pressure is paired over less of its support (`int Phi` of the step's pairing in
 /// `paired`) than in the pairing `base` the step started from. The body then rests on the other's last
@@ -955,6 +958,12 @@ fn check_on_counter_surface(
                 // row is solved on the share it has.
                 let ends = ends.get_or_insert_with(|| counter_surface_end_dofs(model, c));
                 if !paired.contact.rows[k].iter().any(|&(d, v)| v != 0.0 && ends.binary_search(&d).is_ok()) {
+                    // Said a few times per process (it recurs step after step in a deep groove).
+                    static SAID: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+                    if SAID.fetch_add(1, std::sync::atomic::Ordering::Relaxed) >= PARTIAL_SHARE_WARNINGS {
+                        tracing::debug!(step, pair = %c.name, row = k - c.first_row, "partly paired row");
+                        continue;
+                    }
                     tracing::warn!(
                         step,
                         time = t,
@@ -962,7 +971,8 @@ fn check_on_counter_surface(
                         row = k - c.first_row,
                         percent = 100.0 * phi / phi_ref,
                         "a node carrying pressure is paired over part of its support away from the ends of its \
-                         counter-surface (a steep wall beyond the pairing's reach?); solved on that share"
+                         counter-surface (a steep wall beyond the pairing's reach?); solved on that share (said \
+                         {PARTIAL_SHARE_WARNINGS} times at most, then at debug level)"
                     );
                     continue;
                 }

@@ -821,3 +821,27 @@ fn a_stroke_off_the_counter_surface_is_a_clear_error() {
     }
     assert_eq!(std::fs::read(d.join("out.h5")).unwrap(), b"an earlier result", "the earlier result must be untouched");
 }
+
+/// A body held along y by contact alone whose load pulls it away from the contact (the
+/// pressure-loaded punch of `free_punch_wear`, its top's ux prescribed, with its pressure
+/// reversed): a typed error naming the body, the axis and that its load pulls it off, a
+/// non-zero exit, no panic, an earlier result untouched. The same punch pushed onto the block
+/// runs (tests/cases.rs `free_punch_wear_case`).
+#[test]
+fn a_body_pulled_off_its_only_support_is_a_clear_error() {
+    let d = tmpdir("pulled_off");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let case = std::fs::read_to_string(root.join("wear_cases/free_punch_wear.toml"))
+        .unwrap()
+        .replace("pressure = 50.0", "pressure = -50.0");
+    assert!(case.contains("pressure = -50.0"));
+    std::fs::write(d.join("away.toml"), case).unwrap();
+    std::fs::write(d.join("out.h5"), b"an earlier result").unwrap();
+    let (ok, text) = run(&["run", "away.toml", "--quiet", "-o", "out.h5"], &d);
+    assert!(!ok, "{text}");
+    assert!(!text.contains("panicked"), "{text}");
+    for needle in ["body 'punch'", "along y by contact alone", "pulls it away", "kept in"] {
+        assert!(text.contains(needle), "message should contain '{needle}':\n{text}");
+    }
+    assert_eq!(std::fs::read(d.join("out.h5")).unwrap(), b"an earlier result", "the earlier result must be untouched");
+}
