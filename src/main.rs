@@ -428,6 +428,9 @@ fn check(path: PathBuf) -> Result<(), String> {
         "  hypothesis: {hypothesis}; numbers read as given, labelled in {} ([problem] units)",
         if c.units == case::Units::Metre { "m, N, Pa" } else { "mm, N, MPa" }
     );
+    for free in m.free_mode_descriptions(false) {
+        println!("  {free}: no boundary condition fixes it, only contact and friction hold it");
+    }
     for (i, mat) in m.materials.iter().enumerate() {
         println!("  material '{}': {}", m.material_names[i], describe_material(mat, c.units));
     }
@@ -533,6 +536,11 @@ fn run(
     let c = case::load(&path).map_err(|e| e.to_string())?;
     let model = &c.model;
     let (mut state, out) = starting_state(&c, output, restart.as_deref(), from_step)?;
+    // Modes beyond the contact normal: held by friction, or by how the contact pressure is
+    // spread (a roller turns freely, a pad may rock).
+    for free in c.model.free_mode_descriptions(true) {
+        tracing::warn!("{free}: no boundary condition fixes it, only contact and friction hold it");
+    }
     let units = c.units;
     let wear_cycles = match (model.wear.is_empty(), model.cycle) {
         (false, Some(cy)) => Some(cy.count as u64),

@@ -845,3 +845,25 @@ fn a_body_pulled_off_its_only_support_is_a_clear_error() {
     }
     assert_eq!(std::fs::read(d.join("out.h5")).unwrap(), b"an earlier result", "the earlier result must be untouched");
 }
+
+/// Rigid-body modes that no boundary condition fixes, named: `check` lists every one (the
+/// pressure-loaded punch of `free_punch_wear`, its top's ux prescribed: a turn about a point of
+/// its top edge, and y); `run` warns of those beyond the contact normal (the turn, held only by
+/// friction and by how the pressure spreads; y is held by the contact pressure, as for any
+/// force-loaded punch), and a rigid platen's punch (`sliding_wear`: its top moves as one
+/// translation) is not free to turn.
+#[test]
+fn free_rigid_modes_are_named() {
+    let d = tmpdir("free_modes");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let case = std::fs::read_to_string(root.join("wear_cases/free_punch_wear.toml"))
+        .unwrap()
+        .replace("cycles = 20", "cycles = 1");
+    std::fs::write(d.join("free.toml"), case).unwrap();
+    let (ok, text) = run(&["check", "free.toml"], &d);
+    assert!(ok && text.contains("body 'punch': free to turn about (0, 0.5) and along (0, 1)"), "{text}");
+    let (ok, text) = run(&["run", "free.toml", "--quiet"], &d);
+    assert!(ok && text.contains("body 'punch': free to turn about (0, 0.5):"), "{text}");
+    let (ok, text) = run(&["check", root.join("wear_cases/sliding_wear.toml").to_str().unwrap()], &d);
+    assert!(ok && text.contains("body 'punch': free along (0, 1):") && !text.contains("turn about"), "{text}");
+}

@@ -258,32 +258,6 @@ pub(super) const CANDIDATE_MARGIN: f64 = 0.2;
 /// rows are near (it did when contact rows were the regularisation).
 pub(super) fn ground_rows(m: &Model, disc: &Discretisation) -> Vec<Vec<(usize, f64)>> {
     let nn = m.coords.len();
-    let mut parent: Vec<usize> = (0..nn).collect();
-    fn root(p: &mut [usize], mut a: usize) -> usize {
-        while p[a] != a {
-            p[a] = p[p[a]];
-            a = p[a];
-        }
-        a
-    }
-    let join = |p: &mut Vec<usize>, a: usize, b: usize| {
-        let (ra, rb) = (root(p, a), root(p, b));
-        if ra != rb {
-            p[ra.max(rb)] = ra.min(rb);
-        }
-    };
-    for (e, nodes) in m.elements.nodes.iter().enumerate() {
-        let nn_e = m.elements.kind[e].num_nodes();
-        for &b in &nodes[1..nn_e] {
-            join(&mut parent, nodes[0], b);
-        }
-    }
-    for row in &m.constraints {
-        for w in row.windows(2) {
-            join(&mut parent, w[0].0 / 2, w[1].0 / 2);
-        }
-    }
-    let roots: Vec<usize> = (0..nn).map(|a| root(&mut parent, a)).collect();
     let mut in_band = vec![false; nn];
     for (b, body) in m.bodies.iter().enumerate() {
         let Some(band) = &m.bands[b] else { continue };
@@ -293,34 +267,9 @@ pub(super) fn ground_rows(m: &Model, disc: &Discretisation) -> Vec<Vec<(usize, f
             }
         }
     }
-    // Nodes of each part, parts in order of their smallest node.
-    let mut members: Vec<Vec<usize>> = vec![Vec::new(); nn];
-    for (a, &r) in roots.iter().enumerate() {
-        members[r].push(a);
-    }
-    let mut prescribed_of: Vec<Vec<usize>> = vec![Vec::new(); nn];
-    for &(d, _) in &m.prescribed {
-        prescribed_of[roots[d / 2]].push(d);
-    }
     let mut rows = Vec::new();
-    for (part, nodes) in members.iter().enumerate().filter(|(_, v)| v.len() > 1) {
-        let centre = nodes.iter().fold(nalgebra::Vector2::zeros(), |s, &a| s + m.coords[a].coords) / nodes.len() as f64;
-        let size = nodes.iter().map(|&a| (m.coords[a].coords - centre).norm()).fold(0.0, f64::max);
-        if size <= 0.0 {
-            continue;
-        }
-        // Gram matrix of the rigid modes (x, y, rotation) over the part's prescribed DOFs.
-        let mut gram = nalgebra::Matrix3::<f64>::zeros();
-        for &d in &prescribed_of[part] {
-            let r = (m.coords[d / 2].coords - centre) / size;
-            let mode =
-                if d % 2 == 0 { nalgebra::Vector3::new(1.0, 0.0, -r.y) } else { nalgebra::Vector3::new(0.0, 1.0, r.x) };
-            gram += mode * mode.transpose();
-        }
-        let eig = gram.symmetric_eigenvalues();
-        if eig.min() > 1e-8 * eig.max().max(1.0) {
-            continue;
-        }
+    for part in m.rigid_parts().into_iter().filter(|p| !p.free_modes.is_empty()) {
+        let (nodes, centre) = (&part.nodes, part.centre);
         let free = |a: &usize| disc.dofs.eq[2 * a] != CONSTRAINED && disc.dofs.eq[2 * a + 1] != CONSTRAINED;
         let mut cand: Vec<usize> = nodes.iter().copied().filter(|a| free(a) && !in_band[*a]).collect();
         if cand.len() < 2 {

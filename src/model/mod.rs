@@ -95,6 +95,172 @@ pub use builder::ModelBuilder;
 pub use discretisation::Discretisation;
 pub use load::{Cycle, LoadPath};
 
+/// A part of the model (nodes joined by elements, ties and rigid sets) and the plane rigid
+/// modes its prescribed DOFs leave free: what only contact (and friction) can hold.
+#[derive(Debug, Clone)]
+pub struct RigidPart {
+    /// Its nodes, in order.
+    pub nodes: Vec<usize>,
+    /// Centroid of its nodes and their largest distance from it.
+    pub centre: nalgebra::Vector2<f64>,
+    pub size: f64,
+    /// Modes `(x, y, rotation)` (unit vectors, rotation scaled by `size`) the prescribed DOFs
+    /// leave free: the null space of the modes' Gram matrix over them.
+    pub free_modes: Vec<nalgebra::Vector3<f64>>,
+    /// Those that the constraint rows leave free too (a rigid set moves as one translation:
+    /// it keeps its part from turning): what only contact and friction hold.
+    pub unrestrained_modes: Vec<nalgebra::Vector3<f64>>,
+}
+
+impl Model {
+    /// The parts of the model and their free rigid modes (parts of one node are left out).
+    /// In words, per body, see [`Model::free_mode_descriptions`].
+    pub fn rigid_parts(&self) -> Vec<RigidPart> {
+        let nn = self.coords.len();
+        let mut parent: Vec<usize> = (0..nn).collect();
+        fn root(p: &mut [usize], mut a: usize) -> usize {
+            while p[a] != a {
+                p[a] = p[p[a]];
+                a = p[a];
+            }
+            a
+        }
+        let join = |p: &mut Vec<usize>, a: usize, b: usize| {
+            let (ra, rb) = (root(p, a), root(p, b));
+            if ra != rb {
+                p[ra.max(rb)] = ra.min(rb);
+            }
+        };
+        for (e, nodes) in self.elements.nodes.iter().enumerate() {
+            let nn_e = self.elements.kind[e].num_nodes();
+            for &b in &nodes[1..nn_e] {
+                join(&mut parent, nodes[0], b);
+            }
+        }
+        for row in &self.constraints {
+            for w in row.windows(2) {
+                join(&mut parent, w[0].0 / 2, w[1].0 / 2);
+            }
+        }
+        let roots: Vec<usize> = (0..nn).map(|a| root(&mut parent, a)).collect();
+        // Nodes of each part, parts in order of their smallest node.
+        let mut members: Vec<Vec<usize>> = vec![Vec::new(); nn];
+        for (a, &r) in roots.iter().enumerate() {
+            members[r].push(a);
+        }
+        let mut prescribed_of: Vec<Vec<usize>> = vec![Vec::new(); nn];
+        for &(d, _) in &self.prescribed {
+            prescribed_of[roots[d / 2]].push(d);
+        }
+        let mut parts = Vec::new();
+        for (part, nodes) in members.into_iter().enumerate().filter(|(_, v)| v.len() > 1) {
+            let centre =
+                nodes.iter().fold(nalgebra::Vector2::zeros(), |s, &a| s + self.coords[a].coords) / nodes.len() as f64;
+            let size = nodes.iter().map(|&a| (self.coords[a].coords - centre).norm()).fold(0.0, f64::max);
+            if size <= 0.0 {
+                continue;
+            }
+            // Gram matrix of the rigid modes (x, y, rotation) over the part's prescribed DOFs.
+            let mut gram = nalgebra::Matrix3::<f64>::zeros();
+            for &d in &prescribed_of[part] {
+                let r = (self.coords[d / 2].coords - centre) / size;
+                let mode = if d % 2 == 0 {
+                    nalgebra::Vector3::new(1.0, 0.0, -r.y)
+                } else {
+                    nalgebra::Vector3::new(0.0, 1.0, r.x)
+                };
+                gram += mode * mode.transpose();
+            }
+            let null_space = |gram: nalgebra::Matrix3<f64>| -> Vec<nalgebra::Vector3<f64>> {
+                let eig = gram.symmetric_eigen();
+                let top = eig.eigenvalues.max().max(1.0);
+                (0..3)
+                    .filter(|&i| eig.eigenvalues[i] <= 1e-8 * top)
+                    .map(|i| eig.eigenvectors.column(i).into_owned())
+                    .collect()
+            };
+            let free_modes = null_space(gram);
+            // Each constraint row of the part, evaluated on the three modes.
+            let mut with_rows = gram;
+            if !free_modes.is_empty() {
+                for row in self.constraints.iter().filter(|r| r.first().is_some_and(|&(d, _)| roots[d / 2] == part)) {
+                    let mut on_modes = nalgebra::Vector3::<f64>::zeros();
+                    for &(d, c) in row {
+                        let r = (self.coords[d / 2].coords - centre) / size;
+                        on_modes += c * if d % 2 == 0 {
+                            nalgebra::Vector3::new(1.0, 0.0, -r.y)
+                        } else {
+                            nalgebra::Vector3::new(0.0, 1.0, r.x)
+                        };
+                    }
+                    let n = on_modes.norm();
+                    if n > 0.0 {
+                        let unit = on_modes / n;
+                        with_rows += unit * unit.transpose();
+                    }
+                }
+            }
+            let unrestrained_modes = if free_modes.is_empty() { vec![] } else { null_space(with_rows) };
+            parts.push(RigidPart { nodes, centre, size, free_modes, unrestrained_modes });
+        }
+        parts
+    }
+
+    /// Each part's rigid modes that neither boundary conditions nor constraint rows fix, in
+    /// words (`body 'pin': free to turn about (0, 2)`, `... free along (0, 1)`): only contact,
+    /// and friction along the contact, hold them. With `beyond_normal`, a translation along
+    /// the body's contact normal (held by the contact pressure, as a force-loaded punch is) is
+    /// left out: what remains is held by friction or by how the pressure is spread.
+    pub fn free_mode_descriptions(&self, beyond_normal: bool) -> Vec<String> {
+        let body_index = |n: usize| {
+            self.bodies.iter().position(|b| (b.node_offset..b.node_offset + b.mesh.nodes.len()).contains(&n))
+        };
+        // Summed outward contact normals of each body (the mortar side's; the other side's reversed).
+        let mut normal = vec![nalgebra::Vector2::<f64>::zeros(); self.bodies.len()];
+        for c in &self.initial().contact.pairs {
+            let other = match &c.other {
+                crate::contact::PairedSide::Edges(edges) => edges.first().and_then(|e| body_index(e[0])),
+                crate::contact::PairedSide::Embedded { host, .. } => Some(*host),
+            };
+            let sum = c.multipliers.normals.iter().fold(nalgebra::Vector2::zeros(), |s, n| s + n);
+            normal[c.mortar] += sum;
+            if let Some(o) = other {
+                normal[o] -= sum;
+            }
+        }
+        let round = |x: f64, scale: f64| if x.abs() < 1e-9 * scale { 0.0 } else { (x * 1e6).round() / 1e6 };
+        let mut out = vec![];
+        for part in self.rigid_parts().into_iter().filter(|p| !p.unrestrained_modes.is_empty()) {
+            let Some(b) = part.nodes.first().and_then(|&n| body_index(n)) else { continue };
+            let n = normal[b].try_normalize(0.0);
+            let modes: Vec<String> = part
+                .unrestrained_modes
+                .iter()
+                .filter_map(|v| {
+                    if v[2].abs() > 1e-6 {
+                        // The point a mode (vx, vy, w) leaves in place: centre + size (-vy, vx) / w.
+                        let c = part.centre + part.size * nalgebra::Vector2::new(-v[1], v[0]) / v[2];
+                        Some(format!("to turn about ({}, {})", round(c.x, part.size), round(c.y, part.size)))
+                    } else {
+                        let mut d = nalgebra::Vector2::new(v[0], v[1]).normalize();
+                        if beyond_normal && n.is_some_and(|n| d.dot(&n).abs() > 0.99) {
+                            return None;
+                        }
+                        if d.x < -1e-9 || (d.x.abs() <= 1e-9 && d.y < 0.0) {
+                            d = -d;
+                        }
+                        Some(format!("along ({}, {})", round(d.x, 1.0), round(d.y, 1.0)))
+                    }
+                })
+                .collect();
+            if !modes.is_empty() {
+                out.push(format!("body '{}': free {}", self.bodies[b].name, modes.join(" and ")));
+            }
+        }
+        out
+    }
+}
+
 /// A number as a message quotes it: plain where that is short (`0.3`, `-2.5`, `210000`),
 /// in exponent form otherwise (`-5e-8`, not `-0.00000005`).
 pub struct Num(pub f64);
