@@ -17,7 +17,8 @@
 //! * [`moving`], [`mortar`]: moving virtual surfaces on fixed points; multiplier
 //!   spaces and mortar integrals (tying and contact rows).
 //! * [`contact`]: contact law (normal and Coulomb), pairs, per-node contact field.
-//! * [`wear`]: wear laws, swept wear along the stroke, rate filter, cycle jump.
+//! * [`wear`]: wear laws, swept wear along the stroke, rate filter, cycle jump; [`fatigue`]:
+//!   the SWT critical plane of a point's stress-strain history and its strain-life.
 //! * [`state`]: [`state::SimState`], the one mutable struct (what a checkpoint holds).
 //! * [`model`]: [`model::Model`], the immutable problem data, and its builder;
 //!   [`model::Discretisation`], the run-time geometry derived from it (surfaces, cuts, DOF
@@ -37,6 +38,7 @@ pub mod case;
 pub mod contact;
 pub mod cut;
 pub mod driver;
+pub mod fatigue;
 pub mod fem;
 pub mod io;
 pub mod mesh;

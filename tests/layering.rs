@@ -1,7 +1,7 @@
 //! The library's rooms import one way only, down the stack
 //!
 //! ```text
-//! mesh, solver -> fem -> assembly, surface -> cut -> discretisation, mortar -> contact -> wear
+//! mesh, solver -> fem -> assembly, surface -> cut -> discretisation, mortar -> contact -> wear, fatigue
 //!   -> state -> model -> analysis -> driver -> post -> scenes -> io, case -> relocation
 //! ```
 //!
@@ -28,7 +28,7 @@ const LAYERS: &[&[&str]] = &[
     &["cut"],
     &["moving", "mortar"],
     &["contact"],
-    &["wear"],
+    &["wear", "fatigue"],
     &["state"],
     &["model"],
     &["analysis"],
