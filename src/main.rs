@@ -307,6 +307,7 @@ fn bench_wear(path: PathBuf, at: &[u64]) -> Result<(), String> {
     let started = std::time::Instant::now();
     let mut writer = ResultWriter::create(&out, model, &c.name).map_err(|e| e.to_string())?;
     writer.set_checkpoint_every(c.checkpoint_every);
+    writer.set_keep_checkpoints(c.keep_checkpoints);
     writer.set_fields_every(c.fields_every);
     let mut state = mortex::analysis::StaticAnalysis::initial_state_of(model);
     let mut output = 0.0;
@@ -555,6 +556,7 @@ fn run(
     }
     let mut writer = ResultWriter::create(&out, model, &c.name).map_err(|e| e.to_string())?;
     writer.set_checkpoint_every(c.checkpoint_every);
+    writer.set_keep_checkpoints(c.keep_checkpoints);
     writer.set_fields_every(c.fields_every);
     if let Some(file) = &restart {
         writer.set_restart_origin(file, state.step).map_err(|e| e.to_string())?;

@@ -315,7 +315,7 @@ fn wear_restart_refuses_a_changed_path_and_keeps_every_continuation() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let text = std::fs::read_to_string(root.join("wear_cases/uniform_wear.toml")).unwrap();
     assert!(text.contains("cycles = 20") && text.contains("increments = 4"));
-    let case = text.replace("cycles = 20", "cycles = 3") + "\n[output]\ncheckpoint_every = 1\n";
+    let case = text.replace("cycles = 20", "cycles = 3") + "\n[output]\ncheckpoint_every = 1\nkeep_checkpoints = 0\n";
     std::fs::write(d.join("wear.toml"), &case).unwrap();
     let (ok, out) = run(&["run", "wear.toml", "--quiet", "-o", "full.h5"], &d);
     assert!(ok, "{out}");
@@ -811,12 +811,18 @@ fn a_stroke_off_the_counter_surface_is_a_clear_error() {
         .replace("cycles = 18000", "cycles = 2")
         .replace("increments = 8", "increments = 4");
     assert!(case.contains("ux = 2.0") && case.contains("increments = 4"));
-    std::fs::write(d.join("off.toml"), case).unwrap();
+    run_fails_clearly(&d, &case, &["contact 'pair'", "end of the counter-surface", "[[bcs]]", "kept in"]);
+}
+
+/// Runs `case` in `d` over an earlier result `out.h5`: the run must fail with a message holding
+/// every one of `needles`, without a panic, and leave the earlier result as it was.
+fn run_fails_clearly(d: &Path, case: &str, needles: &[&str]) {
+    std::fs::write(d.join("failing.toml"), case).unwrap();
     std::fs::write(d.join("out.h5"), b"an earlier result").unwrap();
-    let (ok, text) = run(&["run", "off.toml", "--quiet", "-o", "out.h5"], &d);
+    let (ok, text) = run(&["run", "failing.toml", "--quiet", "-o", "out.h5"], d);
     assert!(!ok, "{text}");
     assert!(!text.contains("panicked"), "{text}");
-    for needle in ["contact 'pair'", "end of the counter-surface", "[[bcs]]", "kept in"] {
+    for needle in needles {
         assert!(text.contains(needle), "message should contain '{needle}':\n{text}");
     }
     assert_eq!(std::fs::read(d.join("out.h5")).unwrap(), b"an earlier result", "the earlier result must be untouched");
@@ -835,15 +841,7 @@ fn a_body_pulled_off_its_only_support_is_a_clear_error() {
         .unwrap()
         .replace("pressure = 50.0", "pressure = -50.0");
     assert!(case.contains("pressure = -50.0"));
-    std::fs::write(d.join("away.toml"), case).unwrap();
-    std::fs::write(d.join("out.h5"), b"an earlier result").unwrap();
-    let (ok, text) = run(&["run", "away.toml", "--quiet", "-o", "out.h5"], &d);
-    assert!(!ok, "{text}");
-    assert!(!text.contains("panicked"), "{text}");
-    for needle in ["body 'punch'", "along y by contact alone", "pulls it away", "kept in"] {
-        assert!(text.contains(needle), "message should contain '{needle}':\n{text}");
-    }
-    assert_eq!(std::fs::read(d.join("out.h5")).unwrap(), b"an earlier result", "the earlier result must be untouched");
+    run_fails_clearly(&d, &case, &["body 'punch'", "along y by contact alone", "pulls it away", "kept in"]);
 }
 
 /// Rigid-body modes that no boundary condition fixes, named: `check` lists every one (the
@@ -866,4 +864,43 @@ fn free_rigid_modes_are_named() {
     assert!(ok && text.contains("body 'punch': free to turn about (0, 0.5):"), "{text}");
     let (ok, text) = run(&["check", root.join("wear_cases/sliding_wear.toml").to_str().unwrap()], &d);
     assert!(ok && text.contains("body 'punch': free along (0, 1):") && !text.contains("turn about"), "{text}");
+}
+
+/// `[output] keep_checkpoints`: only the last checkpoints stay (older ones are removed as new
+/// ones are written, and HDF5 reuses their space), a restart from a kept one runs and from a
+/// removed one is refused naming the steps that have one; with `0` every one stays. A run with
+/// a checkpoint every step, the last 2 kept, writes a smaller file than keeping all.
+#[test]
+fn only_the_last_checkpoints_are_kept() {
+    let d = tmpdir("keep_checkpoints");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("wear_cases/uniform_wear.toml"))
+        .unwrap()
+        .replace("cycles = 20", "cycles = 3");
+    assert!(text.contains("cycles = 3") && !text.contains("[output]"));
+    let mut sizes = vec![];
+    for keep in [0, 2] {
+        let name = format!("keep{keep}");
+        let case = format!("{text}\n[output]\ncheckpoint_every = 1\nkeep_checkpoints = {keep}\n");
+        std::fs::write(d.join(format!("{name}.toml")), case).unwrap();
+        let (ok, out) = run(&["run", &format!("{name}.toml"), "--quiet", "-o", &format!("{name}.h5")], &d);
+        assert!(ok, "{out}");
+        let steps = mortex::io::checkpoint::available_steps(&d.join(format!("{name}.h5"))).unwrap();
+        let all = hdf5::File::open(d.join(format!("{name}.h5")))
+            .unwrap()
+            .group("steps")
+            .unwrap()
+            .member_names()
+            .unwrap()
+            .len();
+        if keep == 0 {
+            assert_eq!(steps.len(), all, "keep all: {steps:?}");
+        } else {
+            assert_eq!(steps, vec![all - 1, all], "keep the last 2 of {all}");
+        }
+        sizes.push(std::fs::metadata(d.join(format!("{name}.h5"))).unwrap().len());
+    }
+    assert!(sizes[1] < sizes[0], "file sizes keeping all / 2 checkpoints: {sizes:?}");
+    let (ok, out) = run(&["run", "keep2.toml", "--quiet", "--restart", "keep2.h5", "--from-step", "3"], &d);
+    assert!(!ok && out.contains("no checkpoint at step 3") && !out.contains("panicked"), "{out}");
 }

@@ -543,6 +543,10 @@ pub struct OutputSpec {
     /// A checkpoint (the whole state, for `mortex run --restart`) every this many output steps;
     /// default 1, 0 for none.
     pub checkpoint_every: Option<usize>,
+    /// The last this many checkpoints are kept (older ones are removed as new ones are
+    /// written, and their space reused: a long run's file stays bounded); default
+    /// [`DEFAULT_KEEP_CHECKPOINTS`], 0 keeps every one.
+    pub keep_checkpoints: Option<usize>,
     /// Full fields (nodal, cell and point fields) every this many output steps (default 1; the
     /// last step always has them). Contact and surface series are written every step.
     pub fields_every: Option<usize>,
@@ -559,11 +563,16 @@ pub struct Case {
     pub serial: bool,
     /// Checkpoint interval in output steps (0: none).
     pub checkpoint_every: usize,
+    /// Checkpoints kept (the last ones; 0: all).
+    pub keep_checkpoints: usize,
     /// Full-field interval in output steps (>= 1).
     pub fields_every: usize,
     /// `[reference]`: the contact pair's name and its analytical solution.
     pub reference: Option<(String, crate::post::AnalyticContact)>,
 }
+
+/// Checkpoints a run keeps when its case does not say (`[output] keep_checkpoints`).
+pub const DEFAULT_KEEP_CHECKPOINTS: usize = 10;
 
 /// Contact multipliers when a case does not choose: coarse-grained, never finer than the other
 /// side's elements (equal to the classical space where the mortar side is at most 1.5x finer):
@@ -749,6 +758,7 @@ pub fn parse_with_nodes(
         output,
         serial: raw.solver.serial,
         checkpoint_every: raw.output.checkpoint_every.unwrap_or(1),
+        keep_checkpoints: raw.output.keep_checkpoints.unwrap_or(DEFAULT_KEEP_CHECKPOINTS),
         fields_every: match raw.output.fields_every {
             None => 1,
             Some(0) => return Err(cx.err("output.fields_every", "must be at least 1")),

@@ -100,6 +100,9 @@ pub struct ResultWriter {
     contact_csv: Option<(std::io::BufWriter<std::fs::File>, PathBuf, PathBuf)>,
     /// A checkpoint every this many output steps (0: none).
     checkpoint_every: usize,
+    /// The last this many checkpoints are kept (0: all), and the steps of those written.
+    keep_checkpoints: usize,
+    checkpoints: std::collections::VecDeque<usize>,
     /// Full fields every this many output steps (and at the last).
     fields_every: usize,
     last_step: usize,
@@ -488,6 +491,8 @@ impl ResultWriter {
                 .collect(),
             contact_csv,
             checkpoint_every: 1,
+            keep_checkpoints: 0,
+            checkpoints: Default::default(),
             fields_every: 1,
             last_step: model.times.len(),
             last_flush: std::time::Instant::now(),
@@ -559,6 +564,13 @@ impl ResultWriter {
     /// Writes a checkpoint (see [`checkpoint`]) every `every` output steps (0: never; default 1).
     pub fn set_checkpoint_every(&mut self, every: usize) {
         self.checkpoint_every = every;
+    }
+
+    /// Keeps the last `keep` checkpoints (0, the default: all): an older one is removed when a
+    /// new one is written, and HDF5 reuses its space for the next (the file of a long run
+    /// stays bounded).
+    pub fn set_keep_checkpoints(&mut self, keep: usize) {
+        self.keep_checkpoints = keep;
     }
 
     /// Writes the full fields every `every` output steps (>= 1; default 1) and at the last step.
@@ -685,7 +697,14 @@ impl ResultWriter {
                 cg.new_dataset_builder().with_data(&Array1::from(vec![state.dissipation])).create("dissipation")?;
             }
             if checkpoint {
+                // The oldest kept checkpoint goes first: the new one can take its space.
+                if self.keep_checkpoints > 0 && self.checkpoints.len() >= self.keep_checkpoints {
+                    if let Some(old) = self.checkpoints.pop_front() {
+                        file.unlink(&format!("steps/{old:06}/checkpoint"))?;
+                    }
+                }
                 checkpoint::write(&g, state, model)?;
+                self.checkpoints.push_back(report.step);
             }
             Ok(())
         })();
