@@ -509,10 +509,19 @@ fn check(path: PathBuf) -> Result<(), String> {
         println!("  moving surface '{}' in body '{}': {:?}", s.name, m.bodies[s.body].name, s.motion);
     }
     for ci in &disc.contact.pairs {
+        let source = if c.sliding_set.contains(&ci.name) {
+            "set by the case's contacts.sliding"
+        } else {
+            "the default: finite for a wearing pair whose stroke exceeds half its element, small otherwise"
+        };
         println!(
-            "  contact '{}': mortar '{}', {:?} multipliers ({} nodes), mu = {}, {:?} sliding (case key \
-             contacts.sliding; default: finite for a wearing pair whose stroke exceeds half its element)",
-            ci.name, m.bodies[ci.mortar].name, ci.space, ci.multipliers.num_nodes, ci.mu, ci.sliding
+            "  contact '{}': mortar '{}', {:?} multipliers ({}), mu = {}, {:?} sliding ({source})",
+            ci.name,
+            m.bodies[ci.mortar].name,
+            ci.space,
+            plural(ci.multipliers.num_nodes, "node"),
+            ci.mu,
+            ci.sliding
         );
     }
     if c.fields_every > 1 {

@@ -864,6 +864,10 @@ fn free_rigid_modes_are_named() {
     assert!(ok && text.contains("body 'punch': free to turn about (0, 0.5):"), "{text}");
     let (ok, text) = run(&["check", root.join("wear_cases/sliding_wear.toml").to_str().unwrap()], &d);
     assert!(ok && text.contains("body 'punch': free along (0, 1):") && !text.contains("turn about"), "{text}");
+    // Where a pair's sliding comes from: the case (sliding_wear sets it) or the default.
+    assert!(text.contains("Finite sliding (set by the case's contacts.sliding)"), "{text}");
+    let (ok, text) = run(&["check", root.join("wear_cases/mccoll_fretting.toml").to_str().unwrap()], &d);
+    assert!(ok && text.contains("Finite sliding (the default: "), "{text}");
 }
 
 /// `[output] keep_checkpoints`: only the last checkpoints stay (older ones are removed as new

@@ -565,6 +565,8 @@ pub struct Case {
     pub checkpoint_every: usize,
     /// Checkpoints kept (the last ones; 0: all).
     pub keep_checkpoints: usize,
+    /// Names of the contact pairs whose `sliding` the case sets (the others take the default).
+    pub sliding_set: Vec<String>,
     /// Full-field interval in output steps (>= 1).
     pub fields_every: usize,
     /// `[reference]`: the contact pair's name and its analytical solution.
@@ -759,6 +761,13 @@ pub fn parse_with_nodes(
         serial: raw.solver.serial,
         checkpoint_every: raw.output.checkpoint_every.unwrap_or(1),
         keep_checkpoints: raw.output.keep_checkpoints.unwrap_or(DEFAULT_KEEP_CHECKPOINTS),
+        sliding_set: raw
+            .contacts
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.sliding.is_some())
+            .map(|(i, c)| c.name.clone().unwrap_or_else(|| format!("contact{i}")))
+            .collect(),
         fields_every: match raw.output.fields_every {
             None => 1,
             Some(0) => return Err(cx.err("output.fields_every", "must be at least 1")),
