@@ -1310,10 +1310,9 @@ impl<'m> StaticAnalysis<'m> {
         if scale == 0.0 {
             return None;
         }
-        let body_of_node =
-            |n: usize| m.bodies.iter().position(|b| (b.node_offset..b.node_offset + b.mesh.nodes.len()).contains(&n));
+        let normals = m.contact_normal_sums();
         for (b, body) in m.bodies.iter().enumerate() {
-            let in_body = |d: usize| body_of_node(d / 2) == Some(b);
+            let in_body = |d: usize| m.body_of_node(d / 2) == Some(b);
             let coupled = m
                 .constraints
                 .iter()
@@ -1321,25 +1320,7 @@ impl<'m> StaticAnalysis<'m> {
             if coupled {
                 continue;
             }
-            // The outward normals of this body's contact surfaces, summed over the pairs.
-            let mut normal = [0.0_f64; 2];
-            for c in &self.disc.contact.pairs {
-                let other = match &c.other {
-                    crate::contact::PairedSide::Edges(edges) => edges.first().and_then(|e| body_of_node(e[0])),
-                    crate::contact::PairedSide::Embedded { host, .. } => Some(*host),
-                };
-                let sign = if c.mortar == b {
-                    1.0
-                } else if other == Some(b) {
-                    -1.0
-                } else {
-                    continue;
-                };
-                for n in &c.multipliers.normals {
-                    normal[0] += sign * n.x;
-                    normal[1] += sign * n.y;
-                }
-            }
+            let normal = normals[b];
             for (axis, name) in [(0, 'x'), (1, 'y')] {
                 if m.prescribed.iter().any(|&(d, _)| d % 2 == axis && in_body(d)) {
                     continue;
@@ -1372,10 +1353,7 @@ impl<'m> StaticAnalysis<'m> {
         if norm <= 0.0 {
             return Some(slipping);
         }
-        let body_of = |dof: usize| {
-            let node = dof / 2;
-            self.model.bodies.iter().position(|b| (b.node_offset..b.node_offset + b.mesh.nodes.len()).contains(&node))
-        };
+        let body_of = |dof: usize| self.model.body_of_node(dof / 2);
         let bodies: std::collections::BTreeSet<usize> = dofs.iter().filter_map(|&d| body_of(d)).collect();
         let held =
             |b: usize| self.model.prescribed.iter().any(|&(d, _)| along[d % 2] >= 0.3 * norm && body_of(d) == Some(b));

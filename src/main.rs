@@ -578,53 +578,16 @@ fn run(
     let started = std::time::Instant::now();
     let log_lines = !quiet && !std::io::IsTerminal::is_terminal(&std::io::stderr());
     let mut last_line = started;
-    let mut total_its = 0;
-    // Finite-sliding wear increments solved in sub-steps, and the sub-steps in all.
-    let (mut cut_increments, mut sub_steps) = (0usize, 0usize);
-    // Yielding bodies: how many bulk Newton iterations each increment took.
-    let mut bulk_its: std::collections::BTreeMap<usize, usize> = std::collections::BTreeMap::new();
+    let mut tally = RunTally::default();
     let res = {
         let observer = |r: &mortex::analysis::StepReport,
                         s: &mortex::state::SimState,
                         step_model: &mortex::model::Model,
                         disc: &mortex::model::Discretisation|
          -> Result<(), String> {
-            total_its += r.iterations;
-            if r.sub_steps > 1 {
-                (cut_increments, sub_steps) = (cut_increments + 1, sub_steps + r.sub_steps);
-            }
-            *bulk_its.entry(r.newton_iterations).or_default() += 1;
+            tally.add(r);
             writer.write_step(step_model, disc, r, s).map_err(|e| e.to_string())?;
-            let cycle = if step_model.cycle.is_some() {
-                format!("cycle {} inc {}, ", r.cycle, r.increment)
-            } else {
-                String::new()
-            };
-            let message = if let Some(n) = wear_cycles {
-                let w = &s.wear;
-                let deepest = w.depth.iter().flatten().fold(0.0_f64, |a, &b| a.max(b));
-                bar.set_position(w.cycle);
-                format!(
-                    "cycle {}/{n}: computed {}, jump {}, inc {}, max wear depth {}, {} it",
-                    w.cycle,
-                    w.computed_cycles,
-                    w.jump,
-                    r.increment,
-                    units.length(deepest),
-                    r.iterations
-                )
-            } else {
-                bar.inc(1);
-                format!(
-                    "step {}/{}: {cycle}t = {:.4}, lambda = {:.4}, {} it, res {:.1e}",
-                    r.step,
-                    step_model.times.len(),
-                    r.time,
-                    r.load_factor,
-                    r.iterations,
-                    r.residual
-                )
-            };
+            let message = progress_message(r, s, step_model, wear_cycles.map(|n| (n, units)), &bar);
             // Off a terminal the bar draws nothing: a line every PROGRESS_LINE_SECONDS instead.
             if log_lines && last_line.elapsed().as_secs_f64() >= PROGRESS_LINE_SECONDS {
                 eprintln!("{}: {message} ({:.0} s)", c.name, started.elapsed().as_secs_f64());
@@ -640,42 +603,117 @@ fn run(
     let file = writer.finish(completed).map_err(|e| e.to_string())?;
     match res {
         Ok(()) => {
-            if wear_cycles.is_some() {
-                println!("{}: {}", c.name, scar_summary(model, &state, units));
-            }
-            if model.has_plasticity() {
-                let counts: Vec<String> = bulk_its.iter().map(|(n, k)| format!("{n}: {k}")).collect();
-                println!("{}: bulk Newton iterations per step (iterations: steps) {}", c.name, counts.join(", "));
-                if wear_cycles.is_some() {
-                    println!(
-                        "{}: last computed cycle: net plastic strain {:.3e} (ratcheting), accumulated {:.3e}",
-                        c.name, state.wear.cycle_ratcheting, state.wear.cycle_plastic_strain
-                    );
-                }
-            }
-            // Condensed contact: one bulk solve per pass (per Newton iteration of yielding
-            // bodies), several active-set iterations each; monolithic: Newton iterations.
-            let bulk: usize = bulk_its.iter().map(|(its, steps)| its * steps).sum();
-            println!(
-                "{}: {} steps, {} bulk solves, {} iterations (contact active set, Newton), {:.2} s -> {} (+ {})",
-                c.name,
-                state.step - first_step,
-                bulk,
-                total_its,
-                started.elapsed().as_secs_f64(),
-                file.display(),
-                file.with_extension("xdmf").display()
-            );
-            if cut_increments > 0 {
-                println!(
-                    "{}: {cut_increments} increments solved in sub-steps ({sub_steps} sub-steps in all; \
-                     /series/sub_steps per step)",
-                    c.name
-                );
-            }
+            let wall = started.elapsed().as_secs_f64();
+            print_run_summary(&c, &state, &tally, state.step - first_step, wall, &file);
             Ok(())
         }
         Err(e) => Err(format!("{e} (converged steps up to {} kept in {})", state.step, file.display())),
+    }
+}
+
+/// What a run's steps add up to, for its summary.
+#[derive(Default)]
+struct RunTally {
+    /// Active-set (and Newton) iterations in all.
+    iterations: usize,
+    /// Finite-sliding wear increments solved in sub-steps, and the sub-steps in all.
+    cut_increments: usize,
+    sub_steps: usize,
+    /// How many steps took each number of bulk Newton iterations.
+    bulk_iterations: std::collections::BTreeMap<usize, usize>,
+}
+
+impl RunTally {
+    fn add(&mut self, r: &mortex::analysis::StepReport) {
+        self.iterations += r.iterations;
+        if r.sub_steps > 1 {
+            self.cut_increments += 1;
+            self.sub_steps += r.sub_steps;
+        }
+        *self.bulk_iterations.entry(r.newton_iterations).or_default() += 1;
+    }
+}
+
+/// The progress line of step `r` (the bar's message): a wear run's cycle, jump and deepest
+/// wear (`wear`: the run's cycles and the case's units), or a load step's time and residual;
+/// moves the bar.
+fn progress_message(
+    r: &mortex::analysis::StepReport,
+    s: &mortex::state::SimState,
+    model: &mortex::model::Model,
+    wear: Option<(u64, case::Units)>,
+    bar: &ProgressBar,
+) -> String {
+    if let Some((n, units)) = wear {
+        let w = &s.wear;
+        let deepest = w.depth.iter().flatten().fold(0.0_f64, |a, &b| a.max(b));
+        bar.set_position(w.cycle);
+        return format!(
+            "cycle {}/{n}: computed {}, jump {}, inc {}, max wear depth {}, {} it",
+            w.cycle,
+            w.computed_cycles,
+            w.jump,
+            r.increment,
+            units.length(deepest),
+            r.iterations
+        );
+    }
+    bar.inc(1);
+    let cycle = if model.cycle.is_some() { format!("cycle {} inc {}, ", r.cycle, r.increment) } else { String::new() };
+    format!(
+        "step {}/{}: {cycle}t = {:.4}, lambda = {:.4}, {} it, res {:.1e}",
+        r.step,
+        model.times.len(),
+        r.time,
+        r.load_factor,
+        r.iterations,
+        r.residual
+    )
+}
+
+/// The lines a finished run prints: scars, bulk Newton iterations of yielding bodies, steps,
+/// solves and wall time (`steps` run in `wall` seconds), the result files, cut increments.
+fn print_run_summary(
+    c: &case::Case,
+    state: &mortex::state::SimState,
+    tally: &RunTally,
+    steps: usize,
+    wall: f64,
+    file: &std::path::Path,
+) {
+    let model = &c.model;
+    let wear_run = !model.wear.is_empty() && model.cycle.is_some();
+    if wear_run {
+        println!("{}: {}", c.name, scar_summary(model, state, c.units));
+    }
+    if model.has_plasticity() {
+        let counts: Vec<String> = tally.bulk_iterations.iter().map(|(n, k)| format!("{n}: {k}")).collect();
+        println!("{}: bulk Newton iterations per step (iterations: steps) {}", c.name, counts.join(", "));
+        if wear_run {
+            println!(
+                "{}: last computed cycle: net plastic strain {:.3e} (ratcheting), accumulated {:.3e}",
+                c.name, state.wear.cycle_ratcheting, state.wear.cycle_plastic_strain
+            );
+        }
+    }
+    // Condensed contact: one bulk solve per pass (per Newton iteration of yielding bodies),
+    // several active-set iterations each; monolithic: Newton iterations.
+    let bulk: usize = tally.bulk_iterations.iter().map(|(its, steps)| its * steps).sum();
+    println!(
+        "{}: {} steps, {} bulk solves, {} iterations (contact active set, Newton), {:.2} s -> {} (+ {})",
+        c.name,
+        steps,
+        bulk,
+        tally.iterations,
+        wall,
+        file.display(),
+        file.with_extension("xdmf").display()
+    );
+    if tally.cut_increments > 0 {
+        println!(
+            "{}: {} increments solved in sub-steps ({} sub-steps in all; /series/sub_steps per step)",
+            c.name, tally.cut_increments, tally.sub_steps
+        );
     }
 }
 

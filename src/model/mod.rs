@@ -212,26 +212,11 @@ impl Model {
     /// the body's contact normal (held by the contact pressure, as a force-loaded punch is) is
     /// left out: what remains is held by friction or by how the pressure is spread.
     pub fn free_mode_descriptions(&self, beyond_normal: bool) -> Vec<String> {
-        let body_index = |n: usize| {
-            self.bodies.iter().position(|b| (b.node_offset..b.node_offset + b.mesh.nodes.len()).contains(&n))
-        };
-        // Summed outward contact normals of each body (the mortar side's; the other side's reversed).
-        let mut normal = vec![nalgebra::Vector2::<f64>::zeros(); self.bodies.len()];
-        for c in &self.initial().contact.pairs {
-            let other = match &c.other {
-                crate::contact::PairedSide::Edges(edges) => edges.first().and_then(|e| body_index(e[0])),
-                crate::contact::PairedSide::Embedded { host, .. } => Some(*host),
-            };
-            let sum = c.multipliers.normals.iter().fold(nalgebra::Vector2::zeros(), |s, n| s + n);
-            normal[c.mortar] += sum;
-            if let Some(o) = other {
-                normal[o] -= sum;
-            }
-        }
+        let normal = self.contact_normal_sums();
         let round = |x: f64, scale: f64| if x.abs() < 1e-9 * scale { 0.0 } else { (x * 1e6).round() / 1e6 };
         let mut out = vec![];
         for part in self.rigid_parts().into_iter().filter(|p| !p.unrestrained_modes.is_empty()) {
-            let Some(b) = part.nodes.first().and_then(|&n| body_index(n)) else { continue };
+            let Some(b) = part.nodes.first().and_then(|&n| self.body_of_node(n)) else { continue };
             let n = normal[b].try_normalize(0.0);
             let modes: Vec<String> = part
                 .unrestrained_modes
@@ -441,6 +426,30 @@ impl Model {
     pub fn num_multipliers(&self) -> usize {
         let c = &self.initial.contact;
         self.constraints.len() + c.rows.len() + c.friction_rows.len()
+    }
+
+    /// Body index of a global node (`None` for the stand-in nodes of virtual mortar sides).
+    pub fn body_of_node(&self, n: usize) -> Option<usize> {
+        self.bodies.iter().position(|b| (b.node_offset..b.node_offset + b.mesh.nodes.len()).contains(&n))
+    }
+
+    /// Per body, the outward normals of its contact surfaces summed over the multiplier nodes
+    /// of every pair it is in (the mortar side's; the other side's reversed): which way its
+    /// contacts push it.
+    pub fn contact_normal_sums(&self) -> Vec<nalgebra::Vector2<f64>> {
+        let mut normal = vec![nalgebra::Vector2::<f64>::zeros(); self.bodies.len()];
+        for c in &self.initial().contact.pairs {
+            let other = match &c.other {
+                crate::contact::PairedSide::Edges(edges) => edges.first().and_then(|e| self.body_of_node(e[0])),
+                crate::contact::PairedSide::Embedded { host, .. } => Some(*host),
+            };
+            let sum = c.multipliers.normals.iter().fold(nalgebra::Vector2::zeros(), |s, n| s + n);
+            normal[c.mortar] += sum;
+            if let Some(o) = other {
+                normal[o] -= sum;
+            }
+        }
+        normal
     }
 
     /// Body index of a global element.

@@ -369,45 +369,7 @@ pub fn apply_cycle_wear(scene: &WearScene<'_>, wear: &mut WearState, count: u64,
     if jump && wear.computed_cycles == 0 {
         check_something_wears(scene, &cycle.rates, count)?;
     }
-    // The cycle's wear volumes and work as applied: the computed ones (explicit), or
-    // (implicit) those at the end-of-jump pressure. A computed cycle not jumped over (dN = 1)
-    // is taken implicitly too (backward Euler over
-    // the cycle): the roughness mode of an element-scale ripple on a contact of stiffness
-    // `E*/h` has, for one cycle's wear of slide `S`, the amplification `1 - a` explicitly and
-    // `1 / (1 + a)` implicitly, `a = (E*/h) k S`: explicit oscillates past `a = 1` and diverges
-    // past 2 (accelerated coefficients reach hundreds: the contact rests on islands), implicit
-    // decays at any `a`, and the two agree to `a^2` where `a` is small.
-    let (volumes, works, rates) = if linearised {
-        match implicit_correction(scene, wear, &cycle, &mut dn) {
-            Some((volumes, works)) => {
-                let rates = cycle.of_volumes(&volumes);
-                // What the next computed cycle should find (checked by `prediction_cap`).
-                if dn > 1 {
-                    wear.controller.predicted_area_rate = volumes.iter().map(|v| v.iter().sum()).collect();
-                }
-                (volumes, works, rates)
-            }
-            None if dn == 1 => {
-                // A singular linearisation: the cycle as computed (explicit).
-                wear.controller.forget_prediction();
-                (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates)
-            }
-            None => {
-                tracing::warn!(
-                    cycle = wear.cycle,
-                    "implicit wear jump: the linearised interface system is singular (a contact row with no \
-                     stiffness); this cycle's wear is applied as computed, without a jump"
-                );
-                dn = 1;
-                wear.controller.last_jump = 1;
-                wear.controller.forget_prediction();
-                (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates)
-            }
-        }
-    } else {
-        wear.controller.forget_prediction();
-        (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates)
-    };
+    let (volumes, works, rates) = applied_cycle_wear(scene, wear, &cycle, linearised, &mut dn);
     wear.cycle_jumps.clear();
     wear.cycle_steps = 0;
     for (k, ws) in scene.model.surfaces.iter().enumerate() {
@@ -445,6 +407,55 @@ pub fn apply_cycle_wear(scene: &WearScene<'_>, wear: &mut WearState, count: u64,
         wear.increment = 0;
     }
     Ok(())
+}
+
+/// The cycle's wear volumes, works and rates as applied (see [`apply_cycle_wear`]), and the
+/// jump `dn` the implicit correction settles on.
+fn applied_cycle_wear(
+    scene: &WearScene<'_>,
+    wear: &mut WearState,
+    cycle: &CycleRates,
+    linearised: bool,
+    dn: &mut u64,
+) -> (Vec<Vec<f64>>, Vec<f64>, Vec<Vec<f64>>) {
+    // The cycle's wear volumes and work as applied: the computed ones (explicit), or
+    // (implicit) those at the end-of-jump pressure. A computed cycle not jumped over (dN = 1)
+    // is taken implicitly too (backward Euler over the cycle): the roughness mode of an element-scale ripple on a contact of stiffness
+    // `E*/h` has, for one cycle's wear of slide `S`, the amplification `1 - a` explicitly and
+    // `1 / (1 + a)` implicitly, `a = (E*/h) k S`: explicit oscillates past `a = 1` and diverges
+    // past 2 (accelerated coefficients reach hundreds: the contact rests on islands), implicit
+    // decays at any `a`, and the two agree to `a^2` where `a` is small.
+    if linearised {
+        match implicit_correction(scene, wear, cycle, dn) {
+            Some((volumes, works)) => {
+                let rates = cycle.of_volumes(&volumes);
+                // What the next computed cycle should find (checked by `prediction_cap`).
+                if *dn > 1 {
+                    wear.controller.predicted_area_rate = volumes.iter().map(|v| v.iter().sum()).collect();
+                }
+                (volumes, works, rates)
+            }
+            None if *dn == 1 => {
+                // A singular linearisation: the cycle as computed (explicit).
+                wear.controller.forget_prediction();
+                (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates.clone())
+            }
+            None => {
+                tracing::warn!(
+                    cycle = wear.cycle,
+                    "implicit wear jump: the linearised interface system is singular (a contact row with no \
+                     stiffness); this cycle's wear is applied as computed, without a jump"
+                );
+                *dn = 1;
+                wear.controller.last_jump = 1;
+                wear.controller.forget_prediction();
+                (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates.clone())
+            }
+        }
+    } else {
+        wear.controller.forget_prediction();
+        (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates.clone())
+    }
 }
 
 /// Nothing wears if the whole run at the first cycle's rate stays below round-off of the
