@@ -19,8 +19,8 @@ use nalgebra::DMatrix;
 
 pub use crate::contact::FrictionStatus;
 use crate::contact::{
-    friction_couplings, given_sets, gross_sliding, row_laws, slide_from_pairing, update_sets, zero_open_multipliers,
-    ContactSet, RowLaw,
+    activate_closest, friction_couplings, given_sets, gross_sliding, row_laws, slide_from_pairing, update_sets,
+    zero_open_multipliers, ContactSet, RowLaw,
 };
 
 mod condensed;
@@ -92,7 +92,7 @@ impl ContactSets {
     /// the previous iteration (the first iteration counts as a change when there is contact).
     fn update(&mut self, c: &ContactSet, u: &[f64], u_start: &[f64], mu: &[f64], first: bool) -> bool {
         self.measure(c, u, u_start);
-        update_sets(c, mu, &self.gaps, &self.slip, first, &mut self.active, &mut self.status);
+        update_sets(c, (mu, &self.gaps, &self.slip), first, None, &mut self.active, &mut self.status);
         let changed = self.prev_active.as_ref().map(|pa| pa != &self.active).unwrap_or(!self.active.is_empty())
             || self.prev_status != self.status;
         self.prev_status.clone_from(&self.status);
@@ -1564,6 +1564,7 @@ impl<'m> StaticAnalysis<'m> {
             .collect();
         let mut dlam = vec![0.0; nl];
         let mut dw = vec![0.0; nl];
+        let live_rows: Vec<bool> = (0..nc).map(|k| cd.live_of[nt + k].is_some()).collect();
         // Every set visited: the next set is a function of the current one alone (the laws of
         // a set fix the solve), so a set seen before the last one is a cycle that never settles.
         let mut seen: Vec<(Vec<bool>, Vec<FrictionStatus>)> = vec![];
@@ -1599,10 +1600,9 @@ impl<'m> StaticAnalysis<'m> {
                 }
                 None => update_sets(
                     &disc.contact,
-                    &mult,
-                    &sets.gaps,
-                    &sets.slip,
+                    (&mult, &sets.gaps, &sets.slip),
                     it == 0,
+                    Some(&live_rows),
                     &mut sets.active,
                     &mut sets.status,
                 ),
@@ -1614,6 +1614,17 @@ impl<'m> StaticAnalysis<'m> {
             }
             for j in (0..nfr).filter(|&j| cd.live_of[nt + nc + j].is_none()) {
                 sets.status[j] = FrictionStatus::Open;
+            }
+            // Given sets whose rows this set lacks leave nothing active: start where the
+            // bodies touch first, as the prediction does (else a body that only contact holds
+            // floats on the grounding springs and its solve runs away).
+            if it == 0 && !sets.active.iter().any(|&a| a) {
+                activate_closest(&disc.contact, &sets.gaps, Some(&live_rows), &mut sets.active);
+                for (j, st) in sets.status.iter_mut().enumerate() {
+                    if sets.active[disc.contact.friction_normal[j]] && cd.live_of[nt + nc + j].is_some() {
+                        *st = FrictionStatus::Stick;
+                    }
+                }
             }
             if let Some((pa, ps)) = seen.last() {
                 if pa == &sets.active && ps == &sets.status {

@@ -712,3 +712,30 @@ fn fine_zone_meshes_resolve_the_contact_zone_evenly() {
         assert!(err.contains(what) && err.contains("mesh"), "{err}");
     }
 }
+
+/// Reciprocating sliding wear of a punch with rounded edges ten element layers deep
+/// (`rounded_punch_wear`, see its header): the run completes with default step control (its
+/// first version stopped in the first cycle on a singular interface system, then at 68 um on a
+/// pairing that flipped between two states: a rounding's near-vertical flank paired with the
+/// plate across a third of a millimetre of open space), the groove is deeper than the plate's
+/// top ten element layers, and the worn area equals k times the wear work `int p |ds|` (1e-10:
+/// the two are one sum, split between the vertices; a round-off margin).
+#[test]
+fn rounded_punch_wears_ten_layers_deep() {
+    const K: f64 = 2e-4;
+    // Top ten of 40 layers over 1 mm graded 0.1 (last/first) toward the top.
+    let ratio = 0.1_f64.powf(1.0 / 39.0);
+    let first = 1.0 / (0..40).map(|i| ratio.powi(i)).sum::<f64>();
+    let ten_layers: f64 = (0..10).map(|i| first * ratio.powi(39 - i)).sum();
+    let out = run_case("rounded_punch_wear");
+    let f = hdf5::File::open(&out).unwrap();
+    let depth = read2(&f, "wear/plate.top/depth");
+    let area = f.dataset("wear/plate.top/worn_area").unwrap().read_raw::<f64>().unwrap();
+    let work = f.dataset("wear/plate.top/work").unwrap().read_raw::<f64>().unwrap();
+    let cycles = f.dataset("wear/cycle").unwrap().read_raw::<u64>().unwrap();
+    let last = depth.nrows() - 1;
+    assert_eq!(cycles[last], 8);
+    let deepest = depth.row(last).iter().fold(0.0_f64, |a, &b| a.max(b));
+    assert!(deepest > ten_layers, "groove {deepest} mm deep, ten layers {ten_layers}");
+    assert!(((area[last] - K * work[last]) / area[last]).abs() < 1e-10, "area {} work {}", area[last], work[last]);
+}

@@ -908,3 +908,38 @@ fn only_the_last_checkpoints_are_kept() {
     let (ok, out) = run(&["run", "keep2.toml", "--quiet", "--restart", "keep2.h5", "--from-step", "3"], &d);
     assert!(!ok && out.contains("no checkpoint at step 3") && !out.contains("panicked"), "{out}");
 }
+
+/// A rigid platen whose displacement is prescribed on every node of its set (a user's natural
+/// reading of "the top moves by u") instead of on its master: the rows of the set whose DOFs are
+/// all prescribed are dropped (kept, they were empty rows on the unknowns: a singular interface
+/// system and 8 cut-backs in the first step), and the run equals the one prescribing the master
+/// (`sliding_wear`, 2 cycles): the worn area within 1e-9 relative (the same equations; the
+/// multipliers of the dropped rows no longer in the system reorder sums at round-off). Different
+/// values on two nodes of one set are a contradiction: a clear error naming the set, the nodes
+/// and the values, before anything is written.
+#[test]
+fn a_rigid_set_prescribed_on_every_node_runs_as_on_its_master() {
+    let d = tmpdir("rigid_all_nodes");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let master = std::fs::read_to_string(root.join("wear_cases/sliding_wear.toml"))
+        .unwrap()
+        .replace("cycles = 20", "cycles = 2");
+    let every = master.replace("set = \"top_left\"                # the rigid master", "set = \"top\"");
+    assert!(master.contains("cycles = 2") && every != master);
+    let mut areas = vec![];
+    for (name, case) in [("master", &master), ("every", &every)] {
+        std::fs::write(d.join(format!("{name}.toml")), case).unwrap();
+        let (ok, text) = run(&["run", &format!("{name}.toml"), "--quiet", "-o", &format!("{name}.h5")], &d);
+        assert!(ok && !text.contains("cutting"), "{text}");
+        let f = hdf5::File::open(d.join(format!("{name}.h5"))).unwrap();
+        let area = f.dataset("wear/track/worn_area").unwrap().read_raw::<f64>().unwrap();
+        areas.push(*area.last().unwrap());
+    }
+    assert!(areas[0] > 0.0 && ((areas[1] - areas[0]) / areas[0]).abs() < 1e-9, "{areas:?}");
+    let conflicting = format!("{every}\n[[bcs]]\nbody = \"punch\"\nset = \"top_right\"\nux = 1.0\n");
+    run_fails_clearly(
+        &d,
+        &conflicting,
+        &["rigid set 'top' of body 'punch'", "ux = 1", "ux = 1.5", "prescribe it on one node"],
+    );
+}

@@ -304,29 +304,26 @@ pub fn slide_from_pairing(m: &ContactSet, u: &[f64], status: &[FrictionStatus]) 
 /// Active set and Coulomb statuses of one semi-smooth Newton iteration (see the module
 /// documentation). `gaps` are the weighted gaps, `slip` the weighted slip increments of the
 /// step, `mult` all multipliers. In the first iteration of a step with nothing active, the
-/// closest paired nodes start active so that no body floats.
+/// closest paired nodes start active so that no body floats. `live` (if given) marks the rows
+/// that take part in the solve (the condensed interface set): the others stay open, and the
+/// closest rows are sought among the live ones (sought among all, a closest row outside the
+/// set left a punch that only contact holds with nothing active, and its solve ran away).
 pub fn update_sets(
     m: &ContactSet,
-    mult: &[f64],
-    gaps: &[f64],
-    slip: &[f64],
+    (mult, gaps, slip): (&[f64], &[f64], &[f64]),
     first_iteration: bool,
+    live: Option<&[bool]>,
     active: &mut [bool],
     status: &mut [FrictionStatus],
 ) {
     let (nt, nc) = (m.first_multiplier, m.rows.len());
+    let is_live = |k: usize| live.is_none_or(|l| l[k]);
     for k in 0..nc {
         let phi = m.phi[k];
-        active[k] = phi > 0.0 && mult[nt + k] + m.eps[k] * gaps[k] / phi <= 0.0;
+        active[k] = is_live(k) && phi > 0.0 && mult[nt + k] + m.eps[k] * gaps[k] / phi <= 0.0;
     }
-    if first_iteration && nc > 0 && !active.iter().any(|&a| a) {
-        let gt = |k: usize| gaps[k] / m.phi[k];
-        let paired = (0..nc).filter(|&k| m.phi[k] > 0.0);
-        if let Some(gmin) = paired.clone().map(gt).min_by(f64::total_cmp) {
-            for k in paired {
-                active[k] = gt(k) <= gmin + 1e-6 * gmin.abs() + f64::MIN_POSITIVE;
-            }
-        }
+    if first_iteration && !active.iter().any(|&a| a) {
+        activate_closest(m, gaps, live, active);
     }
     for (j, st) in status.iter_mut().enumerate() {
         let k = m.friction_normal[j];
@@ -342,6 +339,18 @@ pub fn update_sets(
                 FrictionStatus::Slip(lt_hat > 0.0)
             }
         };
+    }
+}
+
+/// Activates the paired rows (among the `live` ones, if given) whose gap `gaps[k] / phi[k]` is
+/// the smallest: where a body that only contact holds touches first.
+pub fn activate_closest(m: &ContactSet, gaps: &[f64], live: Option<&[bool]>, active: &mut [bool]) {
+    let gt = |k: usize| gaps[k] / m.phi[k];
+    let paired = (0..m.rows.len()).filter(|&k| m.phi[k] > 0.0 && live.is_none_or(|l| l[k]));
+    if let Some(gmin) = paired.clone().map(gt).min_by(f64::total_cmp) {
+        for k in paired {
+            active[k] = gt(k) <= gmin + 1e-6 * gmin.abs() + f64::MIN_POSITIVE;
+        }
     }
 }
 

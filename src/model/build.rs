@@ -120,9 +120,9 @@ impl ModelBuilder {
         let mut hosts = self.cut_hosts(&tie_embeddings, &cut_embeddings, &load_path)?;
         let elements = self.element_table(&hosts.cuts, &mut hosts.bands);
         let (mut constraints, ties) = self.tie_constraints(&tie_embeddings);
-        constraints.extend(self.rigid_rows.iter().cloned());
         let prescribed = std::mem::take(&mut self.prescribed);
         let dofs = self.dof_map(prescribed, &hosts, elements.coords.len())?;
+        constraints.extend(self.rigid_constraints(&dofs.prescribed)?);
         let contact = self.contact_set(&cut_embeddings, elements.coords.len(), constraints.len())?;
         let surfaces = self.free_surfaces(cut_embeddings, &load_path);
         let wear = self.wear_model()?;
@@ -487,6 +487,42 @@ impl ModelBuilder {
             return Err(ModelError::NoFreeDofs);
         }
         Ok(Dofs { map, prescribed, held })
+    }
+
+    /// The rows of the rigid sets, without those whose two DOFs are both prescribed: a
+    /// displacement prescribed alike on every node of a platen (the same value and curve) makes
+    /// its rows empty on the unknowns, a singular system; prescribed differently it is a
+    /// contradiction, refused with the nodes and values named.
+    fn rigid_constraints(&self, prescribed: &[(usize, f64, usize)]) -> Result<Vec<ConstraintRow>, ModelError> {
+        let given =
+            |d: usize| prescribed.binary_search_by_key(&d, |p| p.0).ok().map(|i| (prescribed[i].1, prescribed[i].2));
+        let mut rows = Vec::with_capacity(self.rigid_rows.len());
+        for (row, (body, set)) in &self.rigid_rows {
+            let (node, master) = (row[0].0, row[1].0);
+            match (given(node), given(master)) {
+                (Some(a), Some(b)) if a == b => {}
+                (Some((value, _)), Some((master_value, _))) => {
+                    let b = &self.bodies[*body];
+                    let local = |d: usize| d / 2 - b.node_offset;
+                    return Err(ModelError::RigidSet {
+                        body: b.name.clone(),
+                        set: set.clone(),
+                        msg: format!(
+                            "node {} has {} = {} prescribed and the set's master node {} {} = {} (or another curve): \
+                             a rigid set moves as one translation, so prescribe it on one node",
+                            local(node),
+                            ["ux", "uy"][node % 2],
+                            super::Num(value),
+                            local(master),
+                            ["ux", "uy"][master % 2],
+                            super::Num(master_value)
+                        ),
+                    });
+                }
+                _ => rows.push(row.clone()),
+            }
+        }
+        Ok(rows)
     }
 
     /// Contact pairs and their weighted-gap (and slip) rows from the reference geometry; their

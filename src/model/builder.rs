@@ -90,8 +90,9 @@ pub struct ModelBuilder {
     pub(super) ratcheting_tolerance: f64,
     pub(super) ghost_penalty: f64,
     pub(super) contacts: Vec<ContactSpec>,
-    /// Multi-point constraints `u(node) - u(master) = 0` (rigid sets), global DOFs.
-    pub(super) rigid_rows: Vec<ConstraintRow>,
+    /// Multi-point constraints `u(node) - u(master) = 0` (rigid sets), global DOFs, each with
+    /// its set's `(body, set)` names.
+    pub(super) rigid_rows: Vec<(ConstraintRow, (usize, String))>,
 }
 
 impl ModelBuilder {
@@ -317,7 +318,7 @@ impl ModelBuilder {
         };
         for &n in &nodes[1..] {
             for c in 0..2 {
-                self.rigid_rows.push(vec![(2 * n + c, 1.0), (2 * master + c, -1.0)]);
+                self.rigid_rows.push((vec![(2 * n + c, 1.0), (2 * master + c, -1.0)], (body, set.to_string())));
             }
         }
         Ok(master - self.bodies[body].node_offset)

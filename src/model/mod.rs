@@ -68,6 +68,9 @@ pub enum ModelError {
     /// A wearing surface; `key` names the case key (`coefficient`, `max_depth`, `cut`).
     #[error("wear of '{surface}': {msg}")]
     Wear { surface: String, key: &'static str, msg: String },
+    /// A rigid set whose nodes are prescribed different displacements.
+    #[error("rigid set '{set}' of body '{body}': {msg}")]
+    RigidSet { body: String, set: String, msg: String },
     /// A contact pair's definition; `key` names the case key (`friction`, `mortar_surface`,
     /// `mortar_cut`, `other_cut`).
     #[error("contact '{contact}': {msg}")]

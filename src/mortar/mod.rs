@@ -94,6 +94,24 @@ fn right_normal(a: Point2<f64>, b: Point2<f64>) -> Vector2<f64> {
     Vector2::new(t.y, -t.x)
 }
 
+/// Contact pairs a mortar segment with an other-side segment only if their outward normals are
+/// opposed by more than this angle's supplement: `n . n_other < -cos(60 deg)`, so the pairing
+/// direction (their averaged normal) is within 30 degrees of each. Where two smooth surfaces
+/// touch their normals are opposed (180 degrees), and the segments near a contact point of a
+/// mesh that resolves the curvature are within a few degrees of it; segments meeting at a
+/// steeper angle are a surface's flank seen across open space. Paired anyway (normals opposed
+/// by just over 90 degrees, as for a rounded punch's near-vertical edge over a worn plate), the
+/// averaged normal is tilted 45 degrees and the flank's rows read gaps of a third of a
+/// millimetre as closing under sliding: a 60 um deep groove's pairing then flipped between
+/// two states, one with a flank row carrying a third of the load, in any sub-step however short.
+const FACING_COS: f64 = 0.5;
+
+/// Whether mortar segment `pa pb` and other-side segment `a b` face each other closely enough
+/// for contact (see [`FACING_COS`]).
+fn facing_for_contact(pa: Point2<f64>, pb: Point2<f64>, a: Point2<f64>, b: Point2<f64>) -> bool {
+    right_normal(pa, pb).dot(&right_normal(a, b)) < -FACING_COS
+}
+
 /// Splits the mortar side into chains at corners and places multiplier nodes.
 /// `h_host` is the characteristic size of the host cells along the interface.
 pub fn build_multipliers(side: &MortarSide, space: MultiplierSpace, h_host: f64) -> Multipliers {
@@ -699,10 +717,7 @@ pub fn weighted_gaps(side: &MortarSide, lm: &Multipliers, other: &OtherSide, max
     let mut phi_int = vec![0.0; lm.num_nodes];
     let mut shape = Vec::new();
     let n_pts = side.points.len();
-    let facing = |pa: Point2<f64>, pb: Point2<f64>, a: Point2<f64>, b: Point2<f64>| {
-        right_normal(pa, pb).dot(&right_normal(a, b)) < 0.0
-    };
-    for_each_mortar_point(side, lm, other, max_gap, facing, None, |p| {
+    for_each_mortar_point(side, lm, other, max_gap, facing_for_contact, None, |p| {
         let gap = (p.xo - p.xm).dot(&p.n);
         if gap.abs() > max_gap {
             return;
@@ -792,12 +807,9 @@ pub fn paired_points(
     max_gap: f64,
     rows: Option<&[bool]>,
 ) -> Vec<PairedPoint> {
-    let facing = |pa: Point2<f64>, pb: Point2<f64>, a: Point2<f64>, b: Point2<f64>| {
-        right_normal(pa, pb).dot(&right_normal(a, b)) < 0.0
-    };
     let mut v = Vec::new();
     let n = side.points.len();
-    for_each_mortar_point(side, lm, other, max_gap, facing, rows, |p| {
+    for_each_mortar_point(side, lm, other, max_gap, facing_for_contact, rows, |p| {
         if (p.xo - p.xm).dot(&p.n).abs() > max_gap {
             return;
         }
