@@ -299,12 +299,42 @@ impl ModelBuilder {
         Ok(h)
     }
 
-    /// Resultant force at the first node of a node or edge set (the master of a rigid set).
+    /// Resultant force `f` on a node or edge set. On a rigid set (declared before, with
+    /// [`Self::rigid_set`]) or a single node it acts at the set's first node (the platen's
+    /// master); otherwise it is spread, as a uniform traction `f / L` over the length `L` of an
+    /// edge set's edges, or in equal parts over the nodes of a node set: a resultant put on one
+    /// corner of a deformable face would tip the body.
     pub fn total_load(&mut self, body: usize, set: &str, f: Vector2<f64>) -> Result<(), ModelError> {
         let nodes = self.node_set_or_edges(body, set)?;
-        let Some(&n) = nodes.first() else { return Err(self.unknown_set(body, set)) };
-        self.f_curves[self.curve][2 * n] += f.x;
-        self.f_curves[self.curve][2 * n + 1] += f.y;
+        let Some(&first) = nodes.first() else { return Err(self.unknown_set(body, set)) };
+        let rigid = self.rigid_rows.iter().any(|(_, (b, s))| *b == body && s == set);
+        let mut add = |n: usize, fx: Vector2<f64>| {
+            self.f_curves[self.curve][2 * n] += fx.x;
+            self.f_curves[self.curve][2 * n + 1] += fx.y;
+        };
+        let b = &self.bodies[body];
+        match b.mesh.edge_sets.get(set) {
+            _ if rigid || nodes.len() == 1 => add(first, f),
+            Some(edges) => {
+                let length = |e: &[usize; 2]| (b.mesh.nodes[e[1]] - b.mesh.nodes[e[0]]).norm();
+                let total: f64 = edges.iter().map(length).sum();
+                if !(total > 0.0) {
+                    return Err(ModelError::DegenerateSet { body: b.name.clone(), set: set.to_string() });
+                }
+                let (edges, off) = (edges.clone(), b.node_offset);
+                for e in &edges {
+                    let half = f * (0.5 * length(e) / total);
+                    add(e[0] + off, half);
+                    add(e[1] + off, half);
+                }
+            }
+            None => {
+                let share = f / nodes.len() as f64;
+                for &n in &nodes {
+                    add(n, share);
+                }
+            }
+        }
         Ok(())
     }
 
@@ -643,6 +673,56 @@ impl ModelBuilder {
         for n in self.node_set(body, set)? {
             self.f_curves[self.curve][2 * n] += f.x;
             self.f_curves[self.curve][2 * n + 1] += f.y;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fem::material::Elastic;
+    use crate::mesh::generate;
+
+    type TestResult = Result<(), Box<dyn std::error::Error>>;
+
+    /// A graded 4-cell top (widths differ): the resultant spread as a uniform traction gives
+    /// each node half the length of its edges times `f / L`, summing to `f` (exact up to the
+    /// round-off of the lengths, 1e-12); on a rigid set it stays whole on the first node.
+    #[test]
+    fn a_total_force_is_spread_over_a_deformable_set_and_kept_on_a_platen() -> TestResult {
+        let hyp = PlaneHypothesis::PlaneStrain;
+        let elastic = Material::Elastic(Elastic { young: 1.0e3, poisson: 0.3, hypothesis: hyp });
+        let f = Vector2::new(2.0, -8.0);
+        for rigid in [false, true] {
+            let mut b = ModelBuilder::new(hyp);
+            let mat = b.add_material("m", elastic.clone());
+            let mesh = generate::rectangle(0.0, 0.0, 2.0, 1.0, 4, 2, 3.0, 1.0, CellKind::Quad4)?;
+            let body = b.add_body("block", mesh, mat, Formulation::Standard, 1.0);
+            if rigid {
+                b.rigid_set(body, "top")?;
+            }
+            b.total_load(body, "top", f)?;
+            let loads = &b.f_curves[b.curve];
+            let mesh = &b.bodies[body].mesh;
+            let top = b.node_set_or_edges(body, "top")?;
+            let sum = top.iter().fold(Vector2::zeros(), |s, &n| s + Vector2::new(loads[2 * n], loads[2 * n + 1]));
+            assert!((sum - f).norm() < 1e-12 * f.norm(), "resultant {sum:?} against {f:?}");
+            let loaded = top.iter().filter(|&&n| loads[2 * n + 1] != 0.0).count();
+            if rigid {
+                assert_eq!(loaded, 1, "a platen's force acts at its master alone");
+                assert_eq!(loads[2 * top[0] + 1], f.y);
+            } else {
+                assert_eq!(loaded, top.len(), "every node of the top carries its share");
+                // The first node's share: half its one edge's length over the top's 2 mm.
+                let edges = &mesh.edge_sets["top"];
+                let (first, width) = edges
+                    .iter()
+                    .find(|e| e.contains(&top[0]))
+                    .map(|e| (top[0], (mesh.nodes[e[1]] - mesh.nodes[e[0]]).norm()))
+                    .ok_or("no edge at the top's first node")?;
+                assert!((loads[2 * first + 1] - f.y * 0.5 * width / 2.0).abs() < 1e-12 * f.norm());
+            }
         }
         Ok(())
     }

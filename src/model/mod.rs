@@ -41,6 +41,8 @@ pub enum ModelError {
     UnknownSet { body: String, set: String, available: String },
     #[error("body '{body}': set '{set}' is a node set; '{what}' needs an edge set")]
     NotAnEdgeSet { body: String, set: String, what: String },
+    #[error("body '{body}': edge set '{set}' has zero length: a total force cannot be spread over it")]
+    DegenerateSet { body: String, set: String },
     #[error("no body named '{0}'")]
     UnknownBody(String),
     #[error("load path: {0}")]
