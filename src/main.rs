@@ -91,6 +91,7 @@ enum Command {
         study: StudyCommand,
     },
     /// Time assembly, factorisation and solve of an n x n Quad4 plane-strain block.
+    #[command(group(clap::ArgGroup::new("mode").args(["embed", "hertz", "output", "recut", "wear"]).multiple(false)))]
     Bench {
         /// Cells per side (300 gives about 181k DOFs).
         #[arg(short, long, default_value_t = 300)]

@@ -943,3 +943,14 @@ fn a_rigid_set_prescribed_on_every_node_runs_as_on_its_master() {
         &["rigid set 'top' of body 'punch'", "ux = 1", "ux = 1.5", "prescribe it on one node"],
     );
 }
+
+/// `bench` runs one benchmark: two of its modes at once are a usage error (clap's exit code 2,
+/// both flags named), never the silent choice of one of them.
+#[test]
+fn bench_refuses_two_modes_at_once() {
+    let dir = tmpdir("bench_modes");
+    let out = bin().args(["bench", "--hertz", "--wear"]).current_dir(&dir).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "usage error expected:\n{text}");
+    assert!(text.contains("--hertz") && text.contains("--wear"), "both modes named:\n{text}");
+}
