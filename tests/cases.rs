@@ -739,3 +739,36 @@ fn rounded_punch_wears_ten_layers_deep() {
     assert!(deepest > ten_layers, "groove {deepest} mm deep, ten layers {ten_layers}");
     assert!(((area[last] - K * work[last]) / area[last]).abs() < 1e-10, "area {} work {}", area[last], work[last]);
 }
+
+/// Reciprocating sliding wear under a free rounded punch, pressure-loaded with no platen
+/// (`rounded_punch_free`, see its header): held in y by the contact alone and free to turn
+/// about a point of its top, it runs with default step control (before, a total force put on
+/// one corner of its top tipped it and the first step failed) through the plate's top ten
+/// element layers; the worn area equals k times the wear work (1e-10: one sum split between
+/// the vertices, a round-off margin); and the first cycle, over the flat plate, wears
+/// `k P S` (Archard's global balance: `S` = 2 mm of stroke; 1% for the elastic slip of the
+/// surfaces and the punch's rocking at the stroke reversals; measured +0.5%).
+#[test]
+fn free_rounded_punch_wears_ten_layers_deep() {
+    const K: f64 = 2e-4;
+    const P: f64 = 50.0;
+    const STROKE_PER_CYCLE: f64 = 2.0;
+    // Top ten of 40 layers over 1 mm graded 0.1 (last/first) toward the top.
+    let ratio = 0.1_f64.powf(1.0 / 39.0);
+    let first = 1.0 / (0..40).map(|i| ratio.powi(i)).sum::<f64>();
+    let ten_layers: f64 = (0..10).map(|i| first * ratio.powi(39 - i)).sum();
+    let out = run_case("rounded_punch_free");
+    let f = hdf5::File::open(&out).unwrap();
+    let depth = read2(&f, "wear/plate.top/depth");
+    let area = f.dataset("wear/plate.top/worn_area").unwrap().read_raw::<f64>().unwrap();
+    let work = f.dataset("wear/plate.top/work").unwrap().read_raw::<f64>().unwrap();
+    let cycles = f.dataset("wear/cycle").unwrap().read_raw::<u64>().unwrap();
+    let last = depth.nrows() - 1;
+    assert_eq!(cycles[last], 6);
+    let deepest = depth.row(last).iter().fold(0.0_f64, |a, &b| a.max(b));
+    assert!(deepest > ten_layers, "groove {deepest} mm deep, ten layers {ten_layers}");
+    assert!(((area[last] - K * work[last]) / area[last]).abs() < 1e-10, "area {} work {}", area[last], work[last]);
+    let one = cycles.iter().position(|&c| c == 1).unwrap();
+    let archard = K * P * STROKE_PER_CYCLE;
+    assert!((area[one] / archard - 1.0).abs() < 0.01, "first cycle's worn area {} against k P S {archard}", area[one]);
+}
