@@ -226,6 +226,8 @@ pub enum AnalysisError {
     Surface { step: usize, time: f64, source: crate::model::ModelError },
     #[error(transparent)]
     Wear(#[from] crate::wear::WearError),
+    #[error("cycle {cycle}: fatigue: {source}")]
+    Fatigue { cycle: u64, source: crate::fatigue::FatigueError },
 }
 
 impl AnalysisError {
@@ -605,6 +607,7 @@ impl<'m> StaticAnalysis<'m> {
             interface_log: vec![],
             wear: m.initial_wear_state(),
             ghost: Default::default(),
+            fatigue: Default::default(),
         }
     }
 

@@ -183,7 +183,11 @@ where
         run.ramp(state, ramp_steps, cycle.count as u64)?;
         run.place_surfaces(state)?;
     }
+    let stops_at_initiation = model.fatigue.as_ref().is_some_and(|f| f.stop_at_initiation);
     while state.wear.cycle < cycle.count as u64 {
+        if stops_at_initiation && state.fatigue.initiation.is_some() {
+            break;
+        }
         run.compute_cycle(state, cycle)?;
         run.place_surfaces(state)?;
     }
@@ -553,6 +557,9 @@ fn integrate_step_wear(
     report.cycle = n as usize + 1;
     report.increment = i + 1;
     accumulate_sub_step_wear((m, disc), analysis, state, start);
+    if let Some(fatigue) = &m.fatigue {
+        fatigue.record(&state.u, &mut state.fatigue.history);
+    }
     let scene = disc.wear_scene(m);
     state.wear.increment = i + 1;
     if i + 1 == increments {
@@ -562,6 +569,31 @@ fn integrate_step_wear(
                 cycle_plasticity(&state.wear.plastic_start, &state.history);
         }
         apply_cycle_wear(&scene, &mut state.wear, count, true)?;
+        if let Some(fatigue) = &m.fatigue {
+            let f = &mut state.fatigue;
+            let history = std::mem::take(&mut f.history);
+            let (dn, before) = (state.wear.jump, state.wear.cycle.saturating_sub(state.wear.jump));
+            let initiated = f.initiation.is_some();
+            f.last = fatigue
+                .cycle_damage(&history, before, dn, f)
+                .map_err(|source| AnalysisError::Fatigue { cycle: state.wear.cycle, source })?;
+            // The points the worn surfaces of the body have passed retire (after the jump's
+            // damage: a point passed within the jump is counted through it).
+            let worn: Vec<&[[f64; 2]]> = m
+                .wear
+                .surfaces
+                .iter()
+                .zip(&state.wear.vertices)
+                .filter(|(ws, _)| disc.surfaces[ws.surface].body == fatigue.body_index)
+                .map(|(_, v)| v.as_slice())
+                .collect();
+            if let Some(first) = f.initiation.as_mut().filter(|_| !initiated) {
+                first.depth = crate::fatigue::distance_to_polylines(&worn, fatigue.points[first.point].position);
+                let x = fatigue.points[first.point].position;
+                tracing::info!(cycle = first.cycle, x = x.x, y = x.y, depth = first.depth, "fatigue: crack initiation (D = 1)");
+            }
+            fatigue.retire_cut_away(&worn, &mut f.retired);
+        }
         if m.has_plasticity() {
             state.wear.plastic_start = plastic_snapshot(&state.history);
         }
@@ -875,6 +907,7 @@ impl StepStart {
             interface_log,
             wear: _,
             ghost: _,
+            fatigue: _,
         } = s;
         (self.step, self.time, self.load_factor, self.dissipation) = (*step, *time, *load_factor, *dissipation);
         self.u.clone_from(u);

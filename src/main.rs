@@ -810,7 +810,47 @@ fn scar_summary(model: &mortex::model::Model, state: &mortex::state::SimState, u
             format!("{}: max depth {}, worn area {area:.4e} {area_unit}", s.name, units.length(deepest))
         })
         .collect();
-    format!("{} cycles ({} computed); {}", w.cycle, w.computed_cycles, scars.join("; "))
+    let fatigue = fatigue_summary(model, state, units).map(|f| format!("; {f}")).unwrap_or_default();
+    format!("{} cycles ({} computed); {}{fatigue}", w.cycle, w.computed_cycles, scars.join("; "))
+}
+
+/// The most damaged fatigue point at the end of a wear run (see [`mortex::fatigue`]).
+fn fatigue_summary(model: &mortex::model::Model, state: &mortex::state::SimState, units: case::Units) -> Option<String> {
+    let fm = model.fatigue.as_ref()?;
+    let f = &state.fatigue;
+    let alive = |p: &usize| !f.retired.get(*p).copied().unwrap_or(false);
+    let (p, &d) = f.damage.iter().enumerate().filter(|(p, _)| alive(p)).max_by(|a, b| a.1.total_cmp(b.1))?;
+    let cut: Vec<f64> = f.damage.iter().enumerate().filter(|(p, _)| !alive(p)).map(|(_, &d)| d).collect();
+    let cut_away = match cut.iter().copied().reduce(f64::max) {
+        Some(worst) => format!("; {} points cut away by wear (largest damage {worst:.4e})", cut.len()),
+        None => String::new(),
+    };
+    let x = fm.points[p].position;
+    let (angle, life) = (f.last.angle.get(p)?, f.last.life.get(p)?);
+    let verdict = match f.initiation {
+        Some(i) => {
+            let x = fm.points[i.point].position;
+            format!(
+                " (crack initiation, D = 1, at cycle {:.0}: ({}, {}), {} below the worn surface, plane {:.1} deg)",
+                i.cycle,
+                units.length(x.x),
+                units.length(x.y),
+                units.length(i.depth),
+                i.angle.to_degrees()
+            )
+        }
+        None => String::new(),
+    };
+    // Planes are normals in [0, 180) degrees: one just below 180 is the one at 0.
+    let degrees = angle.to_degrees();
+    let degrees = if degrees >= 179.95 { degrees - 180.0 } else { degrees };
+    Some(format!(
+        "fatigue of '{}': largest Miner damage {d:.4e}{verdict} at ({}, {}), critical plane {:.1} deg, life {life:.4e} cycles at the last computed cycle{cut_away}",
+        fm.body,
+        units.length(x.x),
+        units.length(x.y),
+        degrees
+    ))
 }
 
 fn plot(

@@ -41,6 +41,8 @@ pub struct SimState {
     pub wear: WearState,
     /// Ghost-penalty faces born after the start on re-cut bodies of path-dependent material.
     pub ghost: GhostBirths,
+    /// Fatigue points followed through the cycles (empty without `[fatigue]`).
+    pub fatigue: crate::fatigue::FatigueState,
 }
 
 /// The ghost-penalty faces of re-cut bodies whose material has a history (J2), each with its

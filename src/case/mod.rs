@@ -98,6 +98,26 @@ pub struct CaseFile {
     /// The analytical solution of the case's contact, written to the result file and drawn by
     /// `mortex plot` beside the computed profile.
     pub reference: Option<ReferenceSpec>,
+    /// Fatigue followed at the material points of one body through a wear run's cycles.
+    pub fatigue: Option<FatigueSpec>,
+}
+
+/// `[fatigue]`: the SWT critical plane and Miner damage at the Gauss points of `body`'s cells
+/// in the box `region = [[xmin, ymin], [xmax, ymax]]` (default: the whole body), with the
+/// Basquin-Coffin-Manson constants `sigma_f` (`sigma_f'`, a stress), `b`, `eps_f` (`eps_f'`),
+/// `c`; `E` is the body's.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FatigueSpec {
+    pub body: String,
+    pub region: Option<[[f64; 2]; 2]>,
+    pub sigma_f: f64,
+    pub b: f64,
+    pub eps_f: f64,
+    pub c: f64,
+    /// End the run after the computed cycle in which a point's damage reaches 1.
+    #[serde(default)]
+    pub stop_at_initiation: bool,
 }
 
 /// `[reference]`: Hertz line contact (`kind = "hertz"`: effective `radius`, normal `load` per
@@ -734,6 +754,9 @@ pub fn parse_with_nodes(
     if !raw.wear.is_empty() && raw.steps.cycle.is_none() {
         return Err(cx.err("wear", "wear runs are cyclic: give steps.cycle = [start, end] and steps.cycles = N"));
     }
+    if let Some(f) = &raw.fatigue {
+        add_fatigue(&cx, f, raw.wear.is_empty(), &body_names, &mut b)?;
+    }
 
     if let Some(g) = raw.solver.ghost_penalty {
         if !(g.is_finite() && g >= 0.0) {
@@ -1281,6 +1304,34 @@ fn add_wear(
         })?;
     }
     Ok(())
+}
+
+/// `[fatigue]`: the fatigue points of one body (see [`crate::fatigue`]).
+fn add_fatigue(cx: &Ctx, f: &FatigueSpec, no_wear: bool, body_names: &[&str], b: &mut ModelBuilder) -> Result<(), CaseError> {
+    if no_wear {
+        return Err(cx.err("fatigue", "fatigue is followed through the cycles of a wear run: give a [[wear]] surface"));
+    }
+    let body = b.body_index(&f.body).map_err(|_| {
+        cx.err("fatigue.body", format!("no body named '{}' (defined: {})", f.body, body_names.join(", ")))
+    })?;
+    let life = crate::fatigue::StrainLife {
+        young: 1.0,
+        sigma_f: cx.finite("fatigue.sigma_f", f.sigma_f)?,
+        b: cx.finite("fatigue.b", f.b)?,
+        eps_f: cx.finite("fatigue.eps_f", f.eps_f)?,
+        c: cx.finite("fatigue.c", f.c)?,
+    };
+    let region = match f.region {
+        Some([lo, hi]) => {
+            let (lo, hi) = (Point2::new(lo[0], lo[1]), Point2::new(hi[0], hi[1]));
+            if !(lo.x < hi.x && lo.y < hi.y) {
+                return Err(cx.err("fatigue.region", "give [[xmin, ymin], [xmax, ymax]] with xmin < xmax and ymin < ymax"));
+            }
+            Some([lo, hi])
+        }
+        None => None,
+    };
+    b.set_fatigue(body, life, region, f.stop_at_initiation).map_err(|e| model_err(cx, "fatigue".into(), e))
 }
 
 /// `[cycle_jump]`: the jump policy, scheme and wear-rate smoothing of a wear run.

@@ -28,6 +28,9 @@
 
 use crate::fem::material::Stress4;
 
+mod points;
+pub use points::{distance_to_polylines, CycleFatigue, FatigueModel, FatiguePoint, FatigueState, Initiation, RECORD};
+
 /// Fatigue constants of a material (strain-life): `E`, `sigma_f'`, `b`, `eps_f'`, `c`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StrainLife {
@@ -50,6 +53,8 @@ pub enum FatigueError {
     Parameter(f64),
     #[error("an empty stress-strain history (or stress and strain of different lengths: {stress} and {strain})")]
     History { stress: usize, strain: usize },
+    #[error("fatigue of body '{body}': no integration point of its cells lies in the region")]
+    NoPoints { body: String },
 }
 
 /// Cycles beyond which a life is reported as infinite (the relation is extrapolated far past

@@ -127,6 +127,7 @@ pub(super) fn write(g: &hdf5::Group, state: &SimState, model: &Model) -> hdf5::R
         interface_log,
         wear,
         ghost,
+        fatigue,
     } = state;
     let c = g.create_group("checkpoint")?;
     super::write_attr(&c, "step", &(*step as u64))?;
@@ -162,9 +163,66 @@ pub(super) fn write(g: &hdf5::Group, state: &SimState, model: &Model) -> hdf5::R
     if !ghost.faces.is_empty() {
         write_ghost(&c, ghost)?;
     }
+    if model.fatigue.is_some() {
+        write_fatigue(&c, fatigue)?;
+    }
     // Written last: a checkpoint without it was cut short (a killed run) and is not offered.
     super::write_attr(&c, "complete", &1u8)?;
     Ok(())
+}
+
+/// The fatigue state under `checkpoint/fatigue`: `history` (the computed cycle's records so
+/// far), `damage` and `retired` (u8) per point, the last computed cycle's `swt`, `angle`,
+/// `life`, and once a point's damage reached 1 the attributes `initiation_cycle`,
+/// `initiation_point`, `initiation_angle`, `initiation_depth`.
+fn write_fatigue(c: &hdf5::Group, f: &crate::fatigue::FatigueState) -> hdf5::Result<()> {
+    let crate::fatigue::FatigueState { history, damage, last, retired, initiation } = f;
+    let crate::fatigue::CycleFatigue { swt, angle, life } = last;
+    let g = c.create_group("fatigue")?;
+    for (name, v) in [("history", history), ("damage", damage), ("swt", swt), ("angle", angle), ("life", life)] {
+        g.new_dataset_builder().with_data(&Array1::from(v.clone())).create(name)?;
+    }
+    let retired: Vec<u8> = retired.iter().map(|&r| u8::from(r)).collect();
+    g.new_dataset_builder().with_data(&Array1::from(retired)).create("retired")?;
+    if let Some(i) = initiation {
+        super::write_attr(&g, "initiation_cycle", &i.cycle)?;
+        super::write_attr(&g, "initiation_point", &(i.point as u64))?;
+        super::write_attr(&g, "initiation_angle", &i.angle)?;
+        super::write_attr(&g, "initiation_depth", &i.depth)?;
+    }
+    Ok(())
+}
+
+/// The fatigue state of a checkpoint (see [`write_fatigue`]): sizes checked against the
+/// model's fatigue points.
+fn read_fatigue(c: &hdf5::Group, model: &Model) -> Result<crate::fatigue::FatigueState, String> {
+    let Some(fm) = &model.fatigue else { return Ok(Default::default()) };
+    let g = c.group("fatigue").map_err(|_| "no fatigue group: the checkpoint was written without [fatigue]".to_string())?;
+    let read = |name: &str| g.dataset(name).and_then(|d| d.read_raw::<f64>()).map_err(|e| format!("fatigue dataset {name}: {e}"));
+    let np = fm.points.len();
+    let (history, damage) = (read("history")?, read("damage")?);
+    let last = crate::fatigue::CycleFatigue { swt: read("swt")?, angle: read("angle")?, life: read("life")? };
+    let retired = g
+        .dataset("retired")
+        .and_then(|d| d.read_raw::<u8>())
+        .map_err(|e| format!("fatigue dataset retired: {e}"))?;
+    let per_point = [damage.len(), last.swt.len(), last.angle.len(), last.life.len(), retired.len()];
+    if history.len() % (crate::fatigue::RECORD * np) != 0 || per_point.iter().any(|&n| n != 0 && n != np) {
+        return Err(format!("fatigue datasets do not match the model's {np} fatigue points"));
+    }
+    let retired = retired.iter().map(|&r| r != 0).collect();
+    let initiation = match g.attr("initiation_cycle").and_then(|a| a.read_scalar::<f64>()) {
+        Err(_) => None,
+        Ok(cycle) => {
+            let f64_attr = |name: &str| g.attr(name).and_then(|a| a.read_scalar::<f64>()).map_err(|e| format!("fatigue attribute {name}: {e}"));
+            let point = g.attr("initiation_point").and_then(|a| a.read_scalar::<u64>()).map_err(|e| format!("fatigue attribute initiation_point: {e}"))? as usize;
+            if point >= np {
+                return Err(format!("fatigue attribute initiation_point is {point}, the model has {np} fatigue points"));
+            }
+            Some(crate::fatigue::Initiation { cycle, point, angle: f64_attr("initiation_angle")?, depth: f64_attr("initiation_depth")? })
+        }
+    };
+    Ok(crate::fatigue::FatigueState { history, damage, last, retired, initiation })
 }
 
 /// The ghost-penalty births: `ghost_faces` `(n, 3)` (body, cell, neighbour), `ghost_counts`
@@ -775,6 +833,7 @@ pub fn read(path: &Path, step: Option<usize>, model: &Model) -> Result<SimState,
         interface_log,
         wear,
         ghost: read_ghost(&c, model.num_dofs()).map_err(read_err)?,
+        fatigue: read_fatigue(&c, model).map_err(read_err)?,
     };
     if !state.u.iter().chain(&state.multipliers).all(|v| v.is_finite()) {
         return Err(read_err("non-finite displacement or multiplier".into()));

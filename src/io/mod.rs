@@ -132,10 +132,17 @@ struct Series {
 /// max_depth}` and `segments` `(v - 1, 2)` i64 (`v` rows when closed), vertices in the order
 /// the case gave them. With yielding bodies also `ratcheting` and `plastic_strain`: the
 /// largest net and accumulated equivalent plastic strain of a point over the last computed
-/// cycle (see `wear::cycle_plasticity`).
+/// cycle (see `wear::cycle_plasticity`). With `[fatigue]`, `/wear/fatigue`: the points'
+/// `position` `(np, 2)` (written once), `max_damage` per row, and the latest row's `damage`,
+/// `swt`, `angle` (critical plane, radians from x), `life` (cycles; inf below the endurance
+/// limit) and `retired` (u8: cut away by the worn surface, its damage kept) per point,
+/// overwritten row after row, and once a point's damage reaches 1 the attributes
+/// `initiation_cycle`, `initiation_point`, `initiation_angle`, `initiation_depth` (see
+/// [`crate::fatigue`]).
 struct WearSeries {
     scalars: [hdf5::Dataset; 4],
     plastic: Option<[hdf5::Dataset; 2]>,
+    fatigue: Option<([hdf5::Dataset; 5], hdf5::Dataset, hdf5::Group)>,
     surfaces: Vec<[hdf5::Dataset; 5]>,
     rows: usize,
     /// Per surface: name and vertex count (XDMF polylines); per row: its output step.
@@ -150,6 +157,20 @@ impl WearSeries {
         let scalars = [u("step")?, u("cycle")?, u("computed_cycles")?, u("jump")?];
         let f = |name: &str| g.new_dataset::<f64>().chunk(SERIES_CHUNK).shape(0..).create(name);
         let plastic = if model.has_plasticity() { Some([f("ratcheting")?, f("plastic_strain")?]) } else { None };
+        let fatigue = match &model.fatigue {
+            Some(fm) => {
+                let fg = g.create_group("fatigue")?;
+                let np = fm.points.len();
+                let xy: Vec<f64> = fm.points.iter().flat_map(|p| [p.position.x, p.position.y]).collect();
+                put(&fg, "position", &array2(np, 2, xy))?;
+                let per_point = |name: &str| fg.new_dataset::<f64>().shape(np).create(name);
+                let max = fg.new_dataset::<f64>().chunk(SERIES_CHUNK).shape(0..).create("max_damage")?;
+                let retired = fg.new_dataset::<u8>().shape(np).create("retired")?;
+                let datasets = [max, per_point("damage")?, per_point("swt")?, per_point("angle")?, per_point("life")?];
+                Some((datasets, retired, fg))
+            }
+            None => None,
+        };
         let mut surfaces = vec![];
         let mut meta = vec![];
         for w in &model.wear.surfaces {
@@ -170,7 +191,7 @@ impl WearSeries {
                 f("max_depth")?,
             ]);
         }
-        Ok(WearSeries { scalars, plastic, surfaces, rows: 0, meta, row_steps: vec![] })
+        Ok(WearSeries { scalars, plastic, fatigue, surfaces, rows: 0, meta, row_steps: vec![] })
     }
 
     fn append(&mut self, model: &Model, report: &StepReport, state: &SimState) -> hdf5::Result<()> {
@@ -184,6 +205,26 @@ impl WearSeries {
         for (ds, v) in self.plastic.iter().flatten().zip([w.cycle_ratcheting, w.cycle_plastic_strain]) {
             ds.resize(k + 1)?;
             ds.write_slice(&[v], s![k..k + 1])?;
+        }
+        if let Some(([max, rest @ ..], retired, group)) = &self.fatigue {
+            let f = &state.fatigue;
+            max.resize(k + 1)?;
+            max.write_slice(&[f.damage.iter().fold(0.0_f64, |a, &b| a.max(b))], s![k..k + 1])?;
+            for (ds, v) in rest.iter().zip([&f.damage, &f.last.swt, &f.last.angle, &f.last.life]) {
+                // Before the first computed cycle (the ramp's row) nothing is known yet.
+                if v.len() == ds.size() {
+                    ds.write_raw(v)?;
+                }
+            }
+            if f.retired.len() == retired.size() {
+                retired.write_raw(&f.retired.iter().map(|&r| u8::from(r)).collect::<Vec<u8>>())?;
+            }
+            if let Some(i) = f.initiation.filter(|_| group.attr("initiation_cycle").is_err()) {
+                write_attr(group, "initiation_cycle", &i.cycle)?;
+                write_attr(group, "initiation_point", &(i.point as u64))?;
+                write_attr(group, "initiation_angle", &i.angle)?;
+                write_attr(group, "initiation_depth", &i.depth)?;
+            }
         }
         for (i, (ds, ws)) in self.surfaces.iter().zip(&model.wear.surfaces).enumerate() {
             let reversed = model.initial().surfaces[ws.surface].reversed;

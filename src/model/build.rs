@@ -162,6 +162,7 @@ impl ModelBuilder {
             ghost_penalty: self.ghost_penalty,
             cycle: self.cycle,
             wear,
+            fatigue: self.fatigue,
             ghost_reach_cache: Default::default(),
             initial,
         })

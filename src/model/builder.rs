@@ -93,6 +93,7 @@ pub struct ModelBuilder {
     /// Multi-point constraints `u(node) - u(master) = 0` (rigid sets), global DOFs, each with
     /// its set's `(body, set)` names.
     pub(super) rigid_rows: Vec<(ConstraintRow, (usize, String))>,
+    pub(super) fatigue: Option<crate::fatigue::FatigueModel>,
 }
 
 impl ModelBuilder {
@@ -118,7 +119,33 @@ impl ModelBuilder {
             wear_scheme: crate::wear::JumpScheme::default(),
             wear_smoothing: crate::wear::DEFAULT_SMOOTHING,
             ratcheting_tolerance: crate::wear::DEFAULT_RATCHETING_TOLERANCE,
+            fatigue: None,
         }
+    }
+
+    /// Follows fatigue at the Gauss points of `body`'s cells inside `region` (`[min, max]`;
+    /// `None`: all), with the strain-life constants `life` (see [`crate::fatigue`]; its `young`
+    /// is replaced by the body's); the run ends at crack initiation if `stop_at_initiation`. Elastic bodies only: a yielding body's strain needs its
+    /// plastic history on these points.
+    pub fn set_fatigue(
+        &mut self,
+        body: usize,
+        life: crate::fatigue::StrainLife,
+        region: Option<[Point2<f64>; 2]>,
+        stop_at_initiation: bool,
+    ) -> Result<(), ModelError> {
+        let b = &self.bodies[body];
+        let Material::Elastic(elastic) = self.materials[b.material] else {
+            return Err(ModelError::Fatigue {
+                body: b.name.clone(),
+                msg: "its material yields; fatigue is followed on elastic bodies only".into(),
+            });
+        };
+        let life = crate::fatigue::StrainLife { young: elastic.young, ..life };
+        let model = crate::fatigue::FatigueModel::new(&b.name, &b.mesh, b.node_offset, elastic, life, region)
+            .map_err(|e| ModelError::Fatigue { body: b.name.clone(), msg: e.to_string() })?;
+        self.fatigue = Some(crate::fatigue::FatigueModel { body_index: body, stop_at_initiation, ..model });
+        Ok(())
     }
 
     /// Makes the load history cyclic (see [`Cycle`]); the output times given to
@@ -318,7 +345,7 @@ impl ModelBuilder {
             Some(edges) => {
                 let length = |e: &[usize; 2]| (b.mesh.nodes[e[1]] - b.mesh.nodes[e[0]]).norm();
                 let total: f64 = edges.iter().map(length).sum();
-                if !(total > 0.0) {
+                if total <= 0.0 || total.is_nan() {
                     return Err(ModelError::DegenerateSet { body: b.name.clone(), set: set.to_string() });
                 }
                 let (edges, off) = (edges.clone(), b.node_offset);
@@ -696,7 +723,7 @@ mod tests {
         let f = Vector2::new(2.0, -8.0);
         for rigid in [false, true] {
             let mut b = ModelBuilder::new(hyp);
-            let mat = b.add_material("m", elastic.clone());
+            let mat = b.add_material("m", elastic);
             let mesh = generate::rectangle(0.0, 0.0, 2.0, 1.0, 4, 2, 3.0, 1.0, CellKind::Quad4)?;
             let body = b.add_body("block", mesh, mat, Formulation::Standard, 1.0);
             if rigid {

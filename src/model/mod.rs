@@ -43,6 +43,8 @@ pub enum ModelError {
     NotAnEdgeSet { body: String, set: String, what: String },
     #[error("body '{body}': edge set '{set}' has zero length: a total force cannot be spread over it")]
     DegenerateSet { body: String, set: String },
+    #[error("fatigue of body '{body}': {msg}")]
+    Fatigue { body: String, msg: String },
     #[error("no body named '{0}'")]
     UnknownBody(String),
     #[error("load path: {0}")]
@@ -300,6 +302,8 @@ pub struct Model {
     pub cycle: Option<Cycle>,
     /// Wearing surfaces and the cycle-jump policy (empty: no wear).
     pub wear: crate::wear::WearModel,
+    /// Fatigue points and constants (`None`: fatigue not followed).
+    pub fatigue: Option<crate::fatigue::FatigueModel>,
     /// [`Model::ghost_reach`], formed on first use and shared by the run's later models (moved
     /// surfaces and re-pairings change neither the bands nor the penalty of unbanded bodies).
     ghost_reach_cache: std::sync::Arc<std::sync::OnceLock<Vec<(usize, usize)>>>,

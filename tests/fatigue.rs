@@ -1,0 +1,255 @@
+//! Fatigue under wear: SWT critical plane and Miner damage on the fixed material points of a
+//! wear run (see `mortex::fatigue`), against exact references.
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+/// A host in uniform plane strain (E = 200 GPa, nu = 0.3): a block presses it with p = 50 MPa
+/// and slides +-0.1 mm on it, frictionless (small sliding: the pairing stays the reference
+/// one, so the pressure stays uniform), while a bulk stress `sigma_xx = S c(t)` acts on the
+/// host's right end, in phase with the stroke (the stroke curve: at the four increments of a
+/// cycle c = 1, 0, -1, 0). The host's top wears just enough to run (k = 1e-11: 2.4e-9 mm over
+/// 12 cycles; the right end's traction still acts on the strip the wear removed, which moves
+/// the stress by about 20 times the depth, 6e-8 at the corner). Sketch:
+///
+/// ```text
+///            p = 50 MPa
+///        +--------------+  block, top_left ux = 0.1 c(t)
+///   ux=0 +==============+  host (top wears)     -> sigma_xx = S c(t)
+///        |              |
+///        +--------------+  uy = 0
+/// ```
+fn case(cycles: usize, jump: usize) -> String {
+    scene(cycles, jump, S, "")
+}
+
+/// The scene of [`case`] with the bulk stress amplitude `s` and more `[fatigue]` keys.
+fn scene(cycles: usize, jump: usize, s: f64, fatigue_keys: &str) -> String {
+    format!(
+        r#"
+[problem]
+hypothesis = "plane_strain"
+[[materials]]
+name = "steel"
+model = "elastic"
+young = {E}
+poisson = {NU}
+[[bodies]]
+name = "host"
+material = "steel"
+mesh = {{ type = "rectangle", size = [4.0, 3.0], divisions = [8, 6] }}
+[[bodies]]
+name = "block"
+material = "steel"
+mesh = {{ type = "rectangle", origin = [0.0, 3.0], size = [4.0, 1.0], divisions = [7, 3] }}
+[[curves]]
+name = "stroke"
+path = [[0.0, 0.0], [1.0, 0.0], [1.25, 1.0], [1.75, -1.0], [2.0, 0.0]]
+[[contacts]]
+name = "interface"
+mortar = "block"
+mortar_surface = ["bottom"]
+other = "host"
+other_surface = ["top"]
+[[wear]]
+body = "host"
+surface = ["top"]
+coefficient = 1e-11
+max_depth = 0.1
+[[bcs]]
+body = "host"
+set = "bottom"
+uy = 0.0
+[[bcs]]
+body = "host"
+set = "left"
+ux = 0.0
+[[bcs]]
+body = "block"
+set = "top_left"
+ux = 0.1
+curve = "stroke"
+[[loads]]
+body = "block"
+set = "top"
+pressure = {P}
+[[loads]]
+body = "host"
+set = "right"
+traction = [{s}, 0.0]
+curve = "stroke"
+[steps]
+path = [[0.0, 0.0], [1.0, 1.0], [2.0, 1.0]]
+cycle = [1.0, 2.0]
+cycles = {cycles}
+increments = 4
+[cycle_jump]
+fixed = {jump}
+[output]
+checkpoint_every = 1
+fields_every = 1000
+[fatigue]
+body = "host"
+sigma_f = {SIGMA_F}
+b = {B}
+eps_f = {EPS_F}
+c = {C}
+{fatigue_keys}
+"#
+    )
+}
+
+const E: f64 = 200_000.0;
+const NU: f64 = 0.3;
+const P: f64 = 50.0;
+const S: f64 = 300.0;
+/// Strain-life constants of the order of a medium-carbon steel's (Dowling, Mechanical Behavior
+/// of Materials, 4th ed., table 14.1, SAE 1045 Q&T: illustrative, the test checks the sums).
+const SIGMA_F: f64 = 1225.0;
+const B: f64 = -0.095;
+const EPS_F: f64 = 1.0;
+const C: f64 = -0.66;
+
+fn run(dir: &Path, args: &[&str]) {
+    let out = Command::new(env!("CARGO_BIN_EXE_mortex")).args(args).current_dir(dir).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+/// Cycles to crack initiation at an SWT value: the root of
+/// `SWT = sigma_f'^2 / E (2N)^(2b) + sigma_f' eps_f' (2N)^(b+c)` by plain bisection on log10 N
+/// (independent of the engine's Newton iteration).
+fn life_by_bisection(swt: f64) -> f64 {
+    let relation = |n: f64| SIGMA_F * SIGMA_F / E * (2.0 * n).powf(2.0 * B) + SIGMA_F * EPS_F * (2.0 * n).powf(B + C);
+    let (mut lo, mut hi) = (0.0_f64, 12.0_f64);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if relation(10f64.powf(mid)) > swt {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    10f64.powf(0.5 * (lo + hi))
+}
+
+fn read(f: &hdf5::File, name: &str) -> Vec<f64> {
+    f.dataset(name).unwrap().read_raw::<f64>().unwrap()
+}
+
+/// In the uniform state every point sees `sigma_xx` in {S, 0, -S, 0} over a cycle with
+/// `sigma_yy = -p`: the critical plane is normal to x and SWT = `S * (2 S (1 - nu^2) / E) / 2`
+/// exactly (plane strain); after N cycles every point's damage is `N / N_f` (Miner). Checked
+/// at every point for 12 cycles computed one by one and for 12 cycles as 3 computed cycles
+/// jumped by 4 (the jumped cycles repeat the computed one): SWT 1e-7 (measured 5.7e-8: the
+/// worn strip's traction, see [`case`]), angle 1e-6 rad, damage 1e-6 (SWT's error times the
+/// life's sensitivity `d ln N / d ln SWT`, about 1/(2b) = 5).
+#[test]
+fn uniform_cyclic_bulk_stress_gives_the_exact_swt_and_miner_damage() {
+    let dir = common::ScratchDir::new("fatigue", "uniform");
+    let swt = S * (2.0 * S * (1.0 - NU * NU) / E) / 2.0;
+    let n_f = life_by_bisection(swt);
+    for (cycles, jump) in [(12, 1), (12, 4)] {
+        std::fs::write(dir.join("uniform.toml"), case(cycles, jump)).unwrap();
+        run(&dir, &["run", "uniform.toml", "--quiet", "-o", "uniform.h5"]);
+        let f = hdf5::File::open(dir.join("uniform.h5")).unwrap();
+        let (swts, angles, damage) =
+            (read(&f, "wear/fatigue/swt"), read(&f, "wear/fatigue/angle"), read(&f, "wear/fatigue/damage"));
+        assert_eq!(damage.len(), 8 * 6 * 4, "2x2 Gauss points in each of the host's 48 cells");
+        let expected = cycles as f64 / n_f;
+        for p in 0..damage.len() {
+            assert!((swts[p] / swt - 1.0).abs() < 1e-7, "point {p}: SWT {} against {swt}", swts[p]);
+            let to_x = angles[p].min(std::f64::consts::PI - angles[p]);
+            assert!(to_x < 1e-6, "point {p}: plane at {} rad", angles[p]);
+            assert!((damage[p] / expected - 1.0).abs() < 1e-6, "point {p}: damage {} against {expected}", damage[p]);
+        }
+        let max = read(&f, "wear/fatigue/max_damage");
+        assert!((max[max.len() - 1] / expected - 1.0).abs() < 1e-6);
+    }
+}
+
+/// A restart from a checkpoint in the middle of a computed cycle (its history so far in the
+/// checkpoint) gives the damage, SWT and planes of the uninterrupted run bit for bit.
+#[test]
+fn fatigue_resumes_mid_cycle_bit_for_bit() {
+    let dir = common::ScratchDir::new("fatigue", "restart");
+    std::fs::write(dir.join("uniform.toml"), case(3, 1)).unwrap();
+    run(&dir, &["run", "uniform.toml", "--quiet", "-o", "full.h5"]);
+    // Steps: 1 ramp, then 4 per cycle: step 7 is the second increment of cycle 2.
+    run(&dir, &["run", "uniform.toml", "--quiet", "--restart", "full.h5", "--from-step", "7", "-o", "rest.h5"]);
+    let (a, b) = (hdf5::File::open(dir.join("full.h5")).unwrap(), hdf5::File::open(dir.join("rest.h5")).unwrap());
+    for name in ["damage", "swt", "angle", "life"] {
+        let (x, y) = (read(&a, &format!("wear/fatigue/{name}")), read(&b, &format!("wear/fatigue/{name}")));
+        assert!(x.len() == y.len() && x.iter().zip(&y).all(|(p, q)| p.to_bits() == q.to_bits()), "{name}");
+    }
+}
+
+/// Bad `[fatigue]` input: each a clear error naming the key or the body and what is wrong,
+/// from `check` and `run` alike, never a panic.
+#[test]
+fn bad_fatigue_input_gives_clear_errors() {
+    let dir = common::ScratchDir::new("fatigue", "bad");
+    let good = case(2, 1);
+    let j2 = good.replace("model = \"elastic\"", "model = \"j2_plastic\"\nyield_stress = 400.0");
+    let without_wear = {
+        let start = good.find("[[wear]]").unwrap();
+        let end = good.find("[[bcs]]").unwrap();
+        format!("{}{}", &good[..start], &good[end..]).replace("[cycle_jump]\nfixed = 1\n", "")
+    };
+    for (name, text, needles) in [
+        ("body", good.replace("body = \"host\"\nsigma_f", "body = \"pad\"\nsigma_f"), vec!["fatigue.body", "pad"]),
+        ("b", good.replace("b = -0.095", "b = 0.1"), vec!["fatigue", "b must be finite and < 0", "0.1"]),
+        (
+            "region",
+            good.replace("[fatigue]\n", "[fatigue]\nregion = [[10.0, 10.0], [11.0, 11.0]]\n"),
+            vec!["fatigue", "no integration point", "host"],
+        ),
+        ("box", good.replace("[fatigue]\n", "[fatigue]\nregion = [[1.0, 0.0], [0.0, 1.0]]\n"), vec!["fatigue.region"]),
+        ("j2", j2, vec!["fatigue", "host", "yields"]),
+        ("no_wear", without_wear, vec!["fatigue", "[[wear]]"]),
+    ] {
+        std::fs::write(dir.join(format!("{name}.toml")), &text).unwrap();
+        for cmd in ["check", "run"] {
+            let out = Command::new(env!("CARGO_BIN_EXE_mortex"))
+                .args([cmd, &format!("{name}.toml")])
+                .current_dir(&dir)
+                .output()
+                .unwrap();
+            let msg = String::from_utf8_lossy(&out.stderr);
+            assert!(!out.status.success(), "{name}: '{cmd}' should fail");
+            assert!(!msg.contains("panicked"), "{name}: {msg}");
+            for n in &needles {
+                assert!(msg.contains(n), "{name}: '{cmd}' should name '{n}':\n{msg}");
+            }
+        }
+    }
+}
+
+/// Crack initiation: at a bulk stress amplitude of 3,000 MPa (an elastic body: only the sums
+/// are checked) the life is about 50 cycles; computed in cycles jumped by 4, the damage of
+/// every point crosses 1 within the thirteenth computed cycle, and the crossing interpolated at
+/// the cycle's rate is `N_f` itself (1e-6, as the damage above); with `stop_at_initiation`
+/// the run ends after that computed cycle (52 of 80 cycles), the initiation recorded at a
+/// point of the host's surface row or below it, on the plane normal to x.
+#[test]
+fn the_first_point_to_reach_unit_damage_stops_the_run() {
+    const S_HIGH: f64 = 3000.0;
+    let dir = common::ScratchDir::new("fatigue", "initiation");
+    let swt = S_HIGH * (2.0 * S_HIGH * (1.0 - NU * NU) / E) / 2.0;
+    let n_f = life_by_bisection(swt);
+    std::fs::write(dir.join("initiation.toml"), scene(80, 4, S_HIGH, "stop_at_initiation = true")).unwrap();
+    run(&dir, &["run", "initiation.toml", "--quiet", "-o", "initiation.h5"]);
+    let f = hdf5::File::open(dir.join("initiation.h5")).unwrap();
+    let g = f.group("wear/fatigue").unwrap();
+    let attr = |name: &str| g.attr(name).unwrap().read_scalar::<f64>().unwrap();
+    let cycle = attr("initiation_cycle");
+    assert!((cycle / n_f - 1.0).abs() < 1e-6, "initiation at cycle {cycle}, life {n_f}");
+    let angle = attr("initiation_angle");
+    assert!(angle.min(std::f64::consts::PI - angle) < 1e-6, "plane at {angle} rad");
+    let cycles = f.dataset("wear/cycle").unwrap().read_raw::<u64>().unwrap();
+    let expected_end = 4 * (n_f / 4.0).ceil() as u64;
+    assert_eq!(cycles[cycles.len() - 1], expected_end, "the run ends after the computed cycle of initiation");
+    let depth = attr("initiation_depth");
+    assert!((0.0..3.0).contains(&depth), "depth {depth} below the surface, inside the 3 mm host");
+}
