@@ -4,7 +4,9 @@
 //! * both bodies with the last step's fields (displacement, stress as a full tensor, material
 //!   fraction of the cut cells), equal to the HDF5 datasets they point to;
 //! * the contact polyline with the last step's pressure;
-//! * both worn surfaces as polylines whose points and depths equal the last `/wear` row.
+//! * both worn surfaces as polylines whose points and depths equal the last `/wear` row;
+//! * the fatigue points (`[fatigue]` on the flat under the contact) as a point cloud whose
+//!   positions, damage and SWT equal `/wear/fatigue`.
 //!
 //! Equality is exact (1e-12 relative: the reader copies the stored doubles). VTK comes with
 //! `.ci/setup` (`pip install vtk`); without it the test says so and skips, except on CI.
@@ -54,6 +56,14 @@ for cut in ["flat.top", "cylinder.arc"]:
         "segments": g.GetNumberOfCells(),
         "vertices": int(f[f"wear/{cut}/vertices"].shape[1]),
     }
+g = blocks["fatigue"]
+res["fatigue"] = {
+    "position": rel(vtk_to_numpy(g.GetPoints().GetData())[:, :2], f["wear/fatigue/position"][()]),
+    "damage": rel(vtk_to_numpy(g.GetPointData().GetArray("damage")), f["wear/fatigue/damage"][()]),
+    "swt": rel(vtk_to_numpy(g.GetPointData().GetArray("swt")), f["wear/fatigue/swt"][()]),
+    "points": g.GetNumberOfPoints(),
+    "stored": int(f["wear/fatigue/damage"].shape[0]),
+}
 print(json.dumps(res))
 "#;
 
@@ -63,7 +73,8 @@ fn paraview_shows_the_last_fields_and_the_worn_surfaces_of_a_wear_run() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let case = std::fs::read_to_string(root.join("wear_cases/mccoll_fretting.toml"))
         .unwrap()
-        .replace("cycles = 18000", "cycles = 300");
+        .replace("cycles = 18000", "cycles = 300")
+        + "\n[fatigue]\nbody = \"flat\"\nregion = [[-0.3, -0.1], [0.3, 0.0]]\nsigma_f = 1225.0\nb = -0.095\neps_f = 1.0\nc = -0.66\n";
     assert!(case.contains("cycles = 300"));
     std::fs::write(d.join("mccoll.toml"), case).unwrap();
     let run = Command::new(env!("CARGO_BIN_EXE_mortex"))
@@ -101,6 +112,11 @@ fn paraview_shows_the_last_fields_and_the_worn_surfaces_of_a_wear_run() {
         assert!(value(t, "depth") < 1e-12, "{cut}: {t}");
         assert_eq!(value(t, "segments"), value(t, "vertices") - 1.0, "{cut}: an open polyline");
     }
+    let t = part("fatigue");
+    for key in ["position", "damage", "swt"] {
+        assert!(value(t, key) < 1e-12, "fatigue {key}: {t}");
+    }
+    assert_eq!(value(t, "points"), value(t, "stored"), "every fatigue point: {t}");
     let _ = std::fs::remove_dir_all(&d);
 }
 

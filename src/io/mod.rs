@@ -992,6 +992,11 @@ impl ResultWriter {
                     );
                 }
             }
+            if k + 1 == rows {
+                if let Some((_, retired, _)) = wear.and_then(|w| w.fatigue.as_ref()) {
+                    fatigue_points_grid(&mut x, &h5, retired.size());
+                }
+            }
             let _ = writeln!(x, "   </Grid>");
         }
         let _ = writeln!(x, "  </Grid>\n </Domain>\n</Xdmf>");
@@ -1061,6 +1066,25 @@ fn slab(h5: &str, path: &str, row: usize, rows: usize, rest: &[usize], ty: &str,
          Format=\"XML\">{row}{zeros} 1{ones} 1 {dims}</DataItem><DataItem Dimensions=\"{rows} {dims}\" NumberType=\"{ty}\" \
          Precision=\"{precision}\" Format=\"HDF\">{h5}:{path}</DataItem></DataItem>"
     )
+}
+
+/// The fatigue points of the run's end (`/wear/fatigue`, the latest values) as a point cloud:
+/// damage, SWT, critical plane angle (degrees from x in ParaView: radians stored), life and
+/// whether the wear cut them away.
+fn fatigue_points_grid(x: &mut String, h5: &str, np: usize) {
+    let item = |path: &str, dims: &str, ty: &str, precision: usize| {
+        format!("<DataItem Dimensions=\"{dims}\" NumberType=\"{ty}\" Precision=\"{precision}\" Format=\"HDF\">{h5}:/wear/fatigue/{path}</DataItem>")
+    };
+    let _ = writeln!(x, "    <Grid Name=\"fatigue\" GridType=\"Uniform\">");
+    let _ = writeln!(x, "     <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"{np}\" NodesPerElement=\"1\"/>");
+    let _ = writeln!(x, "     <Geometry GeometryType=\"XY\">{}</Geometry>", item("position", &format!("{np} 2"), "Float", 8));
+    for (name, ty, precision) in
+        [("damage", "Float", 8), ("swt", "Float", 8), ("angle", "Float", 8), ("life", "Float", 8), ("retired", "UChar", 1)]
+    {
+        let data = item(name, &np.to_string(), ty, precision);
+        let _ = writeln!(x, "     <Attribute Name=\"{name}\" AttributeType=\"Scalar\" Center=\"Node\">{data}</Attribute>");
+    }
+    let _ = writeln!(x, "    </Grid>");
 }
 
 /// A polyline grid: segments from `segments_path`, geometry and node attributes given as data
