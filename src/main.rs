@@ -876,12 +876,19 @@ fn plot(
     println!("contact '{}', step {}: {}", profile.pair, profile.step, out.display());
     if let Some(r) = &profile.reference {
         let (p, q) = plot::reference_errors(&profile, r);
-        let name = if r.c.is_some() { "Cattaneo-Mindlin" } else { "Hertz" };
+        let name = match (r.c, r.e) {
+            (None, _) => "Hertz",
+            (Some(_), e) if e == 0.0 => "Cattaneo-Mindlin",
+            _ => "Cattaneo-Mindlin with Nowell-Hills' offset",
+        };
+        let centre = if r.centre_from_profile { "the computed contact's centre" } else { "the case's" };
         println!(
-            "  against {name} (p0 = {:.4}, a = {:.5}{}): pressure L2 over |x - x0| < a {:.2}%{}",
+            "  against {name} (p0 = {:.4}, a = {:.5}{}{}, x0 = {:.5}, {centre}): pressure L2 over |x - x0| < a {:.2}%{}",
             r.p0,
             r.a,
             r.c.map_or(String::new(), |c| format!(", c = {c:.5}")),
+            if r.e != 0.0 { format!(", e = {:.5}", r.e) } else { String::new() },
+            r.x0,
             100.0 * p,
             q.map_or(String::new(), |q| format!(", shear L2 {:.2}%", 100.0 * q))
         );

@@ -135,15 +135,22 @@ pub fn relative_l2_error(samples: &[(f64, f64)], exact: impl Fn(f64) -> f64, lo:
 /// `p(x) = p0 sqrt(1 - (x - x0)^2 / a^2)` with `a = sqrt(4 P R / (pi E*))`, `p0 = 2 P / (pi a)`,
 /// and under a tangential force `Q < mu P` the Cattaneo-Mindlin shear
 /// `q(x) = mu p0 [sqrt(1 - (x - x0)^2 / a^2) - (c / a) sqrt(1 - (x - x0)^2 / c^2)]` with a stick
-/// zone `|x - x0| <= c = a sqrt(1 - Q / (mu P))` (the second term inside it only).
+/// zone `|x - x0 - e| <= c = a sqrt(1 - Q / (mu P))` (the second term inside it only), offset
+/// by `e = sign(Q) sigma a / (4 mu p0)` under a bulk stress `sigma` in the lower body in phase
+/// with `Q` (Nowell & Hills; Hills & Nowell, *Mechanics of Fretting Fatigue*, 1994, ch. 5),
+/// valid while `|e| + c <= a`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AnalyticContact {
     pub p0: f64,
     pub a: f64,
     pub x0: f64,
-    /// Cattaneo-Mindlin: the friction coefficient and the stick zone's half-width.
+    /// Cattaneo-Mindlin: the friction coefficient, the stick zone's half-width and offset.
     pub mu: f64,
     pub c: Option<f64>,
+    pub e: f64,
+    /// The centre `x0` is the computed contact's (its pressure centroid, found where the
+    /// profile is read: profiles are in the current configuration, which a bulk strain moves).
+    pub centre_from_profile: bool,
 }
 
 impl AnalyticContact {
@@ -151,7 +158,15 @@ impl AnalyticContact {
     /// modulus `e_star`, centred at `x0`.
     pub fn hertz(load: f64, radius: f64, e_star: f64, x0: f64) -> Self {
         let a = (4.0 * load * radius / (std::f64::consts::PI * e_star)).sqrt();
-        AnalyticContact { p0: 2.0 * load / (std::f64::consts::PI * a), a, x0, mu: 0.0, c: None }
+        AnalyticContact {
+            p0: 2.0 * load / (std::f64::consts::PI * a),
+            a,
+            x0,
+            mu: 0.0,
+            c: None,
+            e: 0.0,
+            centre_from_profile: false,
+        }
     }
 
     /// The same contact under a tangential force `tangential` (same units as the load
@@ -159,6 +174,15 @@ impl AnalyticContact {
     pub fn with_tangential(self, load: f64, tangential: f64, mu: f64) -> Option<Self> {
         let ratio = tangential.abs() / (mu * load);
         (mu > 0.0 && ratio < 1.0).then(|| AnalyticContact { mu, c: Some(self.a * (1.0 - ratio).sqrt()), ..self })
+    }
+
+    /// The stick zone offset by a bulk stress `bulk` in the lower body in phase with the
+    /// tangential force `tangential` (Nowell-Hills); `None` where the offset stick zone would
+    /// leave the contact (`|e| + c > a`) or without a stick zone.
+    pub fn with_bulk_stress(self, bulk: f64, tangential: f64) -> Option<Self> {
+        let c = self.c?;
+        let e = tangential.signum() * bulk * self.a / (4.0 * self.mu * self.p0);
+        (e.abs() + c <= self.a).then_some(AnalyticContact { e, ..self })
     }
 
     pub fn pressure(&self, x: f64) -> f64 {
@@ -173,7 +197,7 @@ impl AnalyticContact {
     /// Magnitude of the Cattaneo-Mindlin shear (`None` without a stick zone).
     pub fn shear(&self, x: f64) -> Option<f64> {
         let c = self.c?;
-        let s = (x - self.x0) / c;
+        let s = (x - self.x0 - self.e) / c;
         let stick = if s.abs() < 1.0 { c / self.a * (1.0 - s * s).sqrt() } else { 0.0 };
         Some(self.mu * (self.pressure(x) - self.p0 * stick))
     }

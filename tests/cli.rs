@@ -651,7 +651,8 @@ pressure = 10.0
 }
 
 /// `[reference]` errors: a tangential force at or above `mu P` (no stick zone), an unknown
-/// contact, a tangential force on a Hertz reference, a negative radius. Each a clear error
+/// contact, a tangential force on a Hertz reference, a negative radius, a bulk stress whose
+/// stick-zone offset leaves the contact, a bulk stress on a Hertz reference. Each a clear error
 /// naming the file and key, before anything runs.
 #[test]
 fn reference_bad_inputs_give_clear_errors() {
@@ -681,6 +682,20 @@ fn reference_bad_inputs_give_clear_errors() {
         &["hertz_q.toml", "reference.tangential"],
     );
     expect_error(&d, "neg_r", &sub("radius = 5.0", "radius = -5.0"), &["neg_r.toml", "reference.radius"]);
+    // A bulk stress that would push the stick zone (c = 0.0525 of a = 0.0743) past the edge:
+    // e = sigma a / (4 mu p0) = 0.0289 at 400 MPa, beyond a - c = 0.0218.
+    expect_error(
+        &d,
+        "bulk",
+        &sub("tangential = 15.0", "tangential = 15.0\nbulk = 400.0"),
+        &["bulk.toml", "reference.bulk", "|e| + c <= a"],
+    );
+    expect_error(
+        &d,
+        "hertz_bulk",
+        &sub("kind = \"cattaneo_mindlin\"", "kind = \"hertz\"").replace("tangential = 15.0", "bulk = 10.0"),
+        &["hertz_bulk.toml", "reference.bulk"],
+    );
 }
 
 /// Wear input errors: negative or NaN coefficient, a wearing cut in contact with nothing, an

@@ -122,9 +122,10 @@ pub struct FatigueSpec {
 
 /// `[reference]`: Hertz line contact (`kind = "hertz"`: effective `radius`, normal `load` per
 /// unit thickness) or Cattaneo-Mindlin partial slip (`"cattaneo_mindlin"`, also the
-/// `tangential` force below `mu load`, `mu` the contact's friction), centred at `centre` (default
-/// 0), for `contact` (a `[[contacts]]` name; default the first). The contact modulus follows
-/// from the two bodies' materials.
+/// `tangential` force below `mu load`, `mu` the contact's friction, and a `bulk` stress of the
+/// lower body in phase with it), centred at `centre` (default: the computed contact's pressure
+/// centroid), for `contact` (a `[[contacts]]` name; default the first). The contact modulus
+/// follows from the two bodies' materials.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ReferenceSpec {
@@ -133,8 +134,11 @@ pub struct ReferenceSpec {
     pub radius: f64,
     pub load: f64,
     pub tangential: Option<f64>,
-    #[serde(default)]
-    pub centre: f64,
+    /// Centre of the contact along x (default: the computed contact's pressure centroid).
+    pub centre: Option<f64>,
+    /// Cattaneo-Mindlin: bulk stress of the lower body in phase with the tangential force
+    /// (Nowell-Hills stick-zone offset; default 0).
+    pub bulk: Option<f64>,
 }
 
 #[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
@@ -819,7 +823,7 @@ fn analytic_reference(
     };
     let radius = cx.positive("reference.radius", r.radius)?;
     let load = cx.positive("reference.load", r.load)?;
-    let centre = cx.finite("reference.centre", r.centre)?;
+    let centre = r.centre.map(|c| cx.finite("reference.centre", c)).transpose()?;
     let mut compliance = 0.0;
     for body in [&contacts[i].mortar, &contacts[i].other] {
         let Some(b) = model.bodies.iter().find(|b| &b.name == body) else {
@@ -831,7 +835,13 @@ fn analytic_reference(
             PlaneHypothesis::PlaneStress => 1.0 / e.young,
         };
     }
-    let hertz = crate::post::AnalyticContact::hertz(load, radius, 1.0 / compliance, centre);
+    let hertz = crate::post::AnalyticContact {
+        centre_from_profile: centre.is_none(),
+        ..crate::post::AnalyticContact::hertz(load, radius, 1.0 / compliance, centre.unwrap_or(0.0))
+    };
+    if r.bulk.is_some() && r.kind == ReferenceKind::Hertz {
+        return Err(cx.err("reference.bulk", "a bulk stress offsets a stick zone: use kind = \"cattaneo_mindlin\""));
+    }
     let pair = model.initial().contact.pairs.get(i).map(|p| p.name.clone()).unwrap_or_else(|| names[i].clone());
     match (r.kind, r.tangential) {
         (ReferenceKind::Hertz, None) => Ok((pair, hertz)),
@@ -845,13 +855,26 @@ fn analytic_reference(
         (ReferenceKind::CattaneoMindlin, Some(q)) => {
             let q = cx.finite("reference.tangential", q)?;
             let mu = contacts[i].friction;
-            hertz.with_tangential(load, q, mu).map(|h| (pair, h)).ok_or_else(|| {
+            let cm = hertz.with_tangential(load, q, mu).ok_or_else(|| {
                 cx.err(
                     "reference.tangential",
                     format!(
                         "|Q| = {} is not below mu P = {} (friction {mu}): gross slip has no stick zone",
                         q.abs(),
                         mu * load
+                    ),
+                )
+            })?;
+            let Some(bulk) = r.bulk else { return Ok((pair, cm)) };
+            let bulk = cx.finite("reference.bulk", bulk)?;
+            cm.with_bulk_stress(bulk, q).map(|h| (pair, h)).ok_or_else(|| {
+                let e = bulk * cm.a / (4.0 * mu * cm.p0);
+                cx.err(
+                    "reference.bulk",
+                    format!(
+                        "the stick zone offset by {} (sigma a / (4 mu p0)) would leave the contact: Nowell-Hills holds while |e| + c <= a = {}",
+                        Num(e.abs()),
+                        Num(cm.a)
                     ),
                 )
             })

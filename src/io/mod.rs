@@ -627,7 +627,8 @@ impl ResultWriter {
         let res: hdf5::Result<()> = (|| {
             let g = file.create_group("reference")?;
             write_str_attr(&g, "pair", pair)?;
-            for (name, v) in [("p0", r.p0), ("a", r.a), ("x0", r.x0), ("mu", r.mu)] {
+            let auto = f64::from(u8::from(r.centre_from_profile));
+            for (name, v) in [("p0", r.p0), ("a", r.a), ("x0", r.x0), ("mu", r.mu), ("e", r.e), ("centre_from_profile", auto)] {
                 write_attr(&g, name, &v)?;
             }
             if let Some(c) = r.c {

@@ -53,7 +53,27 @@ fn read_reference(file: &hdf5::File, pair: &str) -> Option<crate::post::Analytic
         return None;
     }
     let get = |n: &str| g.attr(n).ok().and_then(|a| a.read_scalar::<f64>().ok());
-    Some(crate::post::AnalyticContact { p0: get("p0")?, a: get("a")?, x0: get("x0")?, mu: get("mu")?, c: get("c") })
+    Some(crate::post::AnalyticContact {
+        p0: get("p0")?,
+        a: get("a")?,
+        x0: get("x0")?,
+        mu: get("mu")?,
+        c: get("c"),
+        // Files written before the offset and the automatic centre: none, the centre given.
+        e: get("e").unwrap_or(0.0),
+        centre_from_profile: get("centre_from_profile").is_some_and(|v| v != 0.0),
+    })
+}
+
+/// The pressure centroid `int p x / int p` of a profile (trapezoidal; `None` without load).
+fn pressure_centroid(x: &[f64], p: &[f64]) -> Option<f64> {
+    let (mut moment, mut load) = (0.0, 0.0);
+    for i in 1..x.len().min(p.len()) {
+        let dx = x[i] - x[i - 1];
+        load += 0.5 * dx * (p[i] + p[i - 1]);
+        moment += 0.5 * dx * (p[i] * x[i] + p[i - 1] * x[i - 1]);
+    }
+    (load > 0.0).then(|| moment / load)
 }
 
 /// Relative L2 deviation of the computed profile from its reference over `|x - x0| < a`
@@ -154,14 +174,19 @@ pub fn read_profile(path: &Path, step: Option<usize>, pair: Option<&str>) -> Res
         .map(|a| a.iter().copied().collect());
     // Frictionless pairs: the shear and slip series are zeros; draw them only with friction.
     let frictional = mu.is_some_and(|m| m > 0.0);
-    let reference = read_reference(&file, &pair);
+    let x: Vec<f64> = order.iter().map(|&i| points[2 * i]).collect();
+    let pressure = sorted(pressure);
+    let reference = read_reference(&file, &pair).map(|r| match pressure_centroid(&x, &pressure) {
+        Some(x0) if r.centre_from_profile => crate::post::AnalyticContact { x0, ..r },
+        _ => r,
+    });
     Ok(ContactProfile {
         reference,
         pair,
         step,
         time,
-        x: order.iter().map(|&i| points[2 * i]).collect(),
-        pressure: sorted(pressure),
+        x,
+        pressure,
         multiplier_pressure: multiplier.map(sorted),
         shear: f64s("nodal_shear").or_else(|| f64s("shear")).filter(|_| frictional).map(sorted),
         slip: f64s("slip").filter(|_| frictional).map(sorted),
