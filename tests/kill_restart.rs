@@ -206,6 +206,19 @@ fn kill_minus_nine_during_wear_with_jumps_then_resume_is_bit_identical() {
     );
 }
 
+/// The same with fatigue followed on the flat (`[fatigue]` under the contact): the cycle's
+/// stress-strain history so far, the damage and the retired points are part of the bits.
+#[test]
+fn kill_minus_nine_during_wear_with_fatigue_then_resume_is_bit_identical() {
+    let fatigue = "[fatigue]\nbody = \"flat\"\nregion = [[-0.4, -0.2], [0.4, 0.0]]\nsigma_f = 1225.0\nb = -0.095\neps_f = 1.0\nc = -0.66\n\n[output]";
+    kill_during_wear(
+        "mccoll_fretting",
+        "cycles = 18000",
+        400,
+        &[("friction = 0.9", "friction = 0.9\nsliding = \"small\""), ("[output]", fatigue)],
+    );
+}
+
 /// The same with finite sliding: every step paired in its own end configuration (a fixed point
 /// of solves from the step's start), wear swept along the stroke; a restart builds its solver
 /// afresh where the run kept its factorisation between re-pairings.
@@ -232,7 +245,9 @@ fn kill_minus_nine_during_elastic_plastic_wear_then_resume_is_bit_identical() {
 fn kill_during_wear(name: &str, cycles_line: &str, cycles: u64, edits: &[(&str, &str)]) {
     use std::process::{Command, Stdio};
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let tag = format!("_{name}{}", if edits.iter().any(|e| e.1.contains("finite")) { "_finite" } else { "" });
+    let finite = if edits.iter().any(|e| e.1.contains("finite")) { "_finite" } else { "" };
+    let fatigue = if edits.iter().any(|e| e.1.contains("[fatigue]")) { "_fatigue" } else { "" };
+    let tag = format!("_{name}{finite}{fatigue}");
     let mut text = std::fs::read_to_string(root.join(format!("wear_cases/{name}.toml")))
         .unwrap()
         .replace("divisions = [30, 160]", "divisions = [14, 60]")
