@@ -135,25 +135,27 @@ pub struct CriticalPlane {
     pub sigma_max: f64,
 }
 
-/// Normal component `n . t . n` of a tensor `[xx, yy, zz, xy]` on the in-plane normal at `angle`.
-fn normal_component(t: &Stress4, angle: f64) -> f64 {
-    let (s, c) = angle.sin_cos();
-    t[0] * c * c + t[1] * s * s + 2.0 * t[3] * s * c
+/// A tensor `[xx, yy, zz, xy]` in Mohr's form `(mean, half difference, shear)`: its normal
+/// component on the in-plane normal at angle `t` is `mean + half_difference cos 2t + shear sin 2t`
+/// (two multiply-adds per plane, the history's tensors converted once).
+fn mohr(t: &Stress4) -> [f64; 3] {
+    [0.5 * (t[0] + t[1]), 0.5 * (t[0] - t[1]), t[3]]
 }
 
-/// SWT on the plane at `angle` over a history.
-fn swt_on_plane(stress: &[Stress4], strain: &[Stress4], angle: f64) -> (f64, f64) {
-    let sigma_max = stress.iter().map(|s| normal_component(s, angle)).fold(f64::NEG_INFINITY, f64::max);
-    let (e_min, e_max) = strain
-        .iter()
-        .map(|e| normal_component(e, angle))
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+/// SWT on the plane at `angle` over a history in Mohr's form, and the largest normal stress.
+fn swt_on_plane(stress: &[[f64; 3]], strain: &[[f64; 3]], angle: f64) -> (f64, f64) {
+    let (s2, c2) = (2.0 * angle).sin_cos();
+    let normal = |m: &[f64; 3]| m[0] + m[1] * c2 + m[2] * s2;
+    let sigma_max = stress.iter().map(normal).fold(f64::NEG_INFINITY, f64::max);
+    let (e_min, e_max) =
+        strain.iter().map(normal).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
     (sigma_max * 0.5 * (e_max - e_min), sigma_max)
 }
 
-/// Planes searched first (every `pi / PLANES`), then refined around the best by golden
-/// sections to `1e-10` rad.
-pub const PLANES: usize = 180;
+/// Planes searched first (every `pi / PLANES`, 3 degrees: each factor of `SWT(t)` is a
+/// trigonometric polynomial in `2 t` whose peaks are tens of degrees wide), then refined
+/// around the best by golden sections to `1e-10` rad.
+pub const PLANES: usize = 60;
 
 /// The SWT critical plane of a stress and strain history at one point (one entry per instant
 /// of a cycle, tensor components `[xx, yy, zz, xy]`). A negative largest normal stress gives a
@@ -162,6 +164,8 @@ pub fn critical_plane(stress: &[Stress4], strain: &[Stress4]) -> Result<Critical
     if stress.is_empty() || stress.len() != strain.len() {
         return Err(FatigueError::History { stress: stress.len(), strain: strain.len() });
     }
+    let (stress, strain): (Vec<[f64; 3]>, Vec<[f64; 3]>) = (stress.iter().map(mohr).collect(), strain.iter().map(mohr).collect());
+    let (stress, strain) = (stress.as_slice(), strain.as_slice());
     let value = |a: f64| swt_on_plane(stress, strain, a).0;
     let step = std::f64::consts::PI / PLANES as f64;
     let best = (0..PLANES).map(|i| i as f64 * step).fold((0.0, f64::NEG_INFINITY), |(ba, bv), a| {

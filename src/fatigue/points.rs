@@ -219,14 +219,15 @@ impl FatigueModel {
     /// the mean of both segments' normals, so a point below a groove's corner reads right).
     pub fn retire_cut_away(&self, polylines: &[&[[f64; 2]]], retired: &mut Vec<bool>) -> usize {
         retired.resize(self.points.len(), false);
-        let mut count = 0;
-        for (fp, r) in self.points.iter().zip(retired.iter_mut()).filter(|(_, r)| !**r) {
-            if polylines.iter().any(|line| on_removed_side(line, fp.position)) {
-                *r = true;
-                count += 1;
-            }
-        }
-        count
+        self.points
+            .par_iter()
+            .zip(retired.par_iter_mut())
+            .filter(|(_, r)| !**r)
+            .map(|(fp, r)| {
+                *r = polylines.iter().any(|line| on_removed_side(line, fp.position));
+                usize::from(*r)
+            })
+            .sum()
     }
 }
 
