@@ -590,7 +590,13 @@ fn integrate_step_wear(
             if let Some(first) = f.initiation.as_mut().filter(|_| !initiated) {
                 first.depth = crate::fatigue::distance_to_polylines(&worn, fatigue.points[first.point].position);
                 let x = fatigue.points[first.point].position;
-                tracing::info!(cycle = first.cycle, x = x.x, y = x.y, depth = first.depth, "fatigue: crack initiation (D = 1)");
+                tracing::info!(
+                    cycle = first.cycle,
+                    x = x.x,
+                    y = x.y,
+                    depth = first.depth,
+                    "fatigue: crack initiation (D = 1)"
+                );
             }
             fatigue.retire_cut_away(&worn, &mut f.retired);
         }

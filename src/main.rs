@@ -815,7 +815,11 @@ fn scar_summary(model: &mortex::model::Model, state: &mortex::state::SimState, u
 }
 
 /// The most damaged fatigue point at the end of a wear run (see [`mortex::fatigue`]).
-fn fatigue_summary(model: &mortex::model::Model, state: &mortex::state::SimState, units: case::Units) -> Option<String> {
+fn fatigue_summary(
+    model: &mortex::model::Model,
+    state: &mortex::state::SimState,
+    units: case::Units,
+) -> Option<String> {
     let fm = model.fatigue.as_ref()?;
     let f = &state.fatigue;
     let alive = |p: &usize| !f.retired.get(*p).copied().unwrap_or(false);

@@ -789,7 +789,8 @@ fn nowell_hills_offset_of_the_stick_zone() {
     assert!(r.centre_from_profile && (r.e - 0.0412).abs() < 1e-4, "e = {}", r.e);
     let status = profile.status.as_ref().expect("a frictional pair's status");
     let stick: Vec<f64> = (0..profile.x.len()).filter(|&i| status[i] == 1).map(|i| profile.x[i]).collect();
-    let (lo, hi) = (stick.iter().copied().fold(f64::INFINITY, f64::min), stick.iter().copied().fold(f64::NEG_INFINITY, f64::max));
+    let (lo, hi) =
+        (stick.iter().copied().fold(f64::INFINITY, f64::min), stick.iter().copied().fold(f64::NEG_INFINITY, f64::max));
     let offset = 0.5 * (lo + hi) - r.x0;
     assert!((offset - r.e).abs() < 0.03 * r.a, "stick zone centred {offset} from the contact's, e = {}", r.e);
     let (pressure, shear) = mortex::io::plot::reference_errors(&profile, &r);

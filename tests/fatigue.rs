@@ -268,7 +268,8 @@ fn fretting_fatigue_swt_peaks_at_the_trailing_edge() {
     std::fs::write(dir.join("ff.toml"), case.replace("cycles = 500000", "cycles = 1000")).unwrap();
     run(&dir, &["run", "ff.toml", "--quiet", "-o", "ff.h5"]);
     let f = hdf5::File::open(dir.join("ff.h5")).unwrap();
-    let (swt, angle, xy) = (read(&f, "wear/fatigue/swt"), read(&f, "wear/fatigue/angle"), read(&f, "wear/fatigue/position"));
+    let (swt, angle, xy) =
+        (read(&f, "wear/fatigue/swt"), read(&f, "wear/fatigue/angle"), read(&f, "wear/fatigue/position"));
     let peak = (0..swt.len()).max_by(|&i, &j| swt[i].total_cmp(&swt[j])).unwrap();
     // Hertz half-width: a = sqrt(4 P R / (pi E*)), E* = E / (2 (1 - nu^2)).
     let e_star = 72_100.0 / (2.0 * (1.0 - 0.33 * 0.33));
@@ -328,13 +329,20 @@ fn damage_under_uniform_wear_matches_the_closed_form() -> Result<(), Box<dyn std
             model.retire_cut_away(&[&worn[..]], &mut state.retired);
         }
         let first = state.initiation.ok_or("no point failed")?;
-        eprintln!("jump {dn}: initiation at {:.1} against {n_f:.1} ({:+.3}%)", first.cycle, 100.0 * (first.cycle / n_f - 1.0));
+        eprintln!(
+            "jump {dn}: initiation at {:.1} against {n_f:.1} ({:+.3}%)",
+            first.cycle,
+            100.0 * (first.cycle / n_f - 1.0)
+        );
         assert!((first.cycle / n_f - 1.0).abs() < tolerance, "jump {dn}: initiation at {} against {n_f}", first.cycle);
         let surface = -W * cycles as f64;
         for (p, fp) in model.points.iter().enumerate() {
             assert_eq!(state.retired[p], fp.position.y > surface, "point {p} at {}", fp.position.y);
         }
-        assert!(state.damage.iter().zip(&state.retired).any(|(&d, &r)| r && d > 0.0), "retired points keep their damage");
+        assert!(
+            state.damage.iter().zip(&state.retired).any(|(&d, &r)| r && d > 0.0),
+            "retired points keep their damage"
+        );
     }
     Ok(())
 }

@@ -1330,7 +1330,13 @@ fn add_wear(
 }
 
 /// `[fatigue]`: the fatigue points of one body (see [`crate::fatigue`]).
-fn add_fatigue(cx: &Ctx, f: &FatigueSpec, no_wear: bool, body_names: &[&str], b: &mut ModelBuilder) -> Result<(), CaseError> {
+fn add_fatigue(
+    cx: &Ctx,
+    f: &FatigueSpec,
+    no_wear: bool,
+    body_names: &[&str],
+    b: &mut ModelBuilder,
+) -> Result<(), CaseError> {
     if no_wear {
         return Err(cx.err("fatigue", "fatigue is followed through the cycles of a wear run: give a [[wear]] surface"));
     }
@@ -1348,7 +1354,9 @@ fn add_fatigue(cx: &Ctx, f: &FatigueSpec, no_wear: bool, body_names: &[&str], b:
         Some([lo, hi]) => {
             let (lo, hi) = (Point2::new(lo[0], lo[1]), Point2::new(hi[0], hi[1]));
             if !(lo.x < hi.x && lo.y < hi.y) {
-                return Err(cx.err("fatigue.region", "give [[xmin, ymin], [xmax, ymax]] with xmin < xmax and ymin < ymax"));
+                return Err(
+                    cx.err("fatigue.region", "give [[xmin, ymin], [xmax, ymax]] with xmin < xmax and ymin < ymax")
+                );
             }
             Some([lo, hi])
         }

@@ -164,7 +164,8 @@ pub fn critical_plane(stress: &[Stress4], strain: &[Stress4]) -> Result<Critical
     if stress.is_empty() || stress.len() != strain.len() {
         return Err(FatigueError::History { stress: stress.len(), strain: strain.len() });
     }
-    let (stress, strain): (Vec<[f64; 3]>, Vec<[f64; 3]>) = (stress.iter().map(mohr).collect(), strain.iter().map(mohr).collect());
+    let (stress, strain): (Vec<[f64; 3]>, Vec<[f64; 3]>) =
+        (stress.iter().map(mohr).collect(), strain.iter().map(mohr).collect());
     let (stress, strain) = (stress.as_slice(), strain.as_slice());
     let value = |a: f64| swt_on_plane(stress, strain, a).0;
     let step = std::f64::consts::PI / PLANES as f64;

@@ -95,7 +95,9 @@ impl FatigueModel {
         region: Option<[Point2<f64>; 2]>,
     ) -> Result<Self, FatigueError> {
         life.life(0.0)?;
-        let inside = |x: &Point2<f64>| region.is_none_or(|[lo, hi]| (lo.x..=hi.x).contains(&x.x) && (lo.y..=hi.y).contains(&x.y));
+        let inside = |x: &Point2<f64>| {
+            region.is_none_or(|[lo, hi]| (lo.x..=hi.x).contains(&x.x) && (lo.y..=hi.y).contains(&x.y))
+        };
         let mut points = vec![];
         let mut eval = ShapeEval::default();
         for cell in &mesh.cells {
@@ -145,7 +147,12 @@ impl FatigueModel {
         let g = young / (2.0 * (1.0 + nu));
         let lambda = young * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
         let tr = exx + eyy + ezz;
-        let stress = Stress4::new(lambda * tr + 2.0 * g * exx, lambda * tr + 2.0 * g * eyy, lambda * tr + 2.0 * g * ezz, 2.0 * g * exy);
+        let stress = Stress4::new(
+            lambda * tr + 2.0 * g * exx,
+            lambda * tr + 2.0 * g * eyy,
+            lambda * tr + 2.0 * g * ezz,
+            2.0 * g * exy,
+        );
         (stress, Stress4::new(exx, eyy, ezz, exy))
     }
 

@@ -197,15 +197,16 @@ fn write_fatigue(c: &hdf5::Group, f: &crate::fatigue::FatigueState) -> hdf5::Res
 /// model's fatigue points.
 fn read_fatigue(c: &hdf5::Group, model: &Model) -> Result<crate::fatigue::FatigueState, String> {
     let Some(fm) = &model.fatigue else { return Ok(Default::default()) };
-    let g = c.group("fatigue").map_err(|_| "no fatigue group: the checkpoint was written without [fatigue]".to_string())?;
-    let read = |name: &str| g.dataset(name).and_then(|d| d.read_raw::<f64>()).map_err(|e| format!("fatigue dataset {name}: {e}"));
+    let g =
+        c.group("fatigue").map_err(|_| "no fatigue group: the checkpoint was written without [fatigue]".to_string())?;
+    let read = |name: &str| {
+        g.dataset(name).and_then(|d| d.read_raw::<f64>()).map_err(|e| format!("fatigue dataset {name}: {e}"))
+    };
     let np = fm.points.len();
     let (history, damage) = (read("history")?, read("damage")?);
     let last = crate::fatigue::CycleFatigue { swt: read("swt")?, angle: read("angle")?, life: read("life")? };
-    let retired = g
-        .dataset("retired")
-        .and_then(|d| d.read_raw::<u8>())
-        .map_err(|e| format!("fatigue dataset retired: {e}"))?;
+    let retired =
+        g.dataset("retired").and_then(|d| d.read_raw::<u8>()).map_err(|e| format!("fatigue dataset retired: {e}"))?;
     let per_point = [damage.len(), last.swt.len(), last.angle.len(), last.life.len(), retired.len()];
     if history.len() % (crate::fatigue::RECORD * np) != 0 || per_point.iter().any(|&n| n != 0 && n != np) {
         return Err(format!("fatigue datasets do not match the model's {np} fatigue points"));
@@ -214,12 +215,24 @@ fn read_fatigue(c: &hdf5::Group, model: &Model) -> Result<crate::fatigue::Fatigu
     let initiation = match g.attr("initiation_cycle").and_then(|a| a.read_scalar::<f64>()) {
         Err(_) => None,
         Ok(cycle) => {
-            let f64_attr = |name: &str| g.attr(name).and_then(|a| a.read_scalar::<f64>()).map_err(|e| format!("fatigue attribute {name}: {e}"));
-            let point = g.attr("initiation_point").and_then(|a| a.read_scalar::<u64>()).map_err(|e| format!("fatigue attribute initiation_point: {e}"))? as usize;
+            let f64_attr = |name: &str| {
+                g.attr(name).and_then(|a| a.read_scalar::<f64>()).map_err(|e| format!("fatigue attribute {name}: {e}"))
+            };
+            let point = g
+                .attr("initiation_point")
+                .and_then(|a| a.read_scalar::<u64>())
+                .map_err(|e| format!("fatigue attribute initiation_point: {e}"))? as usize;
             if point >= np {
-                return Err(format!("fatigue attribute initiation_point is {point}, the model has {np} fatigue points"));
+                return Err(format!(
+                    "fatigue attribute initiation_point is {point}, the model has {np} fatigue points"
+                ));
             }
-            Some(crate::fatigue::Initiation { cycle, point, angle: f64_attr("initiation_angle")?, depth: f64_attr("initiation_depth")? })
+            Some(crate::fatigue::Initiation {
+                cycle,
+                point,
+                angle: f64_attr("initiation_angle")?,
+                depth: f64_attr("initiation_depth")?,
+            })
         }
     };
     Ok(crate::fatigue::FatigueState { history, damage, last, retired, initiation })

@@ -628,7 +628,9 @@ impl ResultWriter {
             let g = file.create_group("reference")?;
             write_str_attr(&g, "pair", pair)?;
             let auto = f64::from(u8::from(r.centre_from_profile));
-            for (name, v) in [("p0", r.p0), ("a", r.a), ("x0", r.x0), ("mu", r.mu), ("e", r.e), ("centre_from_profile", auto)] {
+            for (name, v) in
+                [("p0", r.p0), ("a", r.a), ("x0", r.x0), ("mu", r.mu), ("e", r.e), ("centre_from_profile", auto)]
+            {
                 write_attr(&g, name, &v)?;
             }
             if let Some(c) = r.c {
@@ -1078,12 +1080,21 @@ fn fatigue_points_grid(x: &mut String, h5: &str, np: usize) {
     };
     let _ = writeln!(x, "    <Grid Name=\"fatigue\" GridType=\"Uniform\">");
     let _ = writeln!(x, "     <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"{np}\" NodesPerElement=\"1\"/>");
-    let _ = writeln!(x, "     <Geometry GeometryType=\"XY\">{}</Geometry>", item("position", &format!("{np} 2"), "Float", 8));
-    for (name, ty, precision) in
-        [("damage", "Float", 8), ("swt", "Float", 8), ("angle", "Float", 8), ("life", "Float", 8), ("retired", "UChar", 1)]
-    {
+    let _ = writeln!(
+        x,
+        "     <Geometry GeometryType=\"XY\">{}</Geometry>",
+        item("position", &format!("{np} 2"), "Float", 8)
+    );
+    for (name, ty, precision) in [
+        ("damage", "Float", 8),
+        ("swt", "Float", 8),
+        ("angle", "Float", 8),
+        ("life", "Float", 8),
+        ("retired", "UChar", 1),
+    ] {
         let data = item(name, &np.to_string(), ty, precision);
-        let _ = writeln!(x, "     <Attribute Name=\"{name}\" AttributeType=\"Scalar\" Center=\"Node\">{data}</Attribute>");
+        let _ =
+            writeln!(x, "     <Attribute Name=\"{name}\" AttributeType=\"Scalar\" Center=\"Node\">{data}</Attribute>");
     }
     let _ = writeln!(x, "    </Grid>");
 }
