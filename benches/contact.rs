@@ -7,7 +7,7 @@
 //! previous model of a run (numeric factorisation and interface operator only).
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use mortex::analysis::StaticAnalysis;
+use mortex::solve::StaticAnalysis;
 use std::hint::black_box;
 
 fn benches(c: &mut Criterion) {
@@ -46,7 +46,7 @@ fn benches(c: &mut Criterion) {
     let mut reuse = StaticAnalysis::new(&model).ok().and_then(|a| a.into_reuse());
     g.bench_function("reused_structure", |b| {
         b.iter(|| {
-            let a = match StaticAnalysis::with_reuse(&model, model.initial(), reuse.take()) {
+            let a = match StaticAnalysis::with_reuse(&model, model.initial_shared(), reuse.take()) {
                 Ok(a) => a,
                 Err(e) => panic!("setup: {e}"),
             };

@@ -23,7 +23,9 @@
 //! * [`model`]: [`model::Model`], the immutable problem data, and its builder;
 //!   [`model::Discretisation`], the run-time geometry derived from it (surfaces, cuts, DOF
 //!   map, contact rows), which the driver owns and re-derives as surfaces move or wear.
-//! * [`analysis`]: the load-stepping contact solve (Newton, interface condensation).
+//! * [`solve`]: the solve of one step ([`solve::StepSolver`]): load stepping with cut-backs,
+//!   monolithic Newton and condensed active-set iteration, finite sliding's pairing fixed
+//!   point; it owns the geometry of the moment and returns a [`solve::SolvedStep`].
 //! * [`driver`]: runs a case: load steps, or the wear loop around the contact solve.
 //! * [`post`], [`io`], [`case`]: derived fields; HDF5/XDMF output, checkpoints, plots; case
 //!   files (TOML) into a validated model.
@@ -32,7 +34,6 @@
 //!
 //! Physics modules never print or touch files; logging goes through `tracing`.
 
-pub mod analysis;
 pub mod assembly;
 pub mod case;
 pub mod contact;
@@ -48,6 +49,7 @@ pub mod moving;
 pub mod post;
 pub mod relocation;
 pub mod scenes;
+pub mod solve;
 pub mod solver;
 pub mod state;
 pub mod surface;

@@ -310,7 +310,7 @@ fn bench_wear(path: PathBuf, at: &[u64]) -> Result<(), String> {
     writer.set_checkpoint_every(c.checkpoint_every);
     writer.set_keep_checkpoints(c.keep_checkpoints);
     writer.set_fields_every(c.fields_every);
-    let mut state = mortex::analysis::StaticAnalysis::initial_state_of(model);
+    let mut state = mortex::solve::StaticAnalysis::initial_state_of(model);
     let mut output = 0.0;
     let timings = mortex::driver::run_timed(
         model,
@@ -581,7 +581,7 @@ fn run(
     let mut last_line = started;
     let mut tally = RunTally::default();
     let res = {
-        let observer = |r: &mortex::analysis::StepReport,
+        let observer = |r: &mortex::solve::StepReport,
                         s: &mortex::state::SimState,
                         step_model: &mortex::model::Model,
                         disc: &mortex::model::Discretisation|
@@ -625,7 +625,7 @@ struct RunTally {
 }
 
 impl RunTally {
-    fn add(&mut self, r: &mortex::analysis::StepReport) {
+    fn add(&mut self, r: &mortex::solve::StepReport) {
         self.iterations += r.iterations;
         if r.sub_steps > 1 {
             self.cut_increments += 1;
@@ -639,7 +639,7 @@ impl RunTally {
 /// wear (`wear`: the run's cycles and the case's units), or a load step's time and residual;
 /// moves the bar.
 fn progress_message(
-    r: &mortex::analysis::StepReport,
+    r: &mortex::solve::StepReport,
     s: &mortex::state::SimState,
     model: &mortex::model::Model,
     wear: Option<(u64, case::Units)>,
@@ -740,7 +740,7 @@ fn starting_state(
 ) -> Result<(mortex::state::SimState, PathBuf), String> {
     let Some(file) = restart else {
         return Ok((
-            mortex::analysis::StaticAnalysis::initial_state_of(&c.model),
+            mortex::solve::StaticAnalysis::initial_state_of(&c.model),
             output.unwrap_or_else(|| c.output.clone()),
         ));
     };

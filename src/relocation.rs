@@ -16,11 +16,11 @@
 //! `dN` cycles per computed cycle, so where the depth is small against the cells the two agree
 //! to the discretisation of the surface; they part where the relocated cells distort.
 
-use crate::analysis::{AnalysisError, StaticAnalysis};
 use crate::case::{parse_with_nodes, CaseError};
 use crate::driver::{run, RunOptions};
 use crate::mesh::relocate::{harmonic_extension, quality, MeshQuality};
 use crate::model::{Discretisation, Model};
+use crate::solve::{AnalysisError, StaticAnalysis};
 use crate::state::SimState;
 use nalgebra::{Point2, Vector2};
 use std::path::Path;

@@ -139,7 +139,7 @@ pub struct HertzRun {
 pub fn run_hertz(h_core: f64, virtual_top: bool) -> Result<HertzRun, String> {
     let start = Instant::now();
     let model = hertz_model(h_core, virtual_top).map_err(|e| e.to_string())?;
-    let mut analysis = crate::analysis::StaticAnalysis::new(&model).map_err(|e| e.to_string())?;
+    let mut analysis = crate::solve::StaticAnalysis::new(&model).map_err(|e| e.to_string())?;
     let mut state = analysis.initial_state();
     let mut iterations = 0;
     analysis
@@ -210,7 +210,7 @@ pub fn fretting_blocks_model(steps: usize) -> Result<Model, crate::model::ModelE
 
 /// Solves a one-step model to its end.
 fn solve_to_end(model: &Model) -> Result<crate::state::SimState, String> {
-    let mut analysis = crate::analysis::StaticAnalysis::new(model).map_err(|e| e.to_string())?;
+    let mut analysis = crate::solve::StaticAnalysis::new(model).map_err(|e| e.to_string())?;
     let mut state = analysis.initial_state();
     analysis.run(&mut state, |_, _| Ok(())).map_err(|e| e.to_string())?;
     Ok(state)

@@ -20,8 +20,8 @@
 //! where it no longer is (its peak pressure rose fourfold before each step was paired in its
 //! own end configuration).
 
-use mortex::analysis::StaticAnalysis;
 use mortex::driver::{run, RunOptions};
+use mortex::solve::StaticAnalysis;
 use std::path::Path;
 
 /// Pressures of the cylinder's multiplier nodes (multiplier order) at every output step of one

@@ -373,7 +373,7 @@ fn fine_hertz_path(path: &str, increments: usize) -> Vec<StepProfile> {
     let case = mortex::case::parse(&text, "hertz", std::path::Path::new("wear_cases"), "hertz")
         .unwrap_or_else(|e| panic!("{e}"));
     let model = case.model;
-    let mut analysis = mortex::analysis::StaticAnalysis::new(&model).expect("set-up");
+    let mut analysis = mortex::solve::StaticAnalysis::new(&model).expect("set-up");
     let mut state = analysis.initial_state();
     let mut steps = vec![];
     analysis

@@ -13,7 +13,7 @@
 
 mod common;
 use common::{contact_profile, hertz_a_p0, l2_error, solve, CylinderPair};
-use mortex::analysis::StaticAnalysis;
+use mortex::solve::StaticAnalysis;
 
 const P: f64 = 100.0;
 const MU: f64 = 0.3;
@@ -233,7 +233,7 @@ fn condensed_and_monolithic_solves_agree() {
         let mut model = scene.build();
         model.newton.rtol = 1e-11;
         let run = |condense: bool| {
-            let mut a = StaticAnalysis::with_condensation(&model, model.initial(), condense).expect("setup");
+            let mut a = StaticAnalysis::with_condensation(&model, model.initial_shared(), condense).expect("setup");
             let mut s = a.initial_state();
             let mut out = Vec::new();
             a.run(&mut s, |_, st| {
@@ -368,7 +368,7 @@ fn tangential_load_beyond_mu_p_is_a_clear_error() {
     };
     let model = scene.build();
     for condense in [true, false] {
-        let mut a = StaticAnalysis::with_condensation(&model, model.initial(), condense).expect("setup");
+        let mut a = StaticAnalysis::with_condensation(&model, model.initial_shared(), condense).expect("setup");
         let mut s = a.initial_state();
         let err = a.run(&mut s, |_, _| Ok(())).expect_err("gross sliding must fail");
         let msg = err.to_string();
@@ -376,8 +376,8 @@ fn tangential_load_beyond_mu_p_is_a_clear_error() {
         assert!(
             matches!(
                 err,
-                mortex::analysis::AnalysisError::GrossSliding { step: 2, .. }
-                    | mortex::analysis::AnalysisError::SlidingBeyondPairing { step: 2, .. }
+                mortex::solve::AnalysisError::GrossSliding { step: 2, .. }
+                    | mortex::solve::AnalysisError::SlidingBeyondPairing { step: 2, .. }
             ),
             "{msg}"
         );

@@ -15,7 +15,6 @@
 //! match areas and first moments to 1e-12, which is all a linear field needs on parallelograms).
 
 mod common;
-use mortex::analysis::StaticAnalysis;
 use mortex::cut::{loop_moments, CellCut};
 use mortex::driver::{run, RunOptions};
 use mortex::fem::element::MappedElement;
@@ -24,6 +23,7 @@ use mortex::fem::material::{Elastic, J2Plastic, Material, PlaneHypothesis};
 use mortex::mesh::{generate, CellKind};
 use mortex::model::{ContactOther, ContactParams, Discretisation, LoadPath, Model, ModelBuilder, Sliding};
 use mortex::moving::SurfaceMotion;
+use mortex::solve::StaticAnalysis;
 use mortex::solver::linear::LinearSolverKind;
 use mortex::solver::newton::NewtonParams;
 use nalgebra::{Matrix2, Point2, Vector2};
@@ -460,7 +460,8 @@ fn reused_solver_structure_equals_a_fresh_set_up_bit_for_bit() {
     for (k, &t) in model.times.iter().enumerate() {
         current.place_surfaces(&model, t).unwrap();
         let mut fresh_state = state.clone();
-        let mut handed = StaticAnalysis::with_reuse(&model, &current, reuse.take()).unwrap();
+        let mut handed =
+            StaticAnalysis::with_reuse(&model, std::sync::Arc::new(current.clone()), reuse.take()).unwrap();
         handed.advance_to(&mut state, k + 1, t).unwrap();
         assert_eq!(handed.structure_reused(), k > 0, "step {}: every set-up after the first reuses", k + 1);
         if previous_dofs.as_ref().is_some_and(|p| p != &current.dofs.eq) {
@@ -468,7 +469,7 @@ fn reused_solver_structure_equals_a_fresh_set_up_bit_for_bit() {
         }
         previous_dofs = Some(current.dofs.eq.clone());
         reuse = handed.into_reuse();
-        let mut fresh = StaticAnalysis::on(&model, &current).unwrap();
+        let mut fresh = StaticAnalysis::on(&model, std::sync::Arc::new(current.clone())).unwrap();
         assert!(!fresh.structure_reused());
         fresh.advance_to(&mut fresh_state, k + 1, t).unwrap();
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();

@@ -12,8 +12,8 @@
 
 mod common;
 
-use mortex::analysis::StaticAnalysis;
 use mortex::driver::{run, RunOptions};
+use mortex::solve::StaticAnalysis;
 use std::path::Path;
 
 const CASE: &str = "wear_cases/mccoll_j2.toml";

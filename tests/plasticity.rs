@@ -61,7 +61,7 @@ fn thick_cylinder_plastic_radius_matches_hill() {
             LinearSolverKind::Cholesky,
         )
         .unwrap();
-    let mut an = mortex::analysis::StaticAnalysis::new(&model).unwrap();
+    let mut an = mortex::solve::StaticAnalysis::new(&model).unwrap();
     let mut s = an.initial_state();
     let pts = model.initial().point_coords(&model);
     let mut checked = 0;
@@ -255,7 +255,7 @@ fn serial_and_parallel_plastic_runs_are_identical() {
         )
         .unwrap();
     let par = solve(&model);
-    let mut an = mortex::analysis::StaticAnalysis::new(&model).unwrap();
+    let mut an = mortex::solve::StaticAnalysis::new(&model).unwrap();
     an.set_parallel(false);
     let mut ser = an.initial_state();
     an.run(&mut ser, |_, _| Ok(())).unwrap();
@@ -358,10 +358,10 @@ times = [0.25, 0.5, 0.75, 1.0]
 /// `eps |r| / h`, about 1e-8 here.
 #[test]
 fn algorithmic_tangent_of_contact_and_j2_equals_finite_differences() {
-    use mortex::analysis::StaticAnalysis;
+    use mortex::solve::StaticAnalysis;
     let model = mortex::case::parse(TANGENT_SCENE, "tangent", std::path::Path::new("."), "tangent").unwrap().model;
     let disc = model.initial();
-    let mut analysis = StaticAnalysis::with_condensation(&model, disc, false).unwrap();
+    let mut analysis = StaticAnalysis::with_condensation(&model, model.initial_shared(), false).unwrap();
     let mut state = analysis.initial_state();
     // The normal load in 4 increments, the shear in 20 (small enough for no cut-back).
     let times: Vec<f64> = (1..=4).map(|k| 0.25 * k as f64).chain((1..=20).map(|k| 1.0 + 0.05 * k as f64)).collect();

@@ -10,10 +10,10 @@
 
 mod common;
 use common::{CylinderPair, ResultFiles};
-use mortex::analysis::StaticAnalysis;
 use mortex::io::checkpoint::{self, CheckpointError};
 use mortex::io::ResultWriter;
 use mortex::model::Model;
+use mortex::solve::StaticAnalysis;
 use mortex::state::SimState;
 use std::path::Path;
 

@@ -17,12 +17,12 @@
 //! small sliding (pairing from the reference) stops with the typed `SlidingBeyondPairing` error.
 
 mod common;
-use mortex::analysis::{AnalysisError, StaticAnalysis};
 use mortex::contact::FrictionStatus;
 use mortex::fem::kernel::Formulation;
 use mortex::fem::material::{Elastic, Material, PlaneHypothesis};
 use mortex::mesh::{generate, CellKind};
 use mortex::model::{ContactOther, ContactParams, LoadPath, Model, ModelBuilder, Sliding};
+use mortex::solve::{AnalysisError, StaticAnalysis};
 use nalgebra::{Point2, Vector2};
 
 const E: f64 = 210_000.0;

@@ -289,7 +289,7 @@ fn plastic_host_with_tied_patch() {
                 Default::default(),
             )
             .unwrap();
-        let mut an = mortex::analysis::StaticAnalysis::new(&model).unwrap();
+        let mut an = mortex::solve::StaticAnalysis::new(&model).unwrap();
         an.set_parallel(parallel);
         let mut s = an.initial_state();
         an.run(&mut s, |_, _| Ok(())).unwrap();

@@ -1,7 +1,7 @@
 //! Wear engine against exact references (see each test).
 
-use mortex::analysis::StaticAnalysis;
 use mortex::driver::{run, RunOptions};
+use mortex::solve::StaticAnalysis;
 use mortex::wear::{
     bounded_implicit_jump, implicit_contact_change, implicit_pressure_change, JumpContact, JumpOperator, JumpPolicy,
     JumpScheme, JumpSurface, RateFilter,
@@ -900,7 +900,7 @@ fn plastic_history_stays_on_its_points_through_wear() {
             let mut next = d.clone();
             next.place_worn_surfaces(m, &st.wear).unwrap();
             let s2 = st.clone();
-            let mut analysis = StaticAnalysis::on(m, &next).unwrap();
+            let mut analysis = StaticAnalysis::on(m, std::sync::Arc::new(next)).unwrap();
             analysis.resume(&s2).unwrap();
             let after: Vec<u64> = s2.history.iter().flat_map(bits).collect();
             assert!(before == after, "cycle {}: the wear update changed the history", st.wear.cycle);

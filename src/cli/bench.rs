@@ -183,7 +183,7 @@ pub fn run_output_bench(
     out: &std::path::Path,
 ) -> Result<OutputRun, String> {
     let model = fretting_blocks_model(steps).map_err(|e| e.to_string())?;
-    let mut state = mortex::analysis::StaticAnalysis::initial_state_of(&model);
+    let mut state = mortex::solve::StaticAnalysis::initial_state_of(&model);
     let mut writer = mortex::io::ResultWriter::create(out, &model, "output-bench").map_err(|e| e.to_string())?;
     writer.set_fields_every(fields_every);
     writer.set_checkpoint_every(checkpoint_every);

@@ -66,9 +66,9 @@ pub mod checkpoint;
 pub mod plot;
 pub mod plot_field;
 
-use crate::analysis::StepReport;
 use crate::model::{Discretisation, Model};
 use crate::post::nodal_fields;
+use crate::solve::StepReport;
 use crate::state::SimState;
 use hdf5::types::VarLenUnicode;
 use ndarray::{Array1, Array2};

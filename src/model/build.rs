@@ -164,7 +164,7 @@ impl ModelBuilder {
             wear,
             fatigue: self.fatigue,
             ghost_reach_cache: Default::default(),
-            initial,
+            initial: std::sync::Arc::new(initial),
         })
     }
 

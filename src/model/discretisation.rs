@@ -67,6 +67,11 @@ impl Model {
         &self.initial
     }
 
+    /// [`Model::initial`], shared (a solver set up on it holds it).
+    pub fn initial_shared(&self) -> std::sync::Arc<Discretisation> {
+        std::sync::Arc::clone(&self.initial)
+    }
+
     /// Whether any surface of the model moves during the run.
     pub fn has_moving_surfaces(&self) -> bool {
         self.initial.surfaces.iter().any(|s| s.motion.is_some())

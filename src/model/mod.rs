@@ -308,7 +308,7 @@ pub struct Model {
     /// surfaces and re-pairings change neither the bands nor the penalty of unbanded bodies).
     ghost_reach_cache: std::sync::Arc<std::sync::OnceLock<Vec<(usize, usize)>>>,
     /// The discretisation the builder made: every surface where it starts, nothing worn.
-    initial: Discretisation,
+    initial: std::sync::Arc<Discretisation>,
 }
 
 /// The other surface of a contact pair.

@@ -68,7 +68,7 @@ pub struct WearState {
     /// next cycle's step starts its active-set iterations from them: a jump later the contact
     /// edges are a node or so from where they were, where the prediction from the step's
     /// start moves them a node or two per iteration. The solution is the same bits (see
-    /// [`crate::analysis::StaticAnalysis::start_from_sets`]).
+    /// [`crate::solve::StaticAnalysis::start_from_sets`]).
     pub start_sets: Vec<(Vec<bool>, Vec<FrictionStatus>)>,
     /// Yielding bodies: `[eps_p (4 tensor components), alpha]` of every history point at the
     /// start of the current computed cycle (empty: the virgin state, all zero).

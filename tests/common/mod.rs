@@ -1,9 +1,9 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
-use mortex::analysis::StaticAnalysis;
 use mortex::fem::element::{MappedElement, ShapeEval};
 use mortex::model::Model;
+use mortex::solve::StaticAnalysis;
 use mortex::state::SimState;
 use nalgebra::Point2;
 

@@ -339,7 +339,7 @@ pub struct SolverReuse {
     /// The trial stresses of `buffers` at points without material equal the state's.
     pub(super) void_stresses_synced: bool,
     /// The next model's interface rows with their operator, formed on this bulk beforehand
-    /// (see [`crate::analysis::StaticAnalysis::prepare_rows`]); used on the same bulk only.
+    /// (see [`crate::solve::StaticAnalysis::prepare_rows`]); used on the same bulk only.
     prepared: Option<Condensed>,
 }
 
@@ -390,7 +390,7 @@ impl SolverReuse {
     }
 
     /// The next model's interface rows, formed beforehand on this bulk by
-    /// [`crate::analysis::StaticAnalysis::prepare_rows`] for exactly that model (its pairing):
+    /// [`crate::solve::StaticAnalysis::prepare_rows`] for exactly that model (its pairing):
     /// the set-up takes them instead of forming them (the same arithmetic: the same bits).
     pub fn with_prepared(mut self, rows: PreparedRows) -> Self {
         self.prepared = Some(rows.0);
