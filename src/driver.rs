@@ -15,8 +15,8 @@
 //! continuation is bit for bit the uninterrupted run.
 
 use crate::model::{Discretisation, Model};
-use crate::solve::{AnalysisError, SolvedStep, StepReport, StepRequest, StepSolver};
-use crate::state::SimState;
+use crate::solve::{AnalysisError, SolvedIncrement, SolvedStep, StepReport, StepRequest, StepSolver};
+use crate::state::{SimState, WearState};
 use crate::wear::{accumulate_step_wear, apply_cycle_wear, cycle_plasticity, plastic_snapshot, JumpScheme};
 
 pub use crate::solve::{RunOptions, RunTimings};
@@ -215,15 +215,13 @@ where
         StepRequest { step: inc.step, time: end, sensitivity, ..Default::default() }
     }
 
-    /// Increment `inc` of a finite-sliding computed cycle: solved whole, paired first where the
-    /// last computed cycle ended it; if that solve fails in a way a shorter step can avoid, or
-    /// its sweep cannot be trusted (see [`crate::wear::sweep_check`]), solved again from its
-    /// start in sub-steps (see [`Self::sub_stepped_increment`]).
+    /// Increment `inc` of a finite-sliding computed cycle, paired first where the last computed
+    /// cycle ended it (a cycle later, or a jump later, the surfaces meet almost there; the next
+    /// increment's guess lets the solver pair it ahead: the surfaces hold still until the
+    /// cycle's end), solved whole or in sub-steps (see [`StepSolver::solve_increment`]); the
+    /// wear of every sub-step is swept and added to the cycle's.
     fn finite_increment(&mut self, state: &mut SimState, inc: &Increment) -> Result<(), AnalysisError> {
         let i = inc.i;
-        // First paired where the last computed cycle ended this increment: a cycle later (or
-        // a jump later) the surfaces meet almost there; the next increment's guess lets the
-        // solver pair it ahead (the surfaces hold still until the cycle's end).
         let guess = std::mem::take(&mut state.wear.pairing_guess[i]);
         let guess = (guess.len() == state.u.len()).then_some(guess);
         let next_guess = state.wear.pairing_guess.get(i + 1).filter(|g| g.len() == state.u.len()).cloned();
@@ -233,130 +231,15 @@ where
             next_guess: next_guess.as_deref(),
             ..self.request(inc, inc.end)
         };
-        let t_start = state.time;
-        let piece = Piece { last: true, check_sweep: true, pieces: 1 };
-        let cause = match self.solve_piece(state, inc, piece, request) {
-            Ok(Trial::Accepted) => return Ok(()),
-            Ok(Trial::Cut(check)) => StepCut::Sweep(check),
-            Err(e) if e.shorter_step_may_help() => StepCut::Failed(e),
-            Err(e) => return Err(e),
-        };
-        // The whole increment's solve is dropped; a converged one tells how fast the
-        // displacements move along it.
-        let whole_u = matches!(cause, StepCut::Sweep(_)).then(|| state.u.clone());
-        self.solver.undo(state);
-        let length = inc.end - t_start;
-        let rate = whole_u.map(|end| end.iter().zip(&state.u).map(|(e, s)| (e - s) / length).collect());
-        self.sub_stepped_increment(state, inc, t_start, cause, rate)
-    }
-
-    /// Increment `inc` solved from its start (time `t_start`) in sub-steps, each re-paired
-    /// from where the last one ended (first at the end the displacements' `rate`, per unit of
-    /// time, predicts) and its wear swept and added to the cycle's. A sweep that
-    /// cannot be trusted splits the increment evenly into pieces sliding at most
-    /// [`crate::wear::SWEEP_WIDTH_FRACTION`] of the contact's width; a failure a shorter step
-    /// may avoid halves the piece (down to `1 /` [`crate::wear::MAX_SUB_STEPS`] of the
-    /// increment), and an accepted piece after a failure lets the next be twice as long, up
-    /// to the split's length. Only the increment's end is handed to the observer (it is what
-    /// the case records).
-    fn sub_stepped_increment(
-        &mut self,
-        state: &mut SimState,
-        inc: &Increment,
-        t_start: f64,
-        cause: StepCut,
-        mut rate: Option<Vec<f64>>,
-    ) -> Result<(), AnalysisError> {
-        let length = inc.end - t_start;
-        let shortest = length / crate::wear::MAX_SUB_STEPS as f64;
-        tracing::debug!(step = inc.step, cycle = inc.n + 1, increment = inc.i + 1, cause = %cause, "increment cut into sub-steps");
-        let split = match &cause {
-            StepCut::Sweep(check) => check.pieces().clamp(2, crate::wear::MAX_SUB_STEPS),
-            StepCut::Failed(_) => 2,
-        };
-        let longest = length / split as f64;
-        // Pieces sized by the sweep are not checked again (their slide is the split's).
-        let check_sweep = matches!(cause, StepCut::Failed(_));
-        let (mut t, mut dt, mut pieces, mut cut) = (t_start, longest, 0usize, cause);
-        while t < inc.end {
-            dt = dt.min(inc.end - t);
-            // A piece ending within a millionth of the increment of its end is its end (at a
-            // time of 2.4e5 the pieces' sums leave remainders of 1e-10, whose solve is all
-            // round-off: a run of 10^6 cycles once failed on one).
-            let last = t + dt >= inc.end - SUB_STEP_MERGE * length;
-            let end = if last { inc.end } else { t + dt };
-            let may_cut = dt > shortest * (1.0 + 1e-9);
-            let piece = Piece { last, check_sweep: check_sweep && may_cut, pieces: pieces + 1 };
-            // Paired first where the displacements, moving as fast as over the last piece (or
-            // the whole increment's solve), would end this one: a sliding contact's pairing
-            // then settles in one or two re-pairings instead of three or four.
-            let guess: Option<Vec<f64>> =
-                rate.as_ref().map(|r| state.u.iter().zip(r).map(|(u, r)| u + r * (end - t)).collect());
-            let u_start = rate.is_some().then(|| state.u.clone());
-            let request = StepRequest { pairing_guess: guess.as_deref(), ..self.request(inc, end) };
-            match self.solve_piece(state, inc, piece, request) {
-                Ok(Trial::Accepted) => {
-                    if let Some(u0) = u_start {
-                        rate = Some(state.u.iter().zip(&u0).map(|(u, u0)| (u - u0) / (end - t)).collect());
-                    }
-                    (t, pieces) = (end, pieces + 1);
-                    dt = (2.0 * dt).min(longest);
-                    continue;
-                }
-                Ok(Trial::Cut(check)) => cut = StepCut::Sweep(check),
-                Err(e) if e.shorter_step_may_help() && may_cut => cut = StepCut::Failed(e),
-                Err(e) => {
-                    let source = Box::new(e);
-                    return Err(AnalysisError::IncrementCut {
-                        step: inc.step,
-                        time: end,
-                        pieces: pieces + 1,
-                        length: dt,
-                        source,
-                    });
-                }
-            }
-            tracing::debug!(step = inc.step, time = end, cause = %cut, "sub-step halved");
-            self.solver.undo(state);
-            dt *= 0.5;
+        let SolvedIncrement { sub_steps, last } = self.solver.solve_increment(state, request)?;
+        let t1 = std::time::Instant::now();
+        for mut sub in sub_steps {
+            accumulate_solved_wear(self.model, &mut sub.solved, &sub.u, &sub.multipliers, &mut state.wear);
         }
-        if pieces > 1 {
-            let (step, cycle, increment) = (inc.step, inc.n + 1, inc.i + 1);
-            tracing::info!(step, cycle, increment, sub_steps = pieces, cause = %cut, "increment solved in sub-steps");
-        }
-        Ok(())
-    }
-
-    /// Solves one piece of increment `inc` (the whole or a sub-step) from the state; hands
-    /// the increment's end to the wear integration and the observer, or adds a sub-step's
-    /// wear to the cycle's, unless the piece's sweep cannot be trusted and it may be cut.
-    fn solve_piece(
-        &mut self,
-        state: &mut SimState,
-        inc: &Increment,
-        piece: Piece,
-        request: StepRequest,
-    ) -> Result<Trial, AnalysisError> {
-        let mut solved = self.solver.solve(state, request)?;
-        if piece.check_sweep {
-            let u = (solved.start_u.as_slice(), state.u.as_slice());
-            let lambda = (solved.start_multipliers.as_slice(), state.multipliers.as_slice());
-            let check = crate::wear::sweep_check(&solved.disc.contact, u, lambda);
-            if let Some(check) = check.filter(|c| !c.acceptable()) {
-                return Ok(Trial::Cut(check));
-            }
-        }
-        if !piece.last {
-            let t1 = std::time::Instant::now();
-            accumulate_solved_wear(self.model, &mut solved, state);
-            self.wear_time += t1.elapsed().as_secs_f64();
-            return Ok(Trial::Accepted);
-        }
-        state.wear.pairing_guess[inc.i].clone_from(&state.u);
-        state.wear.start_sets[inc.i] = solved.sets.clone().unwrap_or_default();
-        solved.report.sub_steps = piece.pieces;
-        self.finish_increment(state, solved, inc)?;
-        Ok(Trial::Accepted)
+        self.wear_time += t1.elapsed().as_secs_f64();
+        state.wear.pairing_guess[i].clone_from(&state.u);
+        state.wear.start_sets[i] = last.sets.clone().unwrap_or_default();
+        self.finish_increment(state, last, inc)
     }
 
     /// The wear of increment `inc` that just converged, and at the cycle's last increment the
@@ -371,7 +254,7 @@ where
         let m = self.model;
         solved.report.cycle = inc.n as usize + 1;
         solved.report.increment = inc.i + 1;
-        accumulate_solved_wear(m, &mut solved, state);
+        accumulate_solved_wear(m, &mut solved, &state.u, &state.multipliers, &mut state.wear);
         if let Some(fatigue) = &m.fatigue {
             fatigue.record(&state.u, &mut state.fatigue.history);
         }
@@ -384,8 +267,8 @@ where
     }
 }
 
-/// The end of a computed cycle: its wear applied with its jump, the fatigue damage of the cycle
-/// and the jump, and the points the worn surfaces passed retired.
+/// The end of a computed cycle: its wear applied with its jump, and the fatigue damage of the
+/// cycle and the jump (see [`crate::fatigue::FatigueModel::close_cycle`]).
 fn close_cycle(m: &Model, disc: &Discretisation, state: &mut SimState) -> Result<(), AnalysisError> {
     let count = m.cycle.map_or(1, |c| c.count as u64);
     if m.has_plasticity() {
@@ -394,15 +277,7 @@ fn close_cycle(m: &Model, disc: &Discretisation, state: &mut SimState) -> Result
     }
     apply_cycle_wear(&disc.wear_scene(m), &mut state.wear, count, true)?;
     if let Some(fatigue) = &m.fatigue {
-        let f = &mut state.fatigue;
-        let history = std::mem::take(&mut f.history);
-        let (dn, before) = (state.wear.jump, state.wear.cycle.saturating_sub(state.wear.jump));
-        let initiated = f.initiation.is_some();
-        f.last = fatigue
-            .cycle_damage(&history, before, dn, f)
-            .map_err(|source| AnalysisError::Fatigue { cycle: state.wear.cycle, source })?;
-        // The points the worn surfaces of the body have passed retire (after the jump's
-        // damage: a point passed within the jump is counted through it).
+        // The worn surfaces of the fatigue body.
         let worn: Vec<&[[f64; 2]]> = m
             .wear
             .surfaces
@@ -411,18 +286,10 @@ fn close_cycle(m: &Model, disc: &Discretisation, state: &mut SimState) -> Result
             .filter(|(ws, _)| disc.surfaces[ws.surface].body == fatigue.body_index)
             .map(|(_, v)| v.as_slice())
             .collect();
-        if let Some(first) = f.initiation.as_mut().filter(|_| !initiated) {
-            let x = fatigue.points[first.point].position;
-            first.depth = crate::fatigue::distance_to_polylines(&worn, x);
-            tracing::info!(
-                cycle = first.cycle,
-                x = x.x,
-                y = x.y,
-                depth = first.depth,
-                "fatigue: crack initiation (D = 1)"
-            );
-        }
-        fatigue.retire_cut_away(&worn, &mut f.retired);
+        let (done, jump) = (state.wear.cycle, state.wear.jump);
+        fatigue
+            .close_cycle(&mut state.fatigue, done, jump, &worn)
+            .map_err(|source| AnalysisError::Fatigue { cycle: done, source })?;
     }
     if m.has_plasticity() {
         state.wear.plastic_start = plastic_snapshot(&state.history);
@@ -433,17 +300,13 @@ fn close_cycle(m: &Model, disc: &Discretisation, state: &mut SimState) -> Result
     Ok(())
 }
 
-/// Adds the wear of a solved step (from its start to the state) to the cycle's, with its
-/// linearisation for the implicit update.
-fn accumulate_solved_wear(m: &Model, solved: &mut SolvedStep, state: &mut SimState) {
+/// Adds the wear of a solved step (from its start to the displacements `u` and multipliers
+/// `multipliers` it ended at) to the cycle's, with its linearisation for the implicit update.
+fn accumulate_solved_wear(m: &Model, solved: &mut SolvedStep, u: &[f64], multipliers: &[f64], wear: &mut WearState) {
     let scene = solved.disc.wear_scene(m);
-    accumulate_step_wear(
-        &scene,
-        &mut state.wear,
-        (&solved.start_u, &state.u),
-        (Some(&solved.start_multipliers), &state.multipliers),
-        solved.sensitivity.take(),
-    );
+    let path = (solved.start_u.as_slice(), u);
+    let lambda = (Some(solved.start_multipliers.as_slice()), multipliers);
+    accumulate_step_wear(&scene, wear, path, lambda, solved.sensitivity.take());
 }
 
 /// One increment of a computed cycle: its index `i` in cycle `n` (of `increments`), the
@@ -454,44 +317,4 @@ struct Increment {
     increments: usize,
     step: usize,
     end: f64,
-}
-
-/// Share of an increment below which what is left of it after a piece joins that piece.
-const SUB_STEP_MERGE: f64 = 1e-6;
-
-/// A piece of an increment being solved: whether it ends the increment, whether its sweep is
-/// checked (a sweep that cannot be trusted cuts it), and its number among the pieces.
-#[derive(Clone, Copy)]
-struct Piece {
-    last: bool,
-    check_sweep: bool,
-    pieces: usize,
-}
-
-/// What the solve of a piece came to.
-enum Trial {
-    Accepted,
-    /// Converged, but its sweep cannot be trusted: the piece is to be cut.
-    Cut(crate::wear::SweepCheck),
-}
-
-/// Why an increment was cut.
-enum StepCut {
-    Sweep(crate::wear::SweepCheck),
-    Failed(AnalysisError),
-}
-
-impl std::fmt::Display for StepCut {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            StepCut::Sweep(c) => write!(
-                f,
-                "the pressure field changed by {:.0}% of the load while sliding {:.3e}, {:.1} contact widths",
-                100.0 * c.change,
-                c.slide,
-                c.slide / c.width.max(f64::MIN_POSITIVE)
-            ),
-            StepCut::Failed(e) => write!(f, "{e}"),
-        }
-    }
 }

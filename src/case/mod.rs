@@ -736,8 +736,8 @@ pub fn parse_with_nodes(
     let hyp = raw.problem.hypothesis;
     let mut b = ModelBuilder::new(hyp);
 
-    let (mat_names, mat_models) = add_materials(&cx, hyp, &raw.materials, &mut b)?;
-    let body_names = add_bodies(&cx, hyp, &raw.bodies, &mat_names, &mat_models, base, nodes, &mut b)?;
+    let materials = add_materials(&cx, hyp, &raw.materials, &mut b)?;
+    let body_names = add_bodies(&cx, hyp, &raw.bodies, &materials, base, nodes, &mut b)?;
     let curves = add_curves(&cx, &raw.curves, &mut b)?;
     add_rigid_sets(&cx, &raw.rigid, &body_names, &mut b)?;
     add_bcs(&cx, &raw.bcs, &body_names, &curves, &mut b)?;
@@ -888,7 +888,7 @@ fn add_materials<'a>(
     hyp: PlaneHypothesis,
     materials: &'a [MaterialSpec],
     b: &mut ModelBuilder,
-) -> Result<(Vec<&'a str>, Vec<MaterialModel>), CaseError> {
+) -> Result<MaterialTable<'a>, CaseError> {
     let mut mat_names: Vec<&str> = vec![];
     let mut mat_models = vec![];
     for (i, m) in materials.iter().enumerate() {
@@ -945,18 +945,22 @@ fn add_materials<'a>(
         mat_models.push(m.model);
         b.add_material(&m.name, mat);
     }
-    Ok((mat_names, mat_models))
+    Ok(MaterialTable { names: mat_names, models: mat_models })
 }
 
-#[allow(clippy::too_many_arguments)]
+/// The materials a case declared: their names and models, in order.
+struct MaterialTable<'a> {
+    names: Vec<&'a str>,
+    models: Vec<MaterialModel>,
+}
+
 /// `[[bodies]]`: adds each body's mesh (its nodes moved where `nodes` names it), material,
 /// thickness and formulation; returns their names.
 fn add_bodies<'a>(
     cx: &Ctx,
     hyp: PlaneHypothesis,
     bodies: &'a [BodySpec],
-    mat_names: &[&str],
-    mat_models: &[MaterialModel],
+    materials: &MaterialTable,
     base: &Path,
     nodes: &[(String, Vec<Point2<f64>>)],
     b: &mut ModelBuilder,
@@ -971,8 +975,11 @@ fn add_bodies<'a>(
             return Err(cx.err(k("name"), format!("duplicate body name '{}'", bs.name)));
         }
         body_names.push(&bs.name);
-        let mi = mat_names.iter().position(|&n| n == bs.material).ok_or_else(|| {
-            cx.err(k("material"), format!("no material named '{}' (defined: {})", bs.material, mat_names.join(", ")))
+        let mi = materials.names.iter().position(|&n| n == bs.material).ok_or_else(|| {
+            cx.err(
+                k("material"),
+                format!("no material named '{}' (defined: {})", bs.material, materials.names.join(", ")),
+            )
         })?;
         let thickness = match (bs.thickness, hyp) {
             (None, _) => 1.0,
@@ -992,7 +999,7 @@ fn add_bodies<'a>(
                 ))
             }
             Some(f) => f,
-            None if mat_models[mi] == MaterialModel::J2Plastic => Formulation::BBar,
+            None if materials.models[mi] == MaterialModel::J2Plastic => Formulation::BBar,
             None => Formulation::Standard,
         };
         let mut mesh = build_mesh(&bs.mesh, base).map_err(|msg| cx.err(k("mesh"), msg))?;

@@ -2,13 +2,16 @@
 //! cutting, output writing and re-cutting, on the scenes of [`mortex::scenes`].
 
 use mortex::assembly::{Assembler, AssemblyInput, AssemblyOutput, SparsityPattern};
+use mortex::case;
 use mortex::fem::kernel::Formulation;
 use mortex::fem::material::{Elastic, Material, PlaneHypothesis, PlasticState, Stress4};
+use mortex::io::ResultWriter;
 use mortex::mesh::{generate, CellKind};
 use mortex::model::{LoadPath, ModelBuilder};
 use mortex::scenes::{block_model, fretting_blocks_model};
 use mortex::solver::linear::{LinearSolverError, LinearSolverKind, SparseSolver};
 use mortex::solver::newton::NewtonParams;
+use std::path::PathBuf;
 use std::time::Instant;
 
 /// Wall times in seconds of the pieces of one linear solve.
@@ -248,4 +251,224 @@ pub fn time_recut(n: usize, moves: usize) -> Result<(usize, usize, usize, f64), 
         cut = r.cut_cells_by_degree.iter().sum::<usize>() + r.unfitted_cells;
     }
     Ok((n * n, band, cut, start.elapsed().as_secs_f64() / moves as f64))
+}
+
+/// `bench --wear`: the case run to its end with its output (fields, checkpoints as the case
+/// says), then per chosen cycle the scar of every wearing surface and the wear balance, and
+/// the time split.
+pub(crate) fn bench_wear(path: PathBuf, at: &[u64]) -> Result<(), String> {
+    let c = case::load(&path).map_err(|e| e.to_string())?;
+    let model = &c.model;
+    let out = std::env::temp_dir().join(format!("mortex-bench-wear-{}.h5", std::process::id()));
+    let started = std::time::Instant::now();
+    let mut writer = ResultWriter::create(&out, model, &c.name).map_err(|e| e.to_string())?;
+    writer.set_checkpoint_every(c.checkpoint_every);
+    writer.set_keep_checkpoints(c.keep_checkpoints);
+    writer.set_fields_every(c.fields_every);
+    let mut state = mortex::solve::StaticAnalysis::initial_state_of(model);
+    let mut output = 0.0;
+    let timings = mortex::driver::run_timed(
+        model,
+        &mut state,
+        mortex::driver::RunOptions { parallel: !c.serial },
+        |r, s, m, d| {
+            let t0 = std::time::Instant::now();
+            writer.write_step(m, d, r, s).map_err(|e| e.to_string())?;
+            output += t0.elapsed().as_secs_f64();
+            Ok(())
+        },
+    )
+    .map_err(|e| e.to_string())?;
+    let t0 = std::time::Instant::now();
+    let file = writer.finish(true).map_err(|e| e.to_string())?;
+    output += t0.elapsed().as_secs_f64();
+    let wall = started.elapsed().as_secs_f64();
+    let size = std::fs::metadata(&file).map(|m| m.len()).unwrap_or(0);
+    let table = mortex::io::wear_table(&file, model, at).map_err(|e| e.to_string())?;
+    println!(
+        "{}: {} cycles, {} computed, {} steps, {} DOFs",
+        c.name,
+        state.wear.cycle,
+        state.wear.computed_cycles,
+        state.step,
+        model.num_dofs()
+    );
+    println!("{table}");
+    let rest = wall - timings.setup - timings.repairing - timings.solve - timings.wear - output;
+    println!(
+        "wall {wall:.1} s: contact solves {:.1} s, re-pairing {:.1} s (pairings {:.1} s, their interface operators {:.1} s), solver set-up {:.1} s (per surface position), wear update + re-cut {:.1} s, output {:.1} s ({:.1}%), other {:.1} s; result file {:.1} MB",
+        timings.solve,
+        timings.repairing,
+        timings.pairings,
+        timings.repairing - timings.pairings,
+        timings.setup,
+        timings.wear,
+        output,
+        100.0 * output / wall,
+        rest,
+        size as f64 / 1e6
+    );
+    println!(
+        "per computed cycle: {:.3} s (contact {:.3}, re-pairing {:.3}, set-up {:.3}, wear {:.3}, output {:.3})",
+        wall / state.wear.computed_cycles.max(1) as f64,
+        timings.solve / state.wear.computed_cycles.max(1) as f64,
+        timings.repairing / state.wear.computed_cycles.max(1) as f64,
+        timings.setup / state.wear.computed_cycles.max(1) as f64,
+        timings.wear / state.wear.computed_cycles.max(1) as f64,
+        output / state.wear.computed_cycles.max(1) as f64
+    );
+    if timings.setups > 0 {
+        println!(
+            "solver set-ups: {}, {} of them numeric only (pattern and symbolic factorisation of the previous surface position kept)",
+            timings.setups, timings.reused_setups
+        );
+    }
+    let _ = std::fs::remove_file(&file);
+    let _ = std::fs::remove_file(file.with_extension("xdmf"));
+    let _ = std::fs::remove_file(format!("{}_contact.csv", file.with_extension("").display()));
+    Ok(())
+}
+
+pub(crate) fn bench(n: usize, repeat: usize, serial: bool) -> Result<(), String> {
+    if n == 0 || repeat == 0 {
+        return Err("bench: n and repeat must be at least 1".into());
+    }
+    let mut best: Option<crate::cli::bench::LinearSolveTimes> = None;
+    for _ in 0..repeat {
+        let t = crate::cli::bench::time_linear_solve(n, !serial).map_err(|e| e.to_string())?;
+        best = Some(match best {
+            None => t,
+            Some(b) => crate::cli::bench::LinearSolveTimes {
+                pattern: b.pattern.min(t.pattern),
+                assembly: b.assembly.min(t.assembly),
+                symbolic: b.symbolic.min(t.symbolic),
+                numeric: b.numeric.min(t.numeric),
+                solve: b.solve.min(t.solve),
+                refill: b.refill.min(t.refill),
+                refactor: b.refactor.min(t.refactor),
+                ..t
+            },
+        });
+    }
+    let Some(t) = best else {
+        return Err("no repetition ran".into());
+    };
+    println!("{n} x {n} Quad4 plane-strain block: {} DOFs, {} non-zeros (best of {repeat}, {} element loop, {} rayon threads)", t.dofs, t.nnz, if serial { "serial" } else { "parallel" }, rayon::current_num_threads());
+    println!("  sparsity pattern      {:8.4} s", t.pattern);
+    println!("  assembly              {:8.4} s", t.assembly);
+    println!("  symbolic Cholesky     {:8.4} s", t.symbolic);
+    println!("  numeric Cholesky      {:8.4} s", t.numeric);
+    println!("  solve                 {:8.4} s", t.solve);
+    println!("  whole linear solve    {:8.4} s  (pattern + assembly + symbolic + numeric + solve)", t.whole());
+    println!("  refill + refactor     {:8.4} s  ({:.4} + {:.4})", t.refill + t.refactor, t.refill, t.refactor);
+    println!("  relative residual     {:8.1e}", t.residual);
+    Ok(())
+}
+
+pub(crate) fn bench_embed(n: usize, segments: usize, repeat: usize) -> Result<(), String> {
+    if n == 0 || repeat == 0 || segments < 3 {
+        return Err("bench --embed: n and repeat must be at least 1, segments at least 3".into());
+    }
+    let mut best: Option<crate::cli::bench::EmbedTimes> = None;
+    for _ in 0..repeat {
+        let t = crate::cli::bench::time_embedding(n, segments).map_err(|e| e.to_string())?;
+        best = Some(match best {
+            None => t,
+            Some(b) => crate::cli::bench::EmbedTimes {
+                index: b.index.min(t.index),
+                embed: b.embed.min(t.embed),
+                cut: b.cut.min(t.cut),
+                fit_per_cell: b.fit_per_cell.min(t.fit_per_cell),
+                subtri_per_cell: b.subtri_per_cell.min(t.subtri_per_cell),
+                ..t
+            },
+        });
+    }
+    let Some(t) = best else { return Err("no repetition ran".into()) };
+    println!(
+        "closed surface of {} segments in a {n} x {n} Quad4 host ({} cells): {} cut cells (best of {repeat})",
+        t.segments, t.cells, t.cut_cells
+    );
+    println!("  host BVH + adjacency (once per host)   {:8.4} s", t.index);
+    println!("  embed (clip against BVH candidates)    {:8.4} s", t.embed);
+    println!("  cut (classify, loops, node fractions)  {:8.4} s", t.cut);
+    println!("  embed + re-cut                         {:8.4} s", t.embed + t.cut);
+    println!("  moment fit per cut cell (8x8 points)   {:8.2} us", 1e6 * t.fit_per_cell);
+    println!("  sub-triangulation rule per cut cell    {:8.2} us", 1e6 * t.subtri_per_cell);
+    Ok(())
+}
+
+pub(crate) fn bench_hertz(repeat: usize) -> Result<(), String> {
+    if repeat == 0 {
+        return Err("bench --hertz: repeat must be at least 1".into());
+    }
+    println!(
+        "Hertz, cylinder R = 10 on block 40 x 20, P = 100 N/mm, frictionless (best of {repeat}, {} rayon threads)",
+        rayon::current_num_threads()
+    );
+    println!("  block h    surface   DOFs      whole s  iterations  p0 err    a err     pressure L2");
+    for h in [0.02, 0.01, 0.005] {
+        for virtual_top in [false, true] {
+            let mut best: Option<mortex::scenes::HertzRun> = None;
+            for _ in 0..repeat {
+                let r = mortex::scenes::run_hertz(h, virtual_top)?;
+                if best.is_none_or(|b| r.seconds < b.seconds) {
+                    best = Some(r);
+                }
+            }
+            let Some(r) = best else { return Err("no repetition ran".into()) };
+            println!(
+                "  {h:<9}  {:<8}  {:<8}  {:7.3}  {:10}  {:+7.3}%  {:+7.3}%  {:7.3}%",
+                if virtual_top { "virtual" } else { "real" },
+                r.dofs,
+                r.seconds,
+                r.iterations,
+                100.0 * r.p0_error,
+                100.0 * r.a_error,
+                100.0 * r.l2_error
+            );
+        }
+    }
+    Ok(())
+}
+
+pub(crate) fn bench_output(steps: usize) -> Result<(), String> {
+    if steps == 0 {
+        return Err("bench --output: give at least 1 step".into());
+    }
+    let dir = std::env::temp_dir().join(format!("mortex-bench-output-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    println!("output benchmark: {steps} steps of a fretting scene (contact series every step)");
+    println!("  fields  checkpoints  DOFs     solve s   output s  output share  h5 MB    csv MB");
+    for (fields, checkpoints) in [(100, 0), (100, 100), (1, 1)] {
+        if fields == 1 && steps > 2000 {
+            continue;
+        }
+        let out = dir.join(format!("bench_{fields}_{checkpoints}.h5"));
+        let r = crate::cli::bench::run_output_bench(steps, fields, checkpoints, &out)?;
+        println!(
+            "  {fields:<6}  {checkpoints:<11}  {:<7}  {:8.2}  {:8.2}  {:10.1}%  {:7.1}  {:7.1}",
+            r.dofs,
+            r.solve,
+            r.output,
+            100.0 * r.output / (r.solve + r.output),
+            r.h5_bytes as f64 / 1e6,
+            r.csv_bytes as f64 / 1e6
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
+
+pub(crate) fn bench_recut(n: usize, repeat: usize) -> Result<(), String> {
+    if n < 2 || repeat == 0 {
+        return Err("bench --recut: n >= 2 and repeat >= 1".into());
+    }
+    let (cells, band, cut, secs) = crate::cli::bench::time_recut(n, repeat.max(4))?;
+    println!(
+        "re-cut after a surface move: {cells} host cells, band of {band} cells, {cut} cut cells: {:.1} ms per move \
+         (embed + cut + refit + ghost penalty + DOF map)",
+        1e3 * secs
+    );
+    Ok(())
 }

@@ -221,7 +221,7 @@ pub enum FrictionStatus {
 }
 
 impl FrictionStatus {
-    /// Stored code: 0 open, 1 stick, 2 slip.
+    /// The field code of the state and the output: 0 open, 1 stick, 2 slip.
     pub fn code(self) -> u8 {
         match self {
             FrictionStatus::Open => 0,
@@ -229,6 +229,34 @@ impl FrictionStatus {
             FrictionStatus::Slip(_) => 2,
         }
     }
+
+    /// The code with the slip's sign, where a solve restarts from the status (the sets a
+    /// checkpoint keeps): 0 open, 1 stick, 2 slip along `+t`, 3 slip along `-t`.
+    pub fn signed_code(self) -> u8 {
+        match self {
+            FrictionStatus::Slip(false) => 3,
+            s => s.code(),
+        }
+    }
+
+    /// The status of a [`Self::signed_code`], `None` for another value.
+    pub fn from_signed_code(code: u8) -> Option<Self> {
+        match code {
+            0 => Some(FrictionStatus::Open),
+            1 => Some(FrictionStatus::Stick),
+            2 => Some(FrictionStatus::Slip(true)),
+            3 => Some(FrictionStatus::Slip(false)),
+            _ => None,
+        }
+    }
+}
+
+/// The contact sets of a solution: per normal row whether it is in contact, per friction row
+/// its Coulomb status (where a later solve of the same increment starts its iteration).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ContactSets {
+    pub active: Vec<bool>,
+    pub status: Vec<FrictionStatus>,
 }
 
 /// What one multiplier row imposes for the current sets.
@@ -357,17 +385,12 @@ pub fn activate_closest(m: &ContactSet, gaps: &[f64], live: Option<&[bool]>, act
 /// Sets given from elsewhere (a step's first solve, the last computed cycle at the same
 /// increment), made consistent with this pairing: rows it leaves unpaired are open, friction
 /// rows follow their normal row (open where it is open, sticking where it closes).
-pub fn given_sets(
-    m: &ContactSet,
-    (given_active, given_status): (&[bool], &[FrictionStatus]),
-    active: &mut [bool],
-    status: &mut [FrictionStatus],
-) {
+pub fn given_sets(m: &ContactSet, given: &ContactSets, active: &mut [bool], status: &mut [FrictionStatus]) {
     for (k, a) in active.iter_mut().enumerate() {
-        *a = given_active[k] && m.phi[k] > 0.0;
+        *a = given.active[k] && m.phi[k] > 0.0;
     }
     for (j, st) in status.iter_mut().enumerate() {
-        *st = match given_status[j] {
+        *st = match given.status[j] {
             _ if !active[m.friction_normal[j]] => FrictionStatus::Open,
             FrictionStatus::Open => FrictionStatus::Stick,
             given => given,

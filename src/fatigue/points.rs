@@ -277,6 +277,38 @@ fn on_removed_side(line: &[[f64; 2]], x: Point2<f64>) -> bool {
     nearest_on_polyline(line, x).is_some_and(|(_, n, q)| (x - q).dot(&n) < 0.0)
 }
 
+impl FatigueModel {
+    /// The end of a computed cycle: its damage, and the jump's (`jump` cycles of it, the run at
+    /// `cycles_done` after it), added to every point; the first initiation located below the
+    /// `worn` surfaces of the body; the points those surfaces passed retired (after the jump's
+    /// damage: a point passed within the jump is counted through it). The cycle's history is
+    /// consumed.
+    pub fn close_cycle(
+        &self,
+        state: &mut FatigueState,
+        cycles_done: u64,
+        jump: u64,
+        worn: &[&[[f64; 2]]],
+    ) -> Result<(), FatigueError> {
+        let history = std::mem::take(&mut state.history);
+        let initiated = state.initiation.is_some();
+        state.last = self.cycle_damage(&history, cycles_done.saturating_sub(jump), jump, state)?;
+        if let Some(first) = state.initiation.as_mut().filter(|_| !initiated) {
+            let x = self.points[first.point].position;
+            first.depth = distance_to_polylines(worn, x);
+            tracing::info!(
+                cycle = first.cycle,
+                x = x.x,
+                y = x.y,
+                depth = first.depth,
+                "fatigue: crack initiation (D = 1)"
+            );
+        }
+        self.retire_cut_away(worn, &mut state.retired);
+        Ok(())
+    }
+}
+
 /// Distance from `x` to the nearest of the `polylines` (infinite without any).
 pub fn distance_to_polylines(polylines: &[&[[f64; 2]]], x: Point2<f64>) -> f64 {
     polylines.iter().filter_map(|l| nearest_on_polyline(l, x)).map(|(d, _, _)| d).fold(f64::INFINITY, f64::min)

@@ -8,8 +8,11 @@
 //! the interface-condensation log `interface_rows` / `interface_batches` (u64): the multiplier
 //! rows the condensed operator grew by, batch by batch; where yielding bodies are re-cut, the
 //! ghost-penalty faces born during the run (`ghost_faces`, `ghost_counts`, `ghost_dofs`,
-//! `ghost_forces`). Replaying that log makes the restarted
-//! solver do the same arithmetic as the uninterrupted run, which is what "bit for bit" needs.
+//! `ghost_forces`); a wear run's wear state in the subgroup `wear` (see [`write_wear`]) and a
+//! run with fatigue points their state in `fatigue` (see [`write_fatigue`]). Replaying the
+//! interface log makes the restarted solver do the same arithmetic as the uninterrupted run,
+//! which is what "bit for bit" needs (the log holds only the rows grown on a geometry that
+//! holds still: a finite-sliding step's operator is its own, and its log is empty).
 //!
 //! A checkpoint group carries the attribute `complete = 1`, written after its last dataset;
 //! groups without it (a run killed while writing) are not offered for a restart.
@@ -358,9 +361,9 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
         vec1(&format!("pairing_guess_{j}"), u)?;
     }
     super::write_attr(&g, "start_sets", &(start_sets.len() as u64))?;
-    for (j, (active, status)) in start_sets.iter().enumerate() {
+    for (j, crate::contact::ContactSets { active, status }) in start_sets.iter().enumerate() {
         let active: Vec<u8> = active.iter().map(|&a| u8::from(a)).collect();
-        let status: Vec<u8> = status.iter().map(|&s| status_code(s)).collect();
+        let status: Vec<u8> = status.iter().map(|&s| s.signed_code()).collect();
         g.new_dataset_builder().with_data(&Array1::from(active)).create(format!("start_active_{j}").as_str())?;
         g.new_dataset_builder().with_data(&Array1::from(status)).create(format!("start_status_{j}").as_str())?;
     }
@@ -507,20 +510,11 @@ fn read_pairing_guess(g: &hdf5::Group, model: &Model) -> Result<Vec<Vec<f64>>, S
 
 /// A Coulomb status as stored in `start_status_j`: 0 open, 1 stick, 2 slip in the positive
 /// tangent direction, 3 in the negative one.
-fn status_code(s: FrictionStatus) -> u8 {
-    match s {
-        FrictionStatus::Open => 0,
-        FrictionStatus::Stick => 1,
-        FrictionStatus::Slip(true) => 2,
-        FrictionStatus::Slip(false) => 3,
-    }
-}
-
 /// The sets each increment's step starts from (see `WearState::start_sets`): per increment
-/// `j`, `start_active_j` (0/1 per contact row) and `start_status_j` (see [`status_code`]). A
+/// `j`, `start_active_j` (0/1 per contact row) and `start_status_j` (see [`FrictionStatus::signed_code`]). A
 /// checkpoint written before they were kept has none (the steps then start from the
 /// prediction: the same solution).
-fn read_start_sets(g: &hdf5::Group, model: &Model) -> Result<Vec<(Vec<bool>, Vec<FrictionStatus>)>, String> {
+fn read_start_sets(g: &hdf5::Group, model: &Model) -> Result<Vec<crate::contact::ContactSets>, String> {
     let Ok(count) = g.attr("start_sets").and_then(|a| a.read_scalar::<u64>()) else {
         return Ok(vec![]);
     };
@@ -544,15 +538,12 @@ fn read_start_sets(g: &hdf5::Group, model: &Model) -> Result<Vec<(Vec<bool>, Vec
                 .collect::<Result<Vec<bool>, String>>()?;
             let status = status
                 .iter()
-                .map(|&c| match c {
-                    0 => Ok(FrictionStatus::Open),
-                    1 => Ok(FrictionStatus::Stick),
-                    2 => Ok(FrictionStatus::Slip(true)),
-                    3 => Ok(FrictionStatus::Slip(false)),
-                    _ => Err(format!("wear dataset start_status_{j}: value {c}, expected 0 to 3")),
+                .map(|&c| {
+                    FrictionStatus::from_signed_code(c)
+                        .ok_or_else(|| format!("wear dataset start_status_{j}: value {c}, expected 0 to 3"))
                 })
                 .collect::<Result<Vec<FrictionStatus>, String>>()?;
-            Ok((active, status))
+            Ok(crate::contact::ContactSets { active, status })
         })
         .collect()
 }

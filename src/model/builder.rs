@@ -249,7 +249,7 @@ impl ModelBuilder {
             key: "mortar_surface",
             msg,
         })?;
-        self.push_contact(name, mortar, side, None, other_body, other, params)
+        self.push_contact(name, MortarDecl { body: mortar, side, cut: None }, other_body, other, params)
     }
 
     /// Mortar contact whose mortar side is the virtual surface of free cut `mortar_cut` (in its
@@ -273,17 +273,15 @@ impl ModelBuilder {
         let mortar = f.1;
         // The side is the cut's polyline, known once the model is built.
         let side = MortarSide { nodes: vec![], points: vec![], closed: false };
-        self.push_contact(name, mortar, side, Some(mortar_cut.to_string()), other_body, other, params)
+        let cut = Some(mortar_cut.to_string());
+        self.push_contact(name, MortarDecl { body: mortar, side, cut }, other_body, other, params)
     }
 
     /// Checks the friction coefficient and records a contact pair.
-    #[allow(clippy::too_many_arguments)]
     fn push_contact(
         &mut self,
         name: &str,
-        mortar: usize,
-        side: MortarSide,
-        mortar_cut: Option<String>,
+        mortar: MortarDecl,
         other_body: usize,
         other: ContactOther,
         params: ContactParams,
@@ -296,6 +294,7 @@ impl ModelBuilder {
                 msg: format!("the friction coefficient must be finite and >= 0 (got {mu})"),
             });
         }
+        let MortarDecl { body: mortar, side, cut: mortar_cut } = mortar;
         let young = self.materials[self.bodies[mortar].material]
             .elastic()
             .young
@@ -753,4 +752,12 @@ mod tests {
         }
         Ok(())
     }
+}
+
+/// The mortar side of a contact being declared: its body, the side (edges or points; empty for
+/// a cut's polyline, known once the model is built) and the free cut it lies on, if any.
+struct MortarDecl {
+    body: usize,
+    side: MortarSide,
+    cut: Option<String>,
 }

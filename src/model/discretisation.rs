@@ -81,7 +81,7 @@ impl Model {
     /// a body with moving surfaces, the same component of the nodes of any two band cells (or
     /// a band cell and its neighbour) across a shared face, whether or not the face is next to
     /// a cut cell now; on other bodies the entries it has. A solver pattern holding these does
-    /// not change when the surfaces move (see `analysis::condensed`).
+    /// not change when the surfaces move (see `solve::analysis::condensed`).
     pub fn ghost_reach(&self) -> &[(usize, usize)] {
         self.ghost_reach_cache.get_or_init(|| self.form_ghost_reach())
     }

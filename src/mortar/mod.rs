@@ -530,7 +530,6 @@ struct MortarPoint {
 /// initial gap closes (exactly for a symmetric pair, and for elastically similar bodies the
 /// interface normal): pairing along the mortar normal alone would pair points that never meet
 /// and read the closing of the gap as tangential slip.
-#[allow(clippy::too_many_arguments)]
 fn for_each_mortar_point(
     side: &MortarSide,
     lm: &Multipliers,

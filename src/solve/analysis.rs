@@ -21,7 +21,7 @@ use std::sync::Arc;
 pub use crate::contact::FrictionStatus;
 use crate::contact::{
     activate_closest, friction_couplings, given_sets, gross_sliding, row_laws, slide_from_pairing, update_sets,
-    zero_open_multipliers, ContactSet, RowLaw,
+    zero_open_multipliers, ContactSet, ContactSets, RowLaw,
 };
 
 mod active_set;
@@ -51,7 +51,7 @@ pub struct NewtonSystem {
     pub alpha: f64,
     pub num_free: usize,
     /// The contact sets the laws were chosen from (frozen by a later call).
-    sets: ContactSets,
+    sets: SetIterate,
 }
 
 impl NewtonSystem {
@@ -70,7 +70,7 @@ impl NewtonSystem {
 /// increment of the weighted tangential relative displacement since the last converged state
 /// (objective under cyclic loading).
 #[derive(Debug, Clone)]
-struct ContactSets {
+struct SetIterate {
     active: Vec<bool>,
     status: Vec<FrictionStatus>,
     prev_active: Option<Vec<bool>>,
@@ -79,9 +79,9 @@ struct ContactSets {
     slip: Vec<f64>,
 }
 
-impl ContactSets {
+impl SetIterate {
     fn new(normal_rows: usize, friction_rows: usize) -> Self {
-        ContactSets {
+        SetIterate {
             active: vec![false; normal_rows],
             status: vec![FrictionStatus::Open; friction_rows],
             prev_active: None,
@@ -276,17 +276,17 @@ pub struct StaticAnalysis<'m> {
     last_gross_sliding: Option<usize>,
     /// Contact and friction sets of the last converged condensed step (for the interface
     /// stiffness the implicit wear jump needs).
-    last_sets: Option<(Vec<bool>, Vec<FrictionStatus>)>,
+    last_sets: Option<ContactSets>,
     /// The trial stresses at points without material equal the state's: copied at the first
     /// step on this rule table, and kept so since no solve writes those points and a commit
     /// swaps the two buffers. Handed on with the buffers to a re-pairing on the same bulk.
     void_stresses_synced: bool,
     /// Contact and friction sets the next condensed step's first interface iteration starts
     /// from instead of the augmented-Lagrangian prediction (see [`Self::start_from_sets`]).
-    start_sets: Option<(Vec<bool>, Vec<FrictionStatus>)>,
+    start_sets: Option<ContactSets>,
     /// What the condensed pattern was built from (handed on with [`Self::into_reuse`]).
     reuse_key: Option<condensed::ReuseKey>,
-    /// Whether the set-up reused the previous model's pattern and symbolic factorisation.
+    /// Whether the set-up reused the previous set-up's pattern and symbolic factorisation.
     reused: bool,
     /// The increment is being retried with the line search (see [`Self::backtrack`]).
     line_search: bool,
@@ -355,8 +355,8 @@ impl<'m> StaticAnalysis<'m> {
         Self::with_condensation(model, disc, condense)
     }
 
-    /// As [`Self::new`] for the next model of a run (moved surfaces, re-paired contact): the
-    /// condensed solver's pattern and symbolic factorisation of the previous model are reused
+    /// As [`Self::new`] for the next set-up of a run (moved surfaces, re-paired contact): the
+    /// condensed solver's pattern and symbolic factorisation of the previous set-up are reused
     /// when its structure is the same (see [`SolverReuse`]).
     pub fn with_reuse(
         model: &'m Model,
@@ -404,12 +404,12 @@ impl<'m> StaticAnalysis<'m> {
         condensed::interface_rows(self.model, disc, bulk, None, &self.solver).ok().map(PreparedRows)
     }
 
-    /// The solver structure this analysis can hand to the next model's (condensed only).
+    /// The solver structure this analysis can hand to the next set-up (condensed only).
     pub fn into_reuse(self) -> Option<SolverReuse> {
         let key = self.reuse_key?;
         let mut solver = self.solver;
-        // A factor of a tangent is no next model's K_rho: the elastic one is factored back (the
-        // values kept are always its), or if that fails the next model assembles its own.
+        // A factor of a tangent is no next set-up's K_rho: the elastic one is factored back (the
+        // values kept are always its), or if that fails the next set-up assembles its own.
         let mut condensed = self.condensed;
         let tangent = condensed.as_ref().is_some_and(|c| c.tangent);
         let lost = tangent
@@ -439,7 +439,7 @@ impl<'m> StaticAnalysis<'m> {
         Some(if lost { reuse.without_values() } else { reuse })
     }
 
-    /// Whether this analysis was set up on the previous model's pattern and symbolic
+    /// Whether this analysis was set up on the previous set-up's pattern and symbolic
     /// factorisation (numeric refactorisation only).
     pub fn structure_reused(&self) -> bool {
         self.reused
@@ -729,11 +729,7 @@ impl<'m> StaticAnalysis<'m> {
         let disc: &Discretisation = &shared;
         let first_t = m.constraints.len() + disc.contact.rows.len();
         for (j, st) in status.iter().enumerate() {
-            state.friction_status[j] = match st {
-                FrictionStatus::Open => 0,
-                FrictionStatus::Stick => 1,
-                FrictionStatus::Slip(_) => 2,
-            };
+            state.friction_status[j] = st.code();
             // Slip exists only in contact: an open node's relative tangential motion is not slip
             // (and must not count in the accumulated slip that Archard wear reads).
             let ds = if matches!(st, FrictionStatus::Open) { 0.0 } else { slip[j] };
@@ -812,7 +808,7 @@ impl<'m> StaticAnalysis<'m> {
     }
 
     /// The contact and friction sets of the last converged condensed step, if any.
-    pub fn converged_sets(&self) -> Option<&(Vec<bool>, Vec<FrictionStatus>)> {
+    pub fn converged_sets(&self) -> Option<&ContactSets> {
         self.last_sets.as_ref()
     }
 
@@ -823,28 +819,28 @@ impl<'m> StaticAnalysis<'m> {
     /// all but the answer, where the prediction from the step's start moves the contact edge a
     /// node or two per iteration. The iterations end at a set that reproduces itself, and its
     /// solve is the same arithmetic whichever set they started from.
-    pub fn start_from_sets(&mut self, sets: (Vec<bool>, Vec<FrictionStatus>)) {
+    pub fn start_from_sets(&mut self, sets: ContactSets) {
         self.start_sets = Some(sets);
     }
 
     /// Interface stiffness of the last converged step (see [`GapSensitivity`]); `None` without
     /// interface condensation or before a step converged.
     pub fn gap_sensitivity(&self) -> Option<GapSensitivity> {
-        let (active, status) = self.last_sets.as_ref()?;
+        let ContactSets { active, status } = self.last_sets.as_ref()?;
         self.condensed.as_ref()?.gap_sensitivity(self.model, &self.disc, active, status, false)
     }
 
     /// [`Self::gap_sensitivity`] times the gap changes `dg(k)` of the rows in contact, in one
     /// solve: those rows and their multiplier change. `None` as [`Self::gap_sensitivity`].
     pub fn gap_response(&self, dg: &dyn Fn(usize) -> f64) -> Option<(Vec<usize>, Vec<f64>)> {
-        let (active, status) = self.last_sets.as_ref()?;
+        let ContactSets { active, status } = self.last_sets.as_ref()?;
         self.condensed.as_ref()?.gap_response(self.model, &self.disc, active, status, dg)
     }
 
     /// [`Self::gap_sensitivity`] on the rows in contact and the open candidate rows around
     /// them, each held at its gap (what a wear jump needs to let the contact set change).
     pub fn gap_sensitivity_with_open_rows(&self) -> Option<GapSensitivity> {
-        let (active, status) = self.last_sets.as_ref()?;
+        let ContactSets { active, status } = self.last_sets.as_ref()?;
         self.condensed.as_ref()?.gap_sensitivity(self.model, &self.disc, active, status, true)
     }
 

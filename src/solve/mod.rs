@@ -18,20 +18,24 @@
 //!
 //! Files: `analysis` (set-up, load stepping, commit), `analysis/newton` (monolithic Newton),
 //! `analysis/active_set` (condensed active-set iteration), `analysis/condensed` (the
-//! interface operator), `pairing` (finite sliding's fixed point), `start` (a step's start,
-//! saved for re-pairings and cuts).
+//! interface operator), `pairing` (finite sliding's fixed point), `increment` (a wear
+//! increment solved whole or cut into sub-steps), `start` (a step's start, saved for
+//! re-pairings and cuts).
 
+pub use crate::contact::ContactSets;
 use crate::model::{Discretisation, Model};
 use crate::state::SimState;
 use std::sync::Arc;
 
 mod analysis;
+mod increment;
 mod pairing;
 mod start;
 
 pub use analysis::{
     AnalysisError, FrictionStatus, GapSensitivity, NewtonSystem, PreparedRows, SolverReuse, StaticAnalysis, StepReport,
 };
+pub use increment::{SolvedIncrement, SubStep};
 pub use pairing::{MAX_PAIRINGS, PAIRING_TOLERANCE};
 
 /// Options of a run.
@@ -63,7 +67,7 @@ pub struct RunTimings {
     /// Wear: step integrals, cycle update with its jump, surface move, re-cut and re-pairing
     /// (filled in by the wear loop).
     pub wear: f64,
-    /// Condensed solver set-ups, and how many of them reused the previous model's pattern and
+    /// Condensed solver set-ups, and how many of them reused the previous set-up's pattern and
     /// symbolic factorisation (numeric refactorisation only).
     pub setups: usize,
     pub reused_setups: usize,
@@ -76,10 +80,6 @@ impl RunTimings {
     }
 }
 
-/// Contact and friction sets of a converged condensed step (normal rows in contact; status per
-/// friction row): where the same increment of the next cycle starts its iteration.
-pub type ConvergedSets = (Vec<bool>, Vec<FrictionStatus>);
-
 /// What to solve: output step `step` to time `time`, and where the iterations start.
 #[derive(Debug, Clone, Default)]
 pub struct StepRequest<'a> {
@@ -87,7 +87,7 @@ pub struct StepRequest<'a> {
     pub time: f64,
     /// Contact sets the first interface iteration starts from (`None`: the augmented-Lagrangian
     /// prediction from the start of the step).
-    pub start_sets: Option<ConvergedSets>,
+    pub start_sets: Option<ContactSets>,
     /// Finite sliding: the surfaces are paired first at this guess of the step's end
     /// displacements (`None`: at its start).
     pub pairing_guess: Option<&'a [f64]>,
@@ -114,7 +114,7 @@ pub struct SolvedStep {
     pub start_u: Vec<f64>,
     pub start_multipliers: Vec<f64>,
     /// Converged contact and friction sets (condensed solves).
-    pub sets: Option<ConvergedSets>,
+    pub sets: Option<ContactSets>,
     /// The interface sensitivity `dp/dg` of the converged step (when asked for and the solve
     /// condenses the interface).
     pub sensitivity: Option<GapSensitivity>,

@@ -2,7 +2,7 @@
 //! the pairing (see [`StepSolver::solve_paired`]), and the checks of a settled pairing.
 
 use super::{
-    AnalysisError, ConvergedSets, PreparedRows, SolvedStep, StaticAnalysis, StepReport, StepRequest, StepSolver,
+    AnalysisError, ContactSets, PreparedRows, SolvedStep, StaticAnalysis, StepReport, StepRequest, StepSolver,
 };
 use crate::model::{Discretisation, Model};
 use crate::state::SimState;
@@ -105,9 +105,9 @@ impl<'m> StepSolver<'m> {
                 let t0 = std::time::Instant::now();
                 let next_guess = request.next_guess;
                 let next;
-                (next, upcoming) = paired_at_solution(model, &self.geometry, (&state.u, &self.start.u), next_guess);
+                (next, upcoming) = paired_at_solution(model, &self.geometry, &state.u, &self.start.u, next_guess);
                 self.timings.pairings += t0.elapsed().as_secs_f64();
-                if let Some(linear) = linear_pairing_change(model, (&paired, &next), &analysis, state) {
+                if let Some(linear) = linear_pairing_change(model, &paired, &next, &analysis, state) {
                     fixed_point.linear(linear);
                 }
                 prepared = Some(next);
@@ -124,7 +124,7 @@ impl<'m> StepSolver<'m> {
             );
             let at_rest = pairing == 1 && guess.is_none() && !state_slid(&paired, state, &self.start.u);
             if estimate <= PAIRING_TOLERANCE || (pairing > 1 && change == 0.0) || at_rest {
-                check_on_counter_surface(model, (&self.geometry, &paired), state, step, t)?;
+                check_on_counter_surface(model, &self.geometry, &paired, state, step, t)?;
                 report.iterations = iterations;
                 let next = upcoming.take().filter(|_| pairing == 1);
                 let solved = self.settled(&analysis, paired, next, report, request.sensitivity);
@@ -153,7 +153,7 @@ impl<'m> StepSolver<'m> {
         paired: &Arc<Discretisation>,
         kept_bulk: bool,
         rows: Option<PreparedRows>,
-        sets: Option<ConvergedSets>,
+        sets: Option<ContactSets>,
     ) -> Result<StaticAnalysis<'m>, AnalysisError> {
         let t0 = std::time::Instant::now();
         let handed = self.reuse.take().map(|r| match (kept_bulk, rows) {
@@ -253,7 +253,8 @@ impl FixedPoint {
 fn paired_at_solution(
     model: &Model,
     current: &Discretisation,
-    (u, u_start): (&[f64], &[f64]),
+    u: &[f64],
+    u_start: &[f64],
     next_guess: Option<&[f64]>,
 ) -> (Discretisation, Option<Discretisation>) {
     match next_guess {
@@ -273,7 +274,8 @@ fn paired_at_solution(
 /// `next` (the contact set would change: only a solve tells).
 fn linear_pairing_change(
     model: &Model,
-    (paired, next): (&Discretisation, &Discretisation),
+    paired: &Discretisation,
+    next: &Discretisation,
     analysis: &StaticAnalysis,
     state: &SimState,
 ) -> Option<f64> {
@@ -309,7 +311,8 @@ const PARTIAL_SHARE_WARNINGS: usize = 3;
 /// corner, which no stroke of a fretting or sliding-wear test means: a typed error.
 fn check_on_counter_surface(
     model: &Model,
-    (base, paired): (&Discretisation, &Discretisation),
+    base: &Discretisation,
+    paired: &Discretisation,
     state: &SimState,
     step: usize,
     t: f64,

@@ -20,7 +20,7 @@ use super::{
     vertex_measure, wear_coupling, wearing_resolution, worn_vertices, ControllerState, JumpContact, JumpOperator,
     JumpPolicy, JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel, PRESSURE_PREDICTION_TOLERANCE,
 };
-use crate::contact::{ContactSet, FrictionStatus};
+use crate::contact::ContactSet;
 use crate::fem::material::PlasticState;
 use crate::mesh::Mesh2;
 use crate::moving::FreeSurface;
@@ -69,7 +69,7 @@ pub struct WearState {
     /// edges are a node or so from where they were, where the prediction from the step's
     /// start moves them a node or two per iteration. The solution is the same bits (see
     /// [`crate::solve::StaticAnalysis::start_from_sets`]).
-    pub start_sets: Vec<(Vec<bool>, Vec<FrictionStatus>)>,
+    pub start_sets: Vec<crate::contact::ContactSets>,
     /// Yielding bodies: `[eps_p (4 tensor components), alpha]` of every history point at the
     /// start of the current computed cycle (empty: the virgin state, all zero).
     pub plastic_start: Vec<f64>,

@@ -263,7 +263,6 @@ pub fn wear_coupling(
 /// reference geometry under small sliding (the material points that meet stay paired, as in its
 /// mechanics), the configuration halfway through the step under finite sliding (the wear lands
 /// on the material that slid under the point).
-#[allow(clippy::too_many_arguments)]
 pub fn step_wear(
     set: &ContactSet,
     hosts: &[(&Mesh2, usize)],

@@ -88,9 +88,10 @@ impl StaticAnalysis<'_> {
                 w_start: disc.contact.rows.iter().map(|r| r.iter().map(|&(d, c)| c * u[d]).sum()).collect(),
                 u_start: u.clone(),
             };
-            let mut sets = ContactSets::new(nc, nfr);
+            let mut sets = SetIterate::new(nc, nfr);
             let mut mu = loop {
-                let (dlam, dw) = match self.interface_iterations(cd, &z, &start, &lam0, &mut sets, step, t)? {
+                let predictor = Predictor { z: &z, start: &start, lam0: &lam0 };
+                let (dlam, dw) = match self.interface_iterations(cd, predictor, &mut sets, step, t)? {
                     InterfaceSolve::Solved { dlam, dw, iterations: its } => {
                         iterations += its;
                         (dlam, dw)
@@ -123,11 +124,12 @@ impl StaticAnalysis<'_> {
             if res.is_finite() && res <= p.rtol {
                 check_small_sliding(disc, &u, &sets.status, step, t)?;
                 self.commit(state, u, mu, t, &sets.status, &sets.slip);
-                self.last_sets = Some((sets.active, sets.status));
+                self.last_sets = Some(ContactSets { active: sets.active, status: sets.status });
                 return Ok(StepOutcome::Converged { iterations, bulk: pass + 1, residual: res });
             }
             let first = *first_res.get_or_insert(res);
-            if self.gives_up(&sets.status, (pass, passes), (first, res), step, t)? {
+            let progress = PassProgress { pass, passes, first_residual: first, residual: res };
+            if self.gives_up(&sets.status, progress, step, t)? {
                 return Ok(StepOutcome::NotConverged { iterations, residual: res });
             }
             tracing::debug!(step, t, pass, residual = res, "condensed step: refining");
@@ -280,11 +282,11 @@ impl StaticAnalysis<'_> {
     pub(super) fn gives_up(
         &mut self,
         status: &[FrictionStatus],
-        (pass, passes): (usize, usize),
-        (first, res): (f64, f64),
+        progress: PassProgress,
         step: usize,
         t: f64,
     ) -> Result<bool, AnalysisError> {
+        let PassProgress { pass, passes, first_residual: first, residual: res } = progress;
         let out_of_passes = !res.is_finite() || pass + 1 == passes;
         if !self.model.has_plasticity() {
             if let Some(slipping) = self.unrestrained_gross_sliding(status) {
@@ -413,22 +415,19 @@ impl StaticAnalysis<'_> {
     /// [`Self::interface_iterations_from`]), from the sets handed to
     /// [`Self::start_from_sets`] if any: should those fail, once more from the prediction
     /// before the caller cuts back (a start far from the answer must not change the path).
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn interface_iterations(
         &mut self,
         cd: &condensed::Condensed,
-        z: &[f64],
-        start: &InterfaceStart,
-        lam0: &[f64],
-        sets: &mut ContactSets,
+        predictor: Predictor,
+        sets: &mut SetIterate,
         step: usize,
         t: f64,
     ) -> Result<InterfaceSolve, AnalysisError> {
         // Sets of another row layout (another pairing's model) are no start.
         let (nc, nfr) = (self.disc.contact.rows.len(), self.disc.contact.friction_rows.len());
-        let given = self.start_sets.take().filter(|(a, s)| a.len() == nc && s.len() == nfr);
+        let given = self.start_sets.take().filter(|g| g.active.len() == nc && g.status.len() == nfr);
         let warm = given.is_some();
-        let solve = self.interface_iterations_from(cd, (z, start, lam0), sets, given, step, t)?;
+        let solve = self.interface_iterations_from(cd, predictor, sets, given, step, t)?;
         let InterfaceSolve::Failed(StepOutcome::NotConverged { iterations: spent, .. }) = solve else {
             return Ok(solve);
         };
@@ -436,7 +435,7 @@ impl StaticAnalysis<'_> {
             return Ok(solve);
         }
         tracing::debug!(step, t, spent, "active-set iterations from the given sets failed: again from the prediction");
-        Ok(match self.interface_iterations_from(cd, (z, start, lam0), sets, None, step, t)? {
+        Ok(match self.interface_iterations_from(cd, predictor, sets, None, step, t)? {
             InterfaceSolve::Solved { dlam, dw, iterations } => {
                 InterfaceSolve::Solved { dlam, dw, iterations: iterations + spent }
             }
@@ -451,17 +450,17 @@ impl StaticAnalysis<'_> {
     /// `dlam`, `dw`. Stops when the sets repeat; fails (the caller cuts back) when they cycle,
     /// do not settle within `max_set_iterations` (default: one per live contact row, at least
     /// the Newton limit), or the interface system is singular.
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn interface_iterations_from(
         &mut self,
         cd: &condensed::Condensed,
-        (z, start, lam0): (&[f64], &InterfaceStart, &[f64]),
-        sets: &mut ContactSets,
-        given: Option<(Vec<bool>, Vec<FrictionStatus>)>,
+        predictor: Predictor,
+        sets: &mut SetIterate,
+        given: Option<ContactSets>,
         step: usize,
         t: f64,
     ) -> Result<InterfaceSolve, AnalysisError> {
         let mut given = given;
+        let Predictor { z, start, lam0 } = predictor;
         let (m, shared) = (self.model, Arc::clone(&self.disc));
         let disc: &Discretisation = &shared;
         let p = m.newton;
@@ -481,7 +480,7 @@ impl StaticAnalysis<'_> {
         let live_rows: Vec<bool> = (0..nc).map(|k| cd.live_of[nt + k].is_some()).collect();
         // Every set visited: the next set is a function of the current one alone (the laws of
         // a set fix the solve), so a set seen before the last one is a cycle that never settles.
-        let mut seen: Vec<(Vec<bool>, Vec<FrictionStatus>)> = vec![];
+        let mut seen: Vec<ContactSets> = vec![];
         let mut mult = lam0.to_vec();
         let mut iterations = 0;
         // A set that never settles cuts the increment back (the caller reports gross sliding,
@@ -509,9 +508,7 @@ impl StaticAnalysis<'_> {
             }
             let given = if it == 0 { given.take() } else { None };
             match given {
-                Some((active, status)) => {
-                    given_sets(&disc.contact, (&active, &status), &mut sets.active, &mut sets.status)
-                }
+                Some(given) => given_sets(&disc.contact, &given, &mut sets.active, &mut sets.status),
                 None => update_sets(
                     &disc.contact,
                     (&mult, &sets.gaps, &sets.slip),
@@ -540,17 +537,17 @@ impl StaticAnalysis<'_> {
                     }
                 }
             }
-            if let Some((pa, ps)) = seen.last() {
+            if let Some(ContactSets { active: pa, status: ps }) = seen.last() {
                 if pa == &sets.active && ps == &sets.status {
                     break;
                 }
             }
-            let cycling = seen.iter().any(|(pa, ps)| pa == &sets.active && ps == &sets.status);
+            let cycling = seen.iter().any(|s| s.active == sets.active && s.status == sets.status);
             if cycling || it == max_iterations {
                 tracing::debug!(step, t, it, cycling, "interface active set does not settle");
                 return failed(it);
             }
-            seen.push((sets.active.clone(), sets.status.clone()));
+            seen.push(ContactSets { active: sets.active.clone(), status: sets.status.clone() });
             iterations += 1;
             let row_law = row_laws(&disc.contact, &sets.active, &sets.status);
             let laws = cd.laws(m, disc, &row_law, &w0, lam0, &start.slip0);
@@ -662,4 +659,24 @@ impl StaticAnalysis<'_> {
         cd.log.push(batch);
         Ok(())
     }
+}
+
+/// The bulk predictor of a refinement pass that the interface iterations start from: `z =
+/// K_rho^{-1} r_u`, the interface values at the step's start, and the multipliers at the
+/// pass's start.
+#[derive(Clone, Copy)]
+pub(super) struct Predictor<'a> {
+    pub(super) z: &'a [f64],
+    pub(super) start: &'a InterfaceStart,
+    pub(super) lam0: &'a [f64],
+}
+
+/// Where a condensed step's refinement passes stand: pass `pass` of at most `passes`, the first
+/// pass's residual and the current one.
+#[derive(Clone, Copy)]
+pub(super) struct PassProgress {
+    pub(super) pass: usize,
+    pub(super) passes: usize,
+    pub(super) first_residual: f64,
+    pub(super) residual: f64,
 }

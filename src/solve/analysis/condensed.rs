@@ -14,7 +14,7 @@
 //! `z = K_rho^{-1} r_u`, `Y = K_rho^{-1} C^T`, and `dw = C z + D (rho dw - dlambda)` with the
 //! Delassus operator `D = C K_rho^{-1} C^T` (L x L, L = live multipliers).
 //!
-//! `K_rho` is factored once (Cholesky) and `D` computed once per model (the next model of a
+//! `K_rho` is factored once (Cholesky) and `D` computed once per set-up (the next set-up of a
 //! run keeps the pattern and symbolic factorisation, see [`SolverReuse`]); every load step costs
 //! two solves with the factor and two internal-force evaluations, and every active-set
 //! iteration one dense L x L solve in (`dlambda` of gap rows, `dw` of multiplier rows). The
@@ -65,7 +65,7 @@ pub(super) struct Condensed {
     /// which the operator of any pairing is a small dense product (see [`Compliance`]).
     pub compliance: Option<Compliance>,
     /// The factor and `d` hold a consistent tangent of yielding bodies instead of the elastic
-    /// `K_rho` (see [`Condensed::refactor`]); the next model then assembles its own.
+    /// `K_rho` (see [`Condensed::refactor`]); the next set-up then assembles its own.
     pub tangent: bool,
     /// The grounding rows and the regularisation weights (with `equations`: what a re-pairing on
     /// the same bulk keeps, see [`BulkRows`]).
@@ -312,7 +312,7 @@ fn solver_equations(m: &Model) -> DofMap {
     DofMap::new(m.num_nodes(), &prescribed)
 }
 
-/// The solver structure of one condensed set-up, kept for the next model of the same run (the
+/// The solver structure of one condensed set-up, kept for the next set-up of the same run (the
 /// wear loop's surface updates, finite sliding's re-pairings, prescribed surface motions): the
 /// pattern of `K_rho` is a function of the mesh, the DOF map and the structural couplings
 /// (ghost-penalty reach, ties, grounding rows), none of which depend on where the moving
@@ -324,7 +324,7 @@ pub struct SolverReuse {
     key: ReuseKey,
     assembler: Assembler,
     solver: SparseSolver,
-    /// The factored values of `K_rho`, and whether the caller vouches that the next model has
+    /// The factored values of `K_rho`, and whether the caller vouches that the next set-up has
     /// the same bulk (mesh, cuts, rules, ghost penalty, supports: only contact rows re-paired):
     /// then the numeric factorisation is kept too, and only the interface operator is formed.
     values: Vec<f64>,
@@ -338,7 +338,7 @@ pub struct SolverReuse {
     pub(super) buffers: Option<TrialBuffers>,
     /// The trial stresses of `buffers` at points without material equal the state's.
     pub(super) void_stresses_synced: bool,
-    /// The next model's interface rows with their operator, formed on this bulk beforehand
+    /// The next set-up's interface rows with their operator, formed on this bulk beforehand
     /// (see [`crate::solve::StaticAnalysis::prepare_rows`]); used on the same bulk only.
     prepared: Option<Condensed>,
 }
@@ -389,7 +389,7 @@ impl SolverReuse {
         }
     }
 
-    /// The next model's interface rows, formed beforehand on this bulk by
+    /// The next set-up's interface rows, formed beforehand on this bulk by
     /// [`crate::solve::StaticAnalysis::prepare_rows`] for exactly that model (its pairing):
     /// the set-up takes them instead of forming them (the same arithmetic: the same bits).
     pub fn with_prepared(mut self, rows: PreparedRows) -> Self {
@@ -403,7 +403,7 @@ impl SolverReuse {
         self.same_bulk && self.void_stresses_synced && self.buffers.is_some()
     }
 
-    /// For a next model that differs from this one only in its contact rows (a re-pairing of
+    /// For a next set-up that differs from this one only in its contact rows (a re-pairing of
     /// finite sliding within one surface position): `K_rho` is the same matrix, so its numeric
     /// factorisation is kept. Assembling and factoring it afresh gives the same bits (the
     /// assembly is deterministic), so a restart, which builds afresh, stays bit for bit.
@@ -412,7 +412,7 @@ impl SolverReuse {
         self
     }
 
-    /// The structure alone: the next model assembles and factors its own values.
+    /// The structure alone: the next set-up assembles and factors its own values.
     pub(super) fn without_values(mut self) -> Self {
         self.values = vec![];
         self
@@ -458,7 +458,7 @@ fn merged_pairs(sorted: &[(usize, usize)], mut extra: Vec<(usize, usize)>) -> Ve
 
 /// Pattern, assembler and Cholesky factor of `K_rho`, and the condensed operator on the initial
 /// set: ties, grounding rows and the contact rows near the smallest initial gap (see
-/// [`near_rows`]). `reuse`: the structure of the previous model of the run, if any.
+/// [`near_rows`]). `reuse`: the structure of the previous set-up of the run, if any.
 #[allow(clippy::type_complexity)]
 pub(super) fn setup(
     m: &Model,

@@ -28,7 +28,7 @@ impl StaticAnalysis<'_> {
         let nf = disc.dofs.num_free;
         let nm = m.constraints.len() + disc.contact.rows.len() + disc.contact.friction_rows.len();
         let mut mu = state.multipliers.clone();
-        let mut sets = ContactSets::new(disc.contact.rows.len(), disc.contact.friction_rows.len());
+        let mut sets = SetIterate::new(disc.contact.rows.len(), disc.contact.friction_rows.len());
         let mut r = vec![0.0; nf + nm];
         let mut ct_mu = vec![0.0; disc.dofs.num_dofs];
         let mut first_res = f64::NAN;
@@ -42,7 +42,7 @@ impl StaticAnalysis<'_> {
             sets.log(step, it, set_changed);
             // 2. Bulk: internal force (and tangent) at u.
             // 3. Constraint rows by their laws, their forces C^T mu, and their tangent entries.
-            let (g_scale, slip_res) = self.monolithic_residual(
+            let scales = self.monolithic_residual(
                 (&u, &mu),
                 &state.history,
                 (&sets, &f_ext),
@@ -50,7 +50,8 @@ impl StaticAnalysis<'_> {
                 (&mut r, &mut ct_mu),
             );
             // 4. Norms: forces, gaps, free multipliers, each against its own scale.
-            let norms = self.residual_norms(&r, &f_ext, &ct_mu, &mu, &sets, g_scale, slip_res, &mut step_scale);
+            let parts = ResidualParts { r: &r, f_ext: &f_ext, ct_mu: &ct_mu, mu: &mu, sets: &sets };
+            let norms = self.residual_norms(parts, scales, &mut step_scale);
             res = norms.residual;
             if it == 0 {
                 first_res = res;
@@ -131,7 +132,7 @@ impl StaticAnalysis<'_> {
                 sets
             }
             None => {
-                let mut sets = ContactSets::new(nc, nfr);
+                let mut sets = SetIterate::new(nc, nfr);
                 sets.update(&disc.contact, u, &state.u, mu, false);
                 sets
             }
@@ -161,10 +162,10 @@ impl StaticAnalysis<'_> {
         &mut self,
         (u, mu): (&[f64], &[f64]),
         history: &[PlasticState],
-        (sets, f_ext): (&ContactSets, &[f64]),
+        (sets, f_ext): (&SetIterate, &[f64]),
         tangent: bool,
         (r, ct_mu): (&mut [f64], &mut [f64]),
-    ) -> (f64, f64) {
+    ) -> ConstraintScales {
         let shared = Arc::clone(&self.disc);
         let disc: &Discretisation = &shared;
         let nf = disc.dofs.num_free;
@@ -189,11 +190,11 @@ impl StaticAnalysis<'_> {
         &self,
         u: &[f64],
         mu: &[f64],
-        sets: &ContactSets,
+        sets: &SetIterate,
         laws: &[RowLaw],
         r: &mut [f64],
         ct_mu: &mut [f64],
-    ) -> (f64, f64) {
+    ) -> ConstraintScales {
         let (m, shared) = (self.model, Arc::clone(&self.disc));
         let disc: &Discretisation = &shared;
         let (nt, nc) = (m.constraints.len(), disc.contact.rows.len());
@@ -234,7 +235,7 @@ impl StaticAnalysis<'_> {
                 }
             };
         }
-        (g_scale, slip_res)
+        ConstraintScales { gap_scale_sq: g_scale, slip_residual: slip_res }
     }
 
     /// The contact rows' entries of the tangent for the current laws: `C` and `C^T` where a row
@@ -267,18 +268,14 @@ impl StaticAnalysis<'_> {
     /// the external, internal and constraint forces (never below what the step has seen,
     /// `step_scale`); gap rows against `|C| |u|`; free multipliers and slip laws against the
     /// largest contact multiplier.
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn residual_norms(
         &self,
-        r: &[f64],
-        f_ext: &[f64],
-        ct_mu: &[f64],
-        mu: &[f64],
-        sets: &ContactSets,
-        g_scale: f64,
-        slip_res: f64,
+        parts: ResidualParts,
+        scales: ConstraintScales,
         step_scale: &mut f64,
     ) -> ResidualNorms {
+        let ResidualParts { r, f_ext, ct_mu, mu, sets } = parts;
+        let ConstraintScales { gap_scale_sq: g_scale, slip_residual: slip_res } = scales;
         let (m, shared) = (self.model, Arc::clone(&self.disc));
         let disc: &Discretisation = &shared;
         let nf = disc.dofs.num_free;
@@ -314,4 +311,22 @@ impl StaticAnalysis<'_> {
         tracing::trace!(res_u, res_g, res_mu, rn, scale, "residual parts");
         ResidualNorms { residual: res_u.max(res_g).max(res_mu), forces: rn, gaps: gn, free_multipliers: free_mu }
     }
+}
+
+/// The scales of the constraint rows' residual: the squared scale `sum (|C| |u|)^2` of the gap
+/// rows and the largest slip-law residual.
+#[derive(Clone, Copy)]
+pub(super) struct ConstraintScales {
+    pub(super) gap_scale_sq: f64,
+    pub(super) slip_residual: f64,
+}
+
+/// The parts of a monolithic Newton residual that its norms read: the right-hand side `r`, the
+/// external and constraint forces, the multipliers and the contact sets of the iterate.
+pub(super) struct ResidualParts<'a> {
+    pub(super) r: &'a [f64],
+    pub(super) f_ext: &'a [f64],
+    pub(super) ct_mu: &'a [f64],
+    pub(super) mu: &'a [f64],
+    pub(super) sets: &'a SetIterate,
 }
