@@ -198,9 +198,8 @@ struct StudyRuns {
 }
 
 // mimalloc keeps freed pages for reuse: the large short-lived buffers of set-up (Delassus
-// columns, factor workspaces) no longer fault in fresh pages from the system each time (the
-// Hertz benchmark at 174k DOFs: 568k page faults and 2.8 s of system time with the system
-// allocator; whole process 25% faster).
+// columns, factor workspaces) no longer fault in fresh pages from the system each time
+// (measured in docs/performance.md, "Threads and memory of the process").
 #[global_allocator]
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
@@ -210,7 +209,7 @@ const MI_OPTION_PURGE_DELAY: libmimalloc_sys::mi_option_t = 15;
 fn main() -> ExitCode {
     // mimalloc returns freed pages to the system 10 ms after they were freed; a wear run frees
     // and takes again its per-step buffers far more often, and every purge came back as page
-    // faults (1-3 s of system time in a 12 s McColl run). Kept a second, they are reused; the
+    // faults (see docs/performance.md). Kept a second, they are reused; the
     // peak memory stays as it was. `MIMALLOC_PURGE_DELAY` still decides where it is set.
     if std::env::var_os("MIMALLOC_PURGE_DELAY").is_none() {
         // SAFETY: sets one of mimalloc's integer options; no memory is touched.

@@ -283,8 +283,8 @@ fn a_step_started_from_its_converged_sets_is_one_iteration_and_the_same_bits() {
     let start = state.clone();
     let first = analysis.advance_to(&mut state, 3, model.times[2]).unwrap();
     let sets = analysis.converged_sets().cloned().unwrap();
-    let sets_len = (sets.0.len(), sets.1.len());
-    let slip = sets.1.iter().filter(|s| matches!(s, FrictionStatus::Slip(_))).count();
+    let sets_len = (sets.active.len(), sets.status.len());
+    let slip = sets.status.iter().filter(|s| matches!(s, FrictionStatus::Slip(_))).count();
     assert!(slip > 0, "the step slides: {slip} slip rows");
     let mut again = start.clone();
     analysis.start_from_sets(sets);
@@ -298,9 +298,10 @@ fn a_step_started_from_its_converged_sets_is_one_iteration_and_the_same_bits() {
     // Sets far from the answer (every row in contact and sticking, every row open): the
     // iterations still end at the same solution, bit for bit.
     let (nc, nfr) = (sets_len.0, sets_len.1);
-    for wrong in
+    for (active, status) in
         [(vec![true; nc], vec![FrictionStatus::Stick; nfr]), (vec![false; nc], vec![FrictionStatus::Open; nfr])]
     {
+        let wrong = mortex::contact::ContactSets { active, status };
         let mut from_wrong = start.clone();
         analysis.start_from_sets(wrong);
         analysis.advance_to(&mut from_wrong, 3, model.times[2]).unwrap();

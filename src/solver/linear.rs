@@ -155,10 +155,9 @@ struct BlockGram {
     gram: Dense,
 }
 
-/// Factors with fewer non-zeros than this are factored and solved on one thread: measured on
-/// the 2-core machine, a 1.2M-non-zero factor (17k DOFs, the fretting scenes) takes 0.031 s
-/// sequential against 0.04-0.085 s on two threads, and even an 18.5M one (181k DOFs) 0.58 s
-/// against 0.70 s; the threads' synchronisation costs more than the work they share.
+/// Factors with fewer non-zeros than this are factored and solved on one thread: below it the
+/// threads' synchronisation costs more than the work they share (measured up to 18.5M
+/// non-zeros, 181k DOFs: see docs/performance.md, "Threads and memory of the process").
 const PARALLEL_FACTOR_NNZ: usize = 20_000_000;
 
 fn parallelism(s: &SymbolicCholesky<usize>) -> Par {

@@ -517,8 +517,8 @@ pub(super) fn setup(
     };
     // Many re-pairings on the same bulk (finite sliding, surfaces at rest): the operator of
     // each pairing from the compliance of the surfaces (formed on the first, kept while the
-    // bulk is). It costs about twenty substitutions of the operator (McColl scene: 0.25 s
-    // against 11-70 ms), so a wear cycle of a few increments does without.
+    // bulk is). It costs about twenty substitutions of the operator, so a wear cycle of a few
+    // increments does without.
     // (Not with yielding bodies: their operator is re-formed on each tangent.)
     let compliance = if surface_compliance && m.has_finite_sliding() && !m.has_plasticity() {
         let eqs = Compliance::equations_of(m, disc, &equations, &grounds);
