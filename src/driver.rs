@@ -17,9 +17,9 @@
 use crate::model::{Discretisation, Model};
 use crate::solve::{AnalysisError, SolvedIncrement, SolvedStep, StepReport, StepRequest, StepSolver};
 use crate::state::{SimState, WearState};
-use crate::wear::{accumulate_step_wear, apply_cycle_wear, cycle_plasticity, plastic_snapshot, JumpScheme};
+use crate::wear::{accumulate_step_wear, apply_cycle_wear, cycle_plasticity, plastic_snapshot, JumpScheme, StepPath};
 
-pub use crate::solve::{RunOptions, RunTimings};
+pub use crate::solve::{ObserverError, RunOptions, RunTimings};
 
 /// Runs every remaining output step of `model` from `state` (a fresh initial state or a
 /// checkpoint), calling `observer` with each converged step, its state, the model and the
@@ -27,7 +27,7 @@ pub use crate::solve::{RunOptions, RunTimings};
 /// run.
 pub fn run<F>(model: &Model, state: &mut SimState, options: RunOptions, observer: F) -> Result<(), AnalysisError>
 where
-    F: FnMut(&StepReport, &SimState, &Model, &Discretisation) -> Result<(), String>,
+    F: FnMut(&StepReport, &SimState, &Model, &Discretisation) -> Result<(), ObserverError>,
 {
     run_timed(model, state, options, observer).map(|_| ())
 }
@@ -40,7 +40,7 @@ pub fn run_timed<F>(
     mut observer: F,
 ) -> Result<RunTimings, AnalysisError>
 where
-    F: FnMut(&StepReport, &SimState, &Model, &Discretisation) -> Result<(), String>,
+    F: FnMut(&StepReport, &SimState, &Model, &Discretisation) -> Result<(), ObserverError>,
 {
     let solver = StepSolver::new(model, options);
     if !model.wear.is_empty() {
@@ -76,9 +76,9 @@ fn observe<F>(
     disc: &Discretisation,
 ) -> Result<(), AnalysisError>
 where
-    F: FnMut(&StepReport, &SimState, &Model, &Discretisation) -> Result<(), String>,
+    F: FnMut(&StepReport, &SimState, &Model, &Discretisation) -> Result<(), ObserverError>,
 {
-    observer(report, state, model, disc).map_err(|msg| AnalysisError::Observer { step: report.step, msg })
+    observer(report, state, model, disc).map_err(|source| AnalysisError::Observer { step: report.step, source })
 }
 
 /// A wear run in progress: the model, the step solver (which owns the geometry of the
@@ -92,7 +92,7 @@ struct WearRun<'m, F> {
 
 impl<F> WearRun<'_, F>
 where
-    F: FnMut(&StepReport, &SimState, &Model, &Discretisation) -> Result<(), String>,
+    F: FnMut(&StepReport, &SimState, &Model, &Discretisation) -> Result<(), ObserverError>,
 {
     /// The wear loop (see [`crate::wear`]):
     ///
@@ -162,13 +162,9 @@ where
             };
             let solved = self.solver.solve(state, request)?;
             let scene = solved.disc.wear_scene(m);
-            accumulate_step_wear(
-                &scene,
-                &mut state.wear,
-                (&solved.start_u, &state.u),
-                (None, &state.multipliers),
-                None,
-            );
+            let path =
+                StepPath { u_prev: &solved.start_u, u: &state.u, lambda_prev: None, multipliers: &state.multipliers };
+            accumulate_step_wear(&scene, &mut state.wear, path, None);
             if last {
                 apply_cycle_wear(&scene, &mut state.wear, count, false)?;
                 if m.has_plasticity() {
@@ -304,9 +300,8 @@ fn close_cycle(m: &Model, disc: &Discretisation, state: &mut SimState) -> Result
 /// `multipliers` it ended at) to the cycle's, with its linearisation for the implicit update.
 fn accumulate_solved_wear(m: &Model, solved: &mut SolvedStep, u: &[f64], multipliers: &[f64], wear: &mut WearState) {
     let scene = solved.disc.wear_scene(m);
-    let path = (solved.start_u.as_slice(), u);
-    let lambda = (Some(solved.start_multipliers.as_slice()), multipliers);
-    accumulate_step_wear(&scene, wear, path, lambda, solved.sensitivity.take());
+    let path = StepPath { u_prev: &solved.start_u, u, lambda_prev: Some(&solved.start_multipliers), multipliers };
+    accumulate_step_wear(&scene, wear, path, solved.sensitivity.take());
 }
 
 /// One increment of a computed cycle: its index `i` in cycle `n` (of `increments`), the

@@ -315,21 +315,40 @@ pub fn run_relocated(
 /// unworn on the moved boundary). Point fields are the next model's own (elastic bodies: they
 /// follow from the displacement at the next converged step).
 fn carry_over(prev: &SimState, s: &mut SimState) {
-    s.step = prev.step;
-    s.time = prev.time;
-    s.load_factor = prev.load_factor;
-    s.u.clone_from(&prev.u);
-    s.f_int.clone_from(&prev.f_int);
-    s.multipliers.clone_from(&prev.multipliers);
-    s.friction_status.clone_from(&prev.friction_status);
-    s.slip_increment.clone_from(&prev.slip_increment);
-    s.accumulated_slip.clone_from(&prev.accumulated_slip);
-    s.dissipation = prev.dissipation;
-    s.wear.cycle = prev.wear.cycle;
-    s.wear.computed_cycles = prev.wear.computed_cycles;
-    s.wear.pairing_guess.clone_from(&prev.wear.pairing_guess);
-    s.wear.start_sets.clone_from(&prev.wear.start_sets);
-    if s.stress.len() == prev.stress.len() {
-        s.stress.clone_from(&prev.stress);
+    // Every state field named: a new one must be carried over or left out here on purpose.
+    let SimState {
+        step,
+        time,
+        load_factor,
+        u,
+        history: _,
+        stress,
+        f_int,
+        multipliers,
+        friction_status,
+        slip_increment,
+        accumulated_slip,
+        dissipation,
+        // The next model's operator is its own.
+        interface_log: _,
+        wear,
+        // Relocated bodies are not cut: no ghost faces.
+        ghost: _,
+        // The baseline follows no fatigue points.
+        fatigue: _,
+    } = prev;
+    (s.step, s.time, s.load_factor, s.dissipation) = (*step, *time, *load_factor, *dissipation);
+    s.u.clone_from(u);
+    s.f_int.clone_from(f_int);
+    s.multipliers.clone_from(multipliers);
+    s.friction_status.clone_from(friction_status);
+    s.slip_increment.clone_from(slip_increment);
+    s.accumulated_slip.clone_from(accumulated_slip);
+    s.wear.cycle = wear.cycle;
+    s.wear.computed_cycles = wear.computed_cycles;
+    s.wear.pairing_guess.clone_from(&wear.pairing_guess);
+    s.wear.start_sets.clone_from(&wear.start_sets);
+    if s.stress.len() == stress.len() {
+        s.stress.clone_from(stress);
     }
 }

@@ -375,7 +375,7 @@ fn algorithmic_tangent_of_contact_and_j2_equals_finite_differences() {
         }
         assert_eq!(report.cutbacks, 0, "t = {t}: the check needs the increment's start state");
         let (u, mu) = (state.u.clone(), state.multipliers.clone());
-        let sys = analysis.newton_system(&start, t, (&u, &mu), None).unwrap();
+        let sys = analysis.newton_system(&start, t, &u, &mu, None).unwrap();
         let (active, stick, slip) = sys.contact_sets();
         assert!(active > 0, "t = {t}: no contact");
         let yielding = analysis_yielding_points(&start, &state);
@@ -392,7 +392,7 @@ fn algorithmic_tangent_of_contact_and_j2_equals_finite_differences() {
                 } else {
                     mp[k - nf] += s * h * sys.alpha;
                 }
-                analysis.newton_system(&start, t, (&up, &mp), Some(&sys)).unwrap().rhs
+                analysis.newton_system(&start, t, &up, &mp, Some(&sys)).unwrap().rhs
             };
             let (plus, minus) = (at(1.0), at(-1.0));
             for i in 0..n {

@@ -120,7 +120,8 @@ fn drag(virtual_lower: bool, increments: usize) -> f64 {
                     "t {}: contact force {force:?} vs P {P}, reaction {}",
                     r.time,
                     reactions[2 * master]
-                ));
+                )
+                .into());
             }
             // Tangential force on the rigid top (the prescribed DOF's reaction): mu P. Not to
             // round-off: each step is paired on its deformed end configuration, whose surface
@@ -129,14 +130,14 @@ fn drag(virtual_lower: bool, increments: usize) -> f64 {
             let q = reactions[2 * master].abs();
             worst_q = worst_q.max((q / (MU * P) - 1.0).abs());
             if (q / (MU * P) - 1.0).abs() > 1e-3 {
-                return Err(format!("t {}: tangential force {q} vs mu P {}", r.time, MU * P));
+                return Err(format!("t {}: tangential force {q} vs mu P {}", r.time, MU * P).into());
             }
             let c = &model.initial().contact.pairs[0];
             let nt = model.constraints.len();
             let pressures: Vec<f64> =
                 (0..c.multipliers.num_nodes).map(|l| -st.multipliers[nt + c.first_row + l]).collect();
             if pressures.iter().any(|&p| p < -1e-9 * P) {
-                return Err(format!("t {}: tensile contact pressure", r.time));
+                return Err(format!("t {}: tensile contact pressure", r.time).into());
             }
             // Every node carrying pressure slips, with |lambda_t| = mu p (Coulomb, in the pairing
             // frame: exact to the Newton tolerance, 1e-9 of mu p0 here).
@@ -146,11 +147,13 @@ fn drag(virtual_lower: bool, increments: usize) -> f64 {
                 if p > 1e-6 * P {
                     let j = c.friction_row[l].ok_or("friction row")?;
                     if st.friction_status[j] != 2 {
-                        return Err(format!("t {}: node {l} in contact does not slip", r.time));
+                        return Err(format!("t {}: node {l} in contact does not slip", r.time).into());
                     }
                     let lt = st.multipliers[nt + nc + j];
                     if (lt.abs() - MU * p).abs() > 1e-9 * MU * p_max {
-                        return Err(format!("t {}: node {l}: |lambda_t| {} vs mu p {}", r.time, lt.abs(), MU * p));
+                        return Err(
+                            format!("t {}: node {l}: |lambda_t| {} vs mu p {}", r.time, lt.abs(), MU * p).into()
+                        );
                     }
                 }
             }
@@ -158,7 +161,7 @@ fn drag(virtual_lower: bool, increments: usize) -> f64 {
             let ux = st.u[2 * master];
             let expected = STROKE * (r.time - 1.0) / 3.0;
             if (ux - expected).abs() > 1e-12 * STROKE {
-                return Err(format!("t {}: stroke {ux} vs {expected}", r.time));
+                return Err(format!("t {}: stroke {ux} vs {expected}", r.time).into());
             }
             checked += 1;
             Ok(())

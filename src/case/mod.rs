@@ -1449,8 +1449,8 @@ fn steps(cx: &Ctx, raw: &CaseFile, curves_end: f64, b: &mut ModelBuilder) -> Res
     let path_pts: Vec<(f64, f64)> = raw.steps.path.iter().map(|p| (p[0], p[1])).collect();
     let load_path = LoadPath::new(path_pts).map_err(|e| model_err(cx, "steps.path".into(), e))?;
     let (t0, t1) = (load_path.points[0].0, load_path.end_time().max(curves_end));
-    let cyclic = cycle(cx, raw, &load_path, (t0, t1), b)?;
-    let times = output_times(cx, &raw.steps, cyclic, (t0, t1), b)?;
+    let cyclic = cycle(cx, raw, &load_path, t0, t1, b)?;
+    let times = output_times(cx, &raw.steps, cyclic, t0, t1, b)?;
     Ok((load_path, times))
 }
 
@@ -1459,7 +1459,8 @@ fn cycle(
     cx: &Ctx,
     raw: &CaseFile,
     load_path: &LoadPath,
-    (t0, t1): (f64, f64),
+    t0: f64,
+    t1: f64,
     b: &ModelBuilder,
 ) -> Result<Option<crate::model::Cycle>, CaseError> {
     let cyclic = match (raw.steps.cycle, raw.steps.cycles) {
@@ -1532,7 +1533,8 @@ fn output_times(
     cx: &Ctx,
     steps: &StepsSpec,
     cyclic: Option<crate::model::Cycle>,
-    (t0, t1): (f64, f64),
+    t0: f64,
+    t1: f64,
     b: &mut ModelBuilder,
 ) -> Result<Vec<f64>, CaseError> {
     let times = match (&steps.times, cyclic) {

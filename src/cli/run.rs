@@ -54,9 +54,9 @@ pub(crate) fn run(
                         s: &mortex::state::SimState,
                         step_model: &mortex::model::Model,
                         disc: &mortex::model::Discretisation|
-         -> Result<(), String> {
+         -> Result<(), mortex::driver::ObserverError> {
             tally.add(r);
-            writer.write_step(step_model, disc, r, s).map_err(|e| e.to_string())?;
+            writer.write_step(step_model, disc, r, s)?;
             let message = progress_message(r, s, step_model, wear_cycles.map(|n| (n, units)), &bar);
             // Off a terminal the bar draws nothing: a line every PROGRESS_LINE_SECONDS instead.
             if log_lines && last_line.elapsed().as_secs_f64() >= PROGRESS_LINE_SECONDS {

@@ -338,12 +338,13 @@ pub fn slide_from_pairing(m: &ContactSet, u: &[f64], status: &[FrictionStatus]) 
 /// set left a punch that only contact holds with nothing active, and its solve ran away).
 pub fn update_sets(
     m: &ContactSet,
-    (mult, gaps, slip): (&[f64], &[f64], &[f64]),
+    values: SetValues,
     first_iteration: bool,
     live: Option<&[bool]>,
     active: &mut [bool],
     status: &mut [FrictionStatus],
 ) {
+    let SetValues { mult, gaps, slip } = values;
     let (nt, nc) = (m.first_multiplier, m.rows.len());
     let is_live = |k: usize| live.is_none_or(|l| l[k]);
     for k in 0..nc {
@@ -618,4 +619,13 @@ pub fn contact_field(m: &ContactSet, state: &ContactUnknowns<'_>, pair: usize) -
             }
         })
         .collect()
+}
+
+/// What one active-set update decides from: all multipliers, the weighted gaps of the contact
+/// rows and the weighted slip increments of the friction rows.
+#[derive(Clone, Copy)]
+pub struct SetValues<'a> {
+    pub mult: &'a [f64],
+    pub gaps: &'a [f64],
+    pub slip: &'a [f64],
 }

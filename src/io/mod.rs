@@ -367,7 +367,8 @@ impl Series {
 
     fn append(
         &mut self,
-        (model, disc): (&Model, &Discretisation),
+        model: &Model,
+        disc: &Discretisation,
         report: &StepReport,
         state: &SimState,
         fields: &[Vec<crate::contact::ContactNodeState>],
@@ -671,7 +672,7 @@ impl ResultWriter {
         let series = &mut self.series;
         let moving_bodies = &self.moving_bodies;
         let res: hdf5::Result<()> = (|| {
-            series.append((model, disc), report, state, &fields)?;
+            series.append(model, disc, report, state, &fields)?;
             // A step group only where there is a snapshot: full fields or a checkpoint.
             if !(full || checkpoint) {
                 return Ok(());

@@ -21,7 +21,7 @@ use std::sync::Arc;
 pub use crate::contact::FrictionStatus;
 use crate::contact::{
     activate_closest, friction_couplings, given_sets, gross_sliding, row_laws, slide_from_pairing, update_sets,
-    zero_open_multipliers, ContactSet, ContactSets, RowLaw,
+    zero_open_multipliers, ContactSet, ContactSets, RowLaw, SetValues,
 };
 
 mod active_set;
@@ -95,7 +95,8 @@ impl SetIterate {
     /// the previous iteration (the first iteration counts as a change when there is contact).
     fn update(&mut self, c: &ContactSet, u: &[f64], u_start: &[f64], mu: &[f64], first: bool) -> bool {
         self.measure(c, u, u_start);
-        update_sets(c, (mu, &self.gaps, &self.slip), first, None, &mut self.active, &mut self.status);
+        let values = SetValues { mult: mu, gaps: &self.gaps, slip: &self.slip };
+        update_sets(c, values, first, None, &mut self.active, &mut self.status);
         let changed = self.prev_active.as_ref().map(|pa| pa != &self.active).unwrap_or(!self.active.is_empty())
             || self.prev_status != self.status;
         self.prev_status.clone_from(&self.status);
@@ -181,14 +182,18 @@ pub struct StepReport {
     pub residual: f64,
 }
 
+/// What an observer of converged steps (output, a post-processor, a test) reports when it
+/// fails: any error; the run stops with it as the source of [`AnalysisError::Observer`].
+pub type ObserverError = Box<dyn std::error::Error + Send + Sync>;
+
 #[derive(Debug, thiserror::Error)]
 pub enum AnalysisError {
     #[error(transparent)]
     Newton(#[from] NewtonError),
     #[error("setting up the linear solver: {0}")]
     Setup(#[from] LinearSolverError),
-    #[error("step {step}: {msg}")]
-    Observer { step: usize, msg: String },
+    #[error("step {step}: {source}")]
+    Observer { step: usize, source: ObserverError },
     #[error("resuming from a checkpoint: interface-log batch {batch} names multiplier rows that are already live or do not exist in this model")]
     ResumeLog { batch: usize },
     #[error(
@@ -618,12 +623,12 @@ impl<'m> StaticAnalysis<'m> {
     /// Runs every remaining output step of the model, calling `observer` after each.
     pub fn run<F>(&mut self, state: &mut SimState, mut observer: F) -> Result<(), AnalysisError>
     where
-        F: FnMut(&StepReport, &SimState) -> Result<(), String>,
+        F: FnMut(&StepReport, &SimState) -> Result<(), ObserverError>,
     {
         let times = self.model.times.clone();
         for (k, &t) in times.iter().enumerate().skip(state.step) {
             let report = self.advance_to(state, k + 1, t)?;
-            observer(&report, state).map_err(|msg| AnalysisError::Observer { step: k + 1, msg })?;
+            observer(&report, state).map_err(|source| AnalysisError::Observer { step: k + 1, source })?;
         }
         Ok(())
     }

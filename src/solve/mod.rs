@@ -33,7 +33,8 @@ mod pairing;
 mod start;
 
 pub use analysis::{
-    AnalysisError, FrictionStatus, GapSensitivity, NewtonSystem, PreparedRows, SolverReuse, StaticAnalysis, StepReport,
+    AnalysisError, FrictionStatus, GapSensitivity, NewtonSystem, ObserverError, PreparedRows, SolverReuse,
+    StaticAnalysis, StepReport,
 };
 pub use increment::{SolvedIncrement, SubStep};
 pub use pairing::{MAX_PAIRINGS, PAIRING_TOLERANCE};

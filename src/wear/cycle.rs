@@ -151,18 +151,27 @@ pub struct WearScene<'a> {
     pub increments: usize,
 }
 
-/// Adds the wear of the step that just converged (from `u_prev` to `u`; tractions from
-/// `lambda_prev` at its start, if given, and `multipliers` at its end) to the cycle's volumes
-/// and work (see [`swept_step_wear`]). With the interface stiffness `sensitivity` of the
-/// converged state, the increment's linearisation is kept for the implicit jump
-/// ([`IncrementJump`]).
+/// The path of a converged step that wear is swept along: displacements from `u_prev` to `u`,
+/// tractions from `lambda_prev` at its start (if given; else the end's throughout) to
+/// `multipliers` at its end.
+#[derive(Clone, Copy)]
+pub struct StepPath<'a> {
+    pub u_prev: &'a [f64],
+    pub u: &'a [f64],
+    pub lambda_prev: Option<&'a [f64]>,
+    pub multipliers: &'a [f64],
+}
+
+/// Adds the wear of the step that just converged along `path` to the cycle's volumes and work
+/// (see [`swept_step_wear`]). With the interface stiffness `sensitivity` of the converged
+/// state, the increment's linearisation is kept for the implicit jump ([`IncrementJump`]).
 pub fn accumulate_step_wear(
     scene: &WearScene<'_>,
     wear: &mut WearState,
-    (u_prev, u): (&[f64], &[f64]),
-    (lambda_prev, multipliers): (Option<&[f64]>, &[f64]),
+    path: StepPath,
     sensitivity: Option<GapSensitivity>,
 ) {
+    let StepPath { u_prev, u, lambda_prev, multipliers } = path;
     let mut steps = Vec::with_capacity(scene.model.surfaces.len());
     for (w, ws) in scene.model.surfaces.iter().enumerate() {
         let sw = swept_step_wear(

@@ -67,7 +67,7 @@ mod cycle;
 
 pub use cycle::{
     accumulate_step_wear, apply_cycle_wear, cycle_plasticity, plastic_snapshot, GapSensitivity, IncrementJump,
-    IncrementSurface, WearError, WearScene, WearState,
+    IncrementSurface, StepPath, WearError, WearScene, WearState,
 };
 
 use crate::contact::{ContactSet, PairedSide};

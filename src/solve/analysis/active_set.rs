@@ -66,7 +66,7 @@ impl StaticAnalysis<'_> {
         self.grow_where_loaded(cd, &lam0, step, t)?;
         for pass in 0..passes {
             // r_u = f - f_int(u0) - C^T lambda0 on the free equations, z = K_rho^{-1} r_u.
-            self.pass_operator(cd, (&state.u, &u), &history, pass, step, iterations)?;
+            self.pass_operator(cd, &state.u, &u, &history, PassAt { pass, step, iterations })?;
             let mut ct = vec![0.0; disc.dofs.num_dofs];
             constraint_forces(m, disc, &lam0, &mut ct);
             // Force scale of the step: what the start of the step has seen too (a contact that opens
@@ -101,7 +101,7 @@ impl StaticAnalysis<'_> {
                         return Ok(outcome);
                     }
                 };
-                self.recover_displacement(cd, (&z, &dlam, &dw), &start.u_start, &mut u)
+                self.recover_displacement(cd, InterfaceChange { z: &z, dlam: &dlam, dw: &dw }, &start.u_start, &mut u)
                     .map_err(|source| NewtonError::Linear { step, iteration: iterations, source })?;
                 let mut mu = lam0.clone();
                 for (a, i) in cd.model_rows() {
@@ -115,9 +115,11 @@ impl StaticAnalysis<'_> {
             zero_open_multipliers(&disc.contact, &mut mu, &sets.active, &sets.status);
             // Check: the equilibrium residual of the recovered state (yielding bodies: with the
             // tangent there, for the next pass).
-            let mut res = self.residual_at(&u, &mu, &history, (&f_ext, scale0), plastic);
+            let force = ForceScale { f_ext: &f_ext, scale0 };
+            let mut res = self.residual_at(&u, &mu, &history, force, plastic);
             if self.line_search && pass > 0 && res > last_res {
-                res = self.backtrack((&start.u_start, &lam0), (&mut u, &mut mu), &history, (&f_ext, scale0), last_res);
+                let line_start = LineStart { u: &start.u_start, lambda: &lam0 };
+                res = self.backtrack(line_start, &mut u, &mut mu, &history, force, last_res);
             }
             last_res = res;
             tracing::debug!(step, t, iterations, residual = res, "condensed step");
@@ -157,9 +159,10 @@ impl StaticAnalysis<'_> {
         u: &[f64],
         mu: &[f64],
         history: &[PlasticState],
-        (f_ext, scale0): (&[f64], f64),
+        force: ForceScale,
         tangent: bool,
     ) -> f64 {
+        let ForceScale { f_ext, scale0 } = force;
         let (m, shared) = (self.model, Arc::clone(&self.disc));
         let disc: &Discretisation = &shared;
         self.assemble_trial(u, history, tangent);
@@ -185,13 +188,15 @@ impl StaticAnalysis<'_> {
     /// of the accepted point, whose force and tangent are in the trial buffers.
     pub(super) fn backtrack(
         &mut self,
-        (u_start, lam_start): (&[f64], &[f64]),
-        (u, mu): (&mut Vec<f64>, &mut Vec<f64>),
+        line_start: LineStart,
+        u: &mut [f64],
+        mu: &mut [f64],
         history: &[PlasticState],
-        force: (&[f64], f64),
+        force: ForceScale,
         last: f64,
     ) -> f64 {
-        let (u_full, mu_full) = (u.clone(), mu.clone());
+        let LineStart { u: u_start, lambda: lam_start } = line_start;
+        let (u_full, mu_full) = (u.to_vec(), mu.to_vec());
         let mut res = f64::INFINITY;
         let mut s = 1.0;
         for _ in 0..LINE_SEARCH_CUTS {
@@ -314,12 +319,12 @@ impl StaticAnalysis<'_> {
     pub(super) fn pass_operator(
         &mut self,
         cd: &mut condensed::Condensed,
-        (u_conv, u): (&[f64], &[f64]),
+        u_conv: &[f64],
+        u: &[f64],
         history: &[PlasticState],
-        pass: usize,
-        step: usize,
-        iterations: usize,
+        at: PassAt,
     ) -> Result<(), AnalysisError> {
+        let PassAt { pass, step, iterations } = at;
         if !self.model.has_plasticity() {
             self.internal_force(u, history);
         } else if pass > 0 {
@@ -511,7 +516,7 @@ impl StaticAnalysis<'_> {
                 Some(given) => given_sets(&disc.contact, &given, &mut sets.active, &mut sets.status),
                 None => update_sets(
                     &disc.contact,
-                    (&mult, &sets.gaps, &sets.slip),
+                    SetValues { mult: &mult, gaps: &sets.gaps, slip: &sets.slip },
                     it == 0,
                     Some(&live_rows),
                     &mut sets.active,
@@ -597,10 +602,11 @@ impl StaticAnalysis<'_> {
     pub(super) fn recover_displacement(
         &self,
         cd: &condensed::Condensed,
-        (z, dlam, dw): (&[f64], &[f64], &[f64]),
+        change: InterfaceChange,
         u_start: &[f64],
         u: &mut Vec<f64>,
     ) -> Result<(), crate::solver::linear::LinearSolverError> {
+        let InterfaceChange { z, dlam, dw } = change;
         let mut y = vec![0.0; cd.equations.num_free];
         for (a, row) in cd.rows_free.iter().enumerate() {
             let v = cd.rho[a] * dw[a] - dlam[a];
@@ -679,4 +685,37 @@ pub(super) struct PassProgress {
     pub(super) passes: usize,
     pub(super) first_residual: f64,
     pub(super) residual: f64,
+}
+
+/// The step's external force and its force scale (the residual is measured against the larger
+/// of the scale and the forces at the point).
+#[derive(Clone, Copy)]
+pub(super) struct ForceScale<'a> {
+    pub(super) f_ext: &'a [f64],
+    pub(super) scale0: f64,
+}
+
+/// A refinement pass of a condensed step: its index, the output step and the iterations spent
+/// (for the errors it may report).
+#[derive(Clone, Copy)]
+pub(super) struct PassAt {
+    pub(super) pass: usize,
+    pub(super) step: usize,
+    pub(super) iterations: usize,
+}
+
+/// The solution of the interface system: the bulk predictor `z`, the multiplier changes
+/// `dlam` and the row-value changes `dw` of the live rows.
+#[derive(Clone, Copy)]
+pub(super) struct InterfaceChange<'a> {
+    pub(super) z: &'a [f64],
+    pub(super) dlam: &'a [f64],
+    pub(super) dw: &'a [f64],
+}
+
+/// Where a line search starts: the displacements and multipliers of the pass's start.
+#[derive(Clone, Copy)]
+pub(super) struct LineStart<'a> {
+    pub(super) u: &'a [f64],
+    pub(super) lambda: &'a [f64],
 }

@@ -42,13 +42,9 @@ impl StaticAnalysis<'_> {
             sets.log(step, it, set_changed);
             // 2. Bulk: internal force (and tangent) at u.
             // 3. Constraint rows by their laws, their forces C^T mu, and their tangent entries.
-            let scales = self.monolithic_residual(
-                (&u, &mu),
-                &state.history,
-                (&sets, &f_ext),
-                need_tangent,
-                (&mut r, &mut ct_mu),
-            );
+            let iterate = Iterate { u: &u, mu: &mu, sets: &sets };
+            let out = ResidualBuffers { r: &mut r, ct_mu: &mut ct_mu };
+            let scales = self.monolithic_residual(iterate, &state.history, &f_ext, need_tangent, out);
             // 4. Norms: forces, gaps, free multipliers, each against its own scale.
             let parts = ResidualParts { r: &r, f_ext: &f_ext, ct_mu: &ct_mu, mu: &mu, sets: &sets };
             let norms = self.residual_norms(parts, scales, &mut step_scale);
@@ -113,7 +109,8 @@ impl StaticAnalysis<'_> {
         &mut self,
         state: &SimState,
         t: f64,
-        (u, mu): (&[f64], &[f64]),
+        u: &[f64],
+        mu: &[f64],
         frozen: Option<&NewtonSystem>,
     ) -> Option<NewtonSystem> {
         if self.condensed.is_some() {
@@ -141,7 +138,9 @@ impl StaticAnalysis<'_> {
         m.external_force(t, &mut f_ext);
         let mut rhs = vec![0.0; nf + nm];
         let mut ct_mu = vec![0.0; disc.dofs.num_dofs];
-        self.monolithic_residual((u, mu), &state.history, (&sets, &f_ext), true, (&mut rhs, &mut ct_mu));
+        let iterate = Iterate { u, mu, sets: &sets };
+        let out = ResidualBuffers { r: &mut rhs, ct_mu: &mut ct_mu };
+        self.monolithic_residual(iterate, &state.history, &f_ext, true, out);
         let pattern = &self.assembler.pattern.symbolic;
         let (cp, ri) = (pattern.col_ptr(), pattern.row_idx());
         let mut matrix = DMatrix::zeros(nf + nm, nf + nm);
@@ -160,12 +159,13 @@ impl StaticAnalysis<'_> {
     /// [`Self::constraint_residual`] returns.
     pub(super) fn monolithic_residual(
         &mut self,
-        (u, mu): (&[f64], &[f64]),
+        iterate: Iterate,
         history: &[PlasticState],
-        (sets, f_ext): (&SetIterate, &[f64]),
+        f_ext: &[f64],
         tangent: bool,
-        (r, ct_mu): (&mut [f64], &mut [f64]),
+        out: ResidualBuffers,
     ) -> ConstraintScales {
+        let (Iterate { u, mu, sets }, ResidualBuffers { r, ct_mu }) = (iterate, out);
         let shared = Arc::clone(&self.disc);
         let disc: &Discretisation = &shared;
         let nf = disc.dofs.num_free;
@@ -329,4 +329,19 @@ pub(super) struct ResidualParts<'a> {
     pub(super) ct_mu: &'a [f64],
     pub(super) mu: &'a [f64],
     pub(super) sets: &'a SetIterate,
+}
+
+/// A monolithic Newton iterate: displacements, multipliers and the contact sets of its laws.
+#[derive(Clone, Copy)]
+pub(super) struct Iterate<'a> {
+    pub(super) u: &'a [f64],
+    pub(super) mu: &'a [f64],
+    pub(super) sets: &'a SetIterate,
+}
+
+/// Where a monolithic residual is written: the right-hand side `r` and the constraint forces
+/// `C^T mu`.
+pub(super) struct ResidualBuffers<'a> {
+    pub(super) r: &'a mut [f64],
+    pub(super) ct_mu: &'a mut [f64],
 }
