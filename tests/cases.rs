@@ -797,3 +797,30 @@ fn nowell_hills_offset_of_the_stick_zone() {
     let shear = shear.expect("a Cattaneo-Mindlin shear");
     assert!(pressure < 0.03 && shear < 0.03, "pressure L2 {pressure}, shear L2 {shear}");
 }
+
+/// Dissimilar materials, both bodies wearing (`pad_both_wear`, 500 of its 20,000 cycles, with
+/// jumps): Archard's law on both surfaces of one contact gives each worn area as its own
+/// coefficient times the same contact work `int p |ds|`. Reference: each area against `k_i W`
+/// and their ratio against `k_pad / k_plate = 4`; tolerance 1e-10 relative (round-off: the
+/// work and the volumes are sums of the same products).
+#[test]
+fn both_bodies_wear_in_the_ratio_of_their_coefficients() {
+    const K_PAD: f64 = 4e-8;
+    const K_PLATE: f64 = 1e-8;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("wear_cases/pad_both_wear.toml")).unwrap();
+    assert!(text.contains("cycles = 20000\n"));
+    let out = run_text("pad_both_wear_500", &text.replace("cycles = 20000\n", "cycles = 500\n"));
+    let f = hdf5::File::open(&out).unwrap();
+    let last = |path: &str| *f.dataset(path).unwrap().read_raw::<f64>().unwrap().last().unwrap();
+    let (pad, plate) = (last("wear/pad.arc/worn_area"), last("wear/plate.top/worn_area"));
+    let (pad_work, plate_work) = (last("wear/pad.arc/work"), last("wear/plate.top/work"));
+    assert!(pad > 0.0 && plate > 0.0, "worn areas {pad}, {plate}");
+    assert!((pad / (K_PAD * pad_work) - 1.0).abs() < 1e-10, "pad: {pad} against k W = {}", K_PAD * pad_work);
+    assert!(
+        (plate / (K_PLATE * plate_work) - 1.0).abs() < 1e-10,
+        "plate: {plate} against k W = {}",
+        K_PLATE * plate_work
+    );
+    assert!((pad / plate / (K_PAD / K_PLATE) - 1.0).abs() < 1e-10, "ratio {} against 4", pad / plate);
+}

@@ -27,7 +27,7 @@ const SUB_STEP_MERGE: f64 = 1e-6;
 
 /// What the solve of a piece came to.
 enum Trial {
-    Accepted(SolvedStep),
+    Accepted(Box<SolvedStep>),
     /// Converged, but its sweep cannot be trusted: the piece is to be cut.
     Cut(SweepCheck),
 }
@@ -71,7 +71,7 @@ impl StepSolver<'_> {
         let (step, end, sensitivity) = (request.step, request.time, request.sensitivity);
         let t_start = state.time;
         let cause = match self.solve_piece(state, request, true) {
-            Ok(Trial::Accepted(last)) => return Ok(SolvedIncrement { sub_steps: vec![], last }),
+            Ok(Trial::Accepted(last)) => return Ok(SolvedIncrement { sub_steps: vec![], last: *last }),
             Ok(Trial::Cut(check)) => StepCut::Sweep(check),
             Err(e) if e.shorter_step_may_help() => StepCut::Failed(e),
             Err(e) => return Err(e),
@@ -134,10 +134,10 @@ impl StepSolver<'_> {
                         if pieces > 1 {
                             tracing::info!(step, time = t_end, sub_steps = pieces, cause = %cut, "increment solved in sub-steps");
                         }
-                        return Ok(SolvedIncrement { sub_steps, last: solved });
+                        return Ok(SolvedIncrement { sub_steps, last: *solved });
                     }
                     let (u, multipliers) = (state.u.clone(), state.multipliers.clone());
-                    sub_steps.push(SubStep { solved, u, multipliers });
+                    sub_steps.push(SubStep { solved: *solved, u, multipliers });
                     continue;
                 }
                 Ok(Trial::Cut(check)) => cut = StepCut::Sweep(check),
@@ -169,6 +169,6 @@ impl StepSolver<'_> {
                 return Ok(Trial::Cut(check));
             }
         }
-        Ok(Trial::Accepted(solved))
+        Ok(Trial::Accepted(Box::new(solved)))
     }
 }

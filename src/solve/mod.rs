@@ -137,7 +137,7 @@ pub struct StepSolver<'m> {
     start: start::StepStart,
     /// Finite sliding: the next step's first pairing, formed beside the last step's check, with
     /// its interface rows when they could be formed on the last step's factor.
-    ahead: Option<(Discretisation, Option<PreparedRows>)>,
+    ahead: Option<Ahead>,
     timings: RunTimings,
 }
 
@@ -224,4 +224,11 @@ impl<'m> StepSolver<'m> {
         self.start.restore(state);
         self.ahead = None;
     }
+}
+
+/// Finite sliding: the next step's first pairing, formed beside the last step's check, and its
+/// interface rows when they could be formed on the last step's factor.
+struct Ahead {
+    pairing: Discretisation,
+    rows: Option<PreparedRows>,
 }

@@ -2,7 +2,7 @@
 //! the pairing (see [`StepSolver::solve_paired`]), and the checks of a settled pairing.
 
 use super::{
-    AnalysisError, ContactSets, PreparedRows, SolvedStep, StaticAnalysis, StepReport, StepRequest, StepSolver,
+    Ahead, AnalysisError, ContactSets, PreparedRows, SolvedStep, StaticAnalysis, StepReport, StepRequest, StepSolver,
 };
 use crate::model::{Discretisation, Model};
 use crate::state::SimState;
@@ -70,7 +70,7 @@ impl<'m> StepSolver<'m> {
         let (model, step, t, guess) = (self.model, request.step, request.time, request.pairing_guess);
         // The first pairing, formed beside the last step's check, serves a step paired at a guess.
         let (mut prepared, mut prepared_rows) =
-            self.ahead.take().filter(|_| guess.is_some()).map_or((None, None), |(d, rows)| (Some(d), rows));
+            self.ahead.take().filter(|_| guess.is_some()).map_or((None, None), |a| (Some(a.pairing), a.rows));
         let mut u_pair = guess.map_or_else(|| state.u.clone(), <[f64]>::to_vec);
         let mut last_pressure: Option<Vec<f64>> = None;
         let mut fixed_point = FixedPoint::default();
@@ -188,7 +188,7 @@ impl<'m> StepSolver<'m> {
         let sensitivity = match next {
             Some(next) => {
                 let (rows, sensitivity) = rayon::join(|| analysis.prepare_rows(&next), sensitivity_of);
-                self.ahead = Some((next, rows));
+                self.ahead = Some(Ahead { pairing: next, rows });
                 sensitivity
             }
             None => sensitivity_of(),
