@@ -238,12 +238,12 @@ fn main() -> ExitCode {
             cli::study::study_sweep(&file, study_execution(runs))
         }
         Command::Study { study: StudyCommand::Convergence { file, runs } } => {
-            cli::study::study_convergence(&file, study_execution(runs))
+            cli::convergence::study_convergence(&file, study_execution(runs))
         }
         Command::Study { study: StudyCommand::Pareto { file, runs } } => {
-            cli::study::study_pareto(&file, study_execution(runs))
+            cli::pareto::study_pareto(&file, study_execution(runs))
         }
-        Command::Study { study: StudyCommand::Gather { file } } => cli::study::study_gather(&file),
+        Command::Study { study: StudyCommand::Gather { file } } => study_gather(&file),
         Command::Study { study: StudyCommand::Stability { output } } => cli::stability::stability(&output)
             .map(|md| println!("stability: table {}", md.display()))
             .map_err(|e| e.to_string()),
@@ -311,4 +311,19 @@ fn study_execution(runs: StudyRuns) -> cli::study::Execution {
     }
     let parallel = runs.parallel.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     cli::study::Execution::Local { parallel }
+}
+
+/// `mortex study gather`: the study kind from its file (`[[knob]]`: convergence; `reference`:
+/// Pareto; else a sweep), gathered without running anything.
+fn study_gather(file: &std::path::Path) -> Result<(), String> {
+    let text = std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
+    let table: toml::Table = toml::from_str(&text).map_err(|e| format!("{}: {}", file.display(), e.message()))?;
+    let exec = cli::study::Execution::Gather;
+    if table.contains_key("knob") {
+        cli::convergence::study_convergence(file, exec)
+    } else if table.contains_key("reference") {
+        cli::pareto::study_pareto(file, exec)
+    } else {
+        cli::study::study_sweep(file, exec)
+    }
 }

@@ -366,6 +366,36 @@ fn chart(out: &Path, knobs: &[Knob], rows: &[Row]) {
     }
 }
 
+pub(crate) fn study_convergence(file: &std::path::Path, exec: super::study::Execution) -> Result<(), String> {
+    let s = match convergence(file, &exec, &super::study::study_exe()?).map_err(|e| e.to_string())? {
+        super::study::Outcome::Gathered(s) => s,
+        super::study::Outcome::Submitted(job) => {
+            super::study::report_submitted(file, &job);
+            return Ok(());
+        }
+    };
+    println!("{}: {} runs: {} run now, {} done before", file.display(), s.runs, s.ran, s.skipped);
+    // The finest observed order of each knob and figure.
+    let mut last: Vec<(&str, &str, f64)> = Vec::new();
+    for r in &s.rows {
+        if let Some(o) = r.order {
+            match last.iter_mut().find(|(k, f, _)| *k == r.knob && *f == r.figure) {
+                Some(entry) => entry.2 = o,
+                None => last.push((&r.knob, &r.figure, o)),
+            }
+        }
+    }
+    for (knob, figure, order) in last {
+        println!("  {knob}: {figure}: observed order {order:.2}");
+    }
+    println!("-> {} (+ convergence.md, convergence.png)", s.table.display());
+    let missing = s.rows.iter().filter(|r| r.result.is_none()).count();
+    if missing > 0 {
+        return Err(format!("{missing} figures missing: a run failed (see its run.log)"));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::observed_order;

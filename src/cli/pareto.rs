@@ -172,6 +172,49 @@ fn chart(out: &Path, points: &[Point]) {
     }
 }
 
+pub(crate) fn study_pareto(file: &std::path::Path, exec: super::study::Execution) -> Result<(), String> {
+    let s = match pareto(file, &exec, &super::study::study_exe()?).map_err(|e| e.to_string())? {
+        super::study::Outcome::Gathered(s) => s,
+        super::study::Outcome::Submitted(job) => {
+            super::study::report_submitted(file, &job);
+            return Ok(());
+        }
+    };
+    println!("{}: {} runs: {} run now, {} done before", file.display(), s.runs, s.ran, s.skipped);
+    if let Some(w) = s.reference_wall_s {
+        println!("  reference: {w:.2} s");
+    }
+    let mut front: Vec<&Point> = s.points.iter().filter(|p| p.front).collect();
+    front.sort_by(|a, b| a.wall_s.unwrap_or(f64::INFINITY).total_cmp(&b.wall_s.unwrap_or(f64::INFINITY)));
+    for p in front {
+        println!(
+            "  front: {} s, error {}: {}",
+            p.wall_s.map_or("-".into(), |w| format!("{w:.2}")),
+            p.error.map_or("-".into(), |e| format!("{e:.2e}")),
+            p.settings
+        );
+    }
+    for tol in [0.01, 0.05] {
+        let cheapest = s
+            .points
+            .iter()
+            .filter(|p| p.error.is_some_and(|e| e <= tol))
+            .min_by(|a, b| a.wall_s.unwrap_or(f64::INFINITY).total_cmp(&b.wall_s.unwrap_or(f64::INFINITY)));
+        match cheapest {
+            Some(p) => {
+                println!("  cheapest within {}%: {} ({:.2} s)", tol * 100.0, p.settings, p.wall_s.unwrap_or(f64::NAN))
+            }
+            None => println!("  none within {}%", tol * 100.0),
+        }
+    }
+    println!("-> {} (+ pareto.md, pareto.png)", s.table.display());
+    let missing = s.points.iter().filter(|p| p.error.is_none()).count();
+    if missing > 0 {
+        return Err(format!("{missing} runs without an error: a run failed (see its run.log)"));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::pareto_front;

@@ -796,21 +796,6 @@ pub(crate) fn report_submitted(file: &std::path::Path, job: &crate::cli::study::
     }
 }
 
-/// `mortex study gather`: the study kind from its file (`[[knob]]`: convergence; `reference`:
-/// Pareto; else a sweep), gathered without running anything.
-pub(crate) fn study_gather(file: &std::path::Path) -> Result<(), String> {
-    let text = std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
-    let table: toml::Table = toml::from_str(&text).map_err(|e| format!("{}: {}", file.display(), e.message()))?;
-    let exec = crate::cli::study::Execution::Gather;
-    if table.contains_key("knob") {
-        study_convergence(file, exec)
-    } else if table.contains_key("reference") {
-        study_pareto(file, exec)
-    } else {
-        study_sweep(file, exec)
-    }
-}
-
 pub(crate) fn study_task(runs: &std::path::Path, index: usize) -> Result<(), String> {
     crate::cli::study::task(runs, index, &study_exe()?).map_err(|e| e.to_string())
 }
@@ -834,79 +819,6 @@ pub(crate) fn study_sweep(file: &std::path::Path, exec: crate::cli::study::Execu
     );
     if s.failed > 0 {
         return Err(format!("{} of {} runs failed: see their run.log and the status column", s.failed, s.runs));
-    }
-    Ok(())
-}
-
-pub(crate) fn study_convergence(file: &std::path::Path, exec: crate::cli::study::Execution) -> Result<(), String> {
-    let s = match crate::cli::convergence::convergence(file, &exec, &study_exe()?).map_err(|e| e.to_string())? {
-        crate::cli::study::Outcome::Gathered(s) => s,
-        crate::cli::study::Outcome::Submitted(job) => {
-            report_submitted(file, &job);
-            return Ok(());
-        }
-    };
-    println!("{}: {} runs: {} run now, {} done before", file.display(), s.runs, s.ran, s.skipped);
-    // The finest observed order of each knob and figure.
-    let mut last: Vec<(&str, &str, f64)> = Vec::new();
-    for r in &s.rows {
-        if let Some(o) = r.order {
-            match last.iter_mut().find(|(k, f, _)| *k == r.knob && *f == r.figure) {
-                Some(entry) => entry.2 = o,
-                None => last.push((&r.knob, &r.figure, o)),
-            }
-        }
-    }
-    for (knob, figure, order) in last {
-        println!("  {knob}: {figure}: observed order {order:.2}");
-    }
-    println!("-> {} (+ convergence.md, convergence.png)", s.table.display());
-    let missing = s.rows.iter().filter(|r| r.result.is_none()).count();
-    if missing > 0 {
-        return Err(format!("{missing} figures missing: a run failed (see its run.log)"));
-    }
-    Ok(())
-}
-
-pub(crate) fn study_pareto(file: &std::path::Path, exec: crate::cli::study::Execution) -> Result<(), String> {
-    let s = match crate::cli::pareto::pareto(file, &exec, &study_exe()?).map_err(|e| e.to_string())? {
-        crate::cli::study::Outcome::Gathered(s) => s,
-        crate::cli::study::Outcome::Submitted(job) => {
-            report_submitted(file, &job);
-            return Ok(());
-        }
-    };
-    println!("{}: {} runs: {} run now, {} done before", file.display(), s.runs, s.ran, s.skipped);
-    if let Some(w) = s.reference_wall_s {
-        println!("  reference: {w:.2} s");
-    }
-    let mut front: Vec<&crate::cli::pareto::Point> = s.points.iter().filter(|p| p.front).collect();
-    front.sort_by(|a, b| a.wall_s.unwrap_or(f64::INFINITY).total_cmp(&b.wall_s.unwrap_or(f64::INFINITY)));
-    for p in front {
-        println!(
-            "  front: {} s, error {}: {}",
-            p.wall_s.map_or("-".into(), |w| format!("{w:.2}")),
-            p.error.map_or("-".into(), |e| format!("{e:.2e}")),
-            p.settings
-        );
-    }
-    for tol in [0.01, 0.05] {
-        let cheapest = s
-            .points
-            .iter()
-            .filter(|p| p.error.is_some_and(|e| e <= tol))
-            .min_by(|a, b| a.wall_s.unwrap_or(f64::INFINITY).total_cmp(&b.wall_s.unwrap_or(f64::INFINITY)));
-        match cheapest {
-            Some(p) => {
-                println!("  cheapest within {}%: {} ({:.2} s)", tol * 100.0, p.settings, p.wall_s.unwrap_or(f64::NAN))
-            }
-            None => println!("  none within {}%", tol * 100.0),
-        }
-    }
-    println!("-> {} (+ pareto.md, pareto.png)", s.table.display());
-    let missing = s.points.iter().filter(|p| p.error.is_none()).count();
-    if missing > 0 {
-        return Err(format!("{missing} runs without an error: a run failed (see its run.log)"));
     }
     Ok(())
 }
