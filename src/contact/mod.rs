@@ -344,12 +344,13 @@ pub fn update_sets(
     active: &mut [bool],
     status: &mut [FrictionStatus],
 ) {
-    let SetValues { mult, gaps, slip } = values;
+    let SetValues { mult, gaps, slip, augmentation } = values;
+    debug_assert!(augmentation > 0.0, "the augmentation factor must be positive");
     let (nt, nc) = (m.first_multiplier, m.rows.len());
     let is_live = |k: usize| live.is_none_or(|l| l[k]);
     for k in 0..nc {
         let phi = m.phi[k];
-        active[k] = is_live(k) && phi > 0.0 && mult[nt + k] + m.eps[k] * gaps[k] / phi <= 0.0;
+        active[k] = is_live(k) && phi > 0.0 && mult[nt + k] + augmentation * m.eps[k] * gaps[k] / phi <= 0.0;
     }
     if first_iteration && !active.iter().any(|&a| a) {
         activate_closest(m, gaps, live, active);
@@ -359,7 +360,7 @@ pub fn update_sets(
         *st = if !active[k] {
             FrictionStatus::Open
         } else {
-            let (phi, eps) = (m.phi[k], m.eps[k]);
+            let (phi, eps) = (m.phi[k], augmentation * m.eps[k]);
             let lt_hat = mult[nt + nc + j] + eps * slip[j] / phi;
             let ln_hat = mult[nt + k] + eps * gaps[k] / phi;
             if lt_hat.abs() <= m.mu[k] * (-ln_hat).max(0.0) {
@@ -622,10 +623,13 @@ pub fn contact_field(m: &ContactSet, state: &ContactUnknowns<'_>, pair: usize) -
 }
 
 /// What one active-set update decides from: all multipliers, the weighted gaps of the contact
-/// rows and the weighted slip increments of the friction rows.
+/// rows and the weighted slip increments of the friction rows, and the factor on each node's
+/// augmentation `eps` (1: the contact's own). The factor steers which set comes next, not
+/// where the iteration stops: a converged set satisfies the law for any `eps > 0`.
 #[derive(Clone, Copy)]
 pub struct SetValues<'a> {
     pub mult: &'a [f64],
     pub gaps: &'a [f64],
     pub slip: &'a [f64],
+    pub augmentation: f64,
 }

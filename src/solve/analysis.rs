@@ -95,7 +95,7 @@ impl SetIterate {
     /// the previous iteration (the first iteration counts as a change when there is contact).
     fn update(&mut self, c: &ContactSet, u: &[f64], u_start: &[f64], mu: &[f64], first: bool) -> bool {
         self.measure(c, u, u_start);
-        let values = SetValues { mult: mu, gaps: &self.gaps, slip: &self.slip };
+        let values = SetValues { mult: mu, gaps: &self.gaps, slip: &self.slip, augmentation: 1.0 };
         update_sets(c, values, first, None, &mut self.active, &mut self.status);
         let changed = self.prev_active.as_ref().map(|pa| pa != &self.active).unwrap_or(!self.active.is_empty())
             || self.prev_status != self.status;
@@ -215,8 +215,8 @@ pub enum AnalysisError {
     SlidingBeyondPairing { step: usize, time: f64, slide: f64, width: f64 },
     #[error(
         "step {step} (time {time}): finite sliding: the pairing of the step did not settle in {pairings} \
-         re-pairings (last pressure change {change:.2e} of the largest): the step slides too far for the \
-         re-pairing to follow; raise [steps] increments"
+         re-pairings (last pressure change {change:.2e} of the largest): each pairing moved the pressure the \
+         next one read; more [steps] increments or a finer counter-surface may let it settle"
     )]
     PairingNotSettled { step: usize, time: f64, pairings: usize, change: f64 },
     #[error(

@@ -24,6 +24,13 @@ pub const PAIRING_TOLERANCE: f64 = 1e-3;
 /// tolerance 1e-3).
 const LINEAR_PAIRING_SAFETY: f64 = 10.0;
 
+/// Relaxation of a pairing fixed point that stopped contracting (a re-pairing's pressure change
+/// at least the last one's: a punch resting on a rounded corner rocks between two rests, each
+/// pairing undoing the last): the next pairing is formed at `u_pair + w (u - u_pair)`, `w`
+/// halved at each such re-pairing down to this floor. The fixed point is the same one; only
+/// the path to it changes. Re-pairings of a relaxed step may run to twice [`MAX_PAIRINGS`].
+const PAIRING_RELAXATION_FLOOR: f64 = 0.125;
+
 /// Contraction of the pairing fixed point assumed at least (measured 0.003-0.06 per re-pairing
 /// on the McColl scene at 4 increments per cycle).
 const PAIRING_CONTRACTION_FLOOR: f64 = 0.1;
@@ -79,7 +86,10 @@ impl<'m> StepSolver<'m> {
         let mut upcoming: Option<Discretisation> = None;
         // Each solve starts from the sets the last one converged to (the first: those asked).
         let mut start_sets = Some(request.start_sets.clone().unwrap_or_default());
-        for pairing in 1..=MAX_PAIRINGS {
+        let mut relaxation: f64 = 1.0;
+        let mut pairing = 0;
+        while pairing < if relaxation < 1.0 { 2 * MAX_PAIRINGS } else { MAX_PAIRINGS } {
+            pairing += 1;
             let t0 = std::time::Instant::now();
             let paired = prepared.take().unwrap_or_else(|| self.geometry.repaired_at(model, &u_pair, &self.start.u));
             let pairing_time = t0.elapsed().as_secs_f64();
@@ -137,9 +147,19 @@ impl<'m> StepSolver<'m> {
             start_sets = analysis.converged_sets().cloned();
             self.reuse = analysis.into_reuse();
             last_pressure = Some(pressure);
-            u_pair.clone_from(&state.u);
+            if pairing > 2 && fixed_point.contraction >= 1.0 {
+                relaxation = (0.5 * relaxation).max(PAIRING_RELAXATION_FLOOR);
+                tracing::debug!(step, pairing, relaxation, "finite sliding: the pairing does not contract; relaxed");
+            }
+            if relaxation < 1.0 {
+                for (p, &u) in u_pair.iter_mut().zip(&state.u) {
+                    *p += relaxation * (u - *p);
+                }
+            } else {
+                u_pair.clone_from(&state.u);
+            }
         }
-        Err(AnalysisError::PairingNotSettled { step, time: t, pairings: MAX_PAIRINGS, change: fixed_point.change })
+        Err(AnalysisError::PairingNotSettled { step, time: t, pairings: pairing, change: fixed_point.change })
     }
 
     /// The analysis of one pairing of a finite-sliding step, its solve starting from `sets`. On
@@ -211,11 +231,14 @@ struct FixedPoint {
     change: f64,
     last_change: f64,
     estimate: f64,
+    /// The last observed ratio of successive changes (infinite until two are known).
+    contraction: f64,
 }
 
 impl Default for FixedPoint {
     fn default() -> Self {
-        FixedPoint { change: f64::INFINITY, last_change: f64::INFINITY, estimate: f64::INFINITY }
+        let inf = f64::INFINITY;
+        FixedPoint { change: inf, last_change: inf, estimate: inf, contraction: inf }
     }
 }
 
@@ -225,6 +248,9 @@ impl FixedPoint {
     fn observe(&mut self, pressure: &[f64], last: &[f64], guessed: bool) {
         let p_max = pressure.iter().fold(0.0_f64, |a, &b| a.max(b)).max(f64::MIN_POSITIVE);
         self.change = pressure.iter().zip(last).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / p_max;
+        if self.last_change.is_finite() {
+            self.contraction = self.change / self.last_change.max(f64::MIN_POSITIVE);
+        }
         let rho = if self.last_change.is_finite() {
             Some((self.change / self.last_change).max(PAIRING_CONTRACTION_FLOOR))
         } else {

@@ -418,8 +418,18 @@ impl StaticAnalysis<'_> {
 
     /// The active-set iterations on the live interface rows for the bulk predictor `z` (see
     /// [`Self::interface_iterations_from`]), from the sets handed to
-    /// [`Self::start_from_sets`] if any: should those fail, once more from the prediction
-    /// before the caller cuts back (a start far from the answer must not change the path).
+    /// [`Self::start_from_sets`] if any: should those fail, again from the prediction (a start
+    /// far from the answer must not change the path), and should the prediction's sets cycle,
+    /// again with the augmentation scaled by each of [`CYCLE_BREAKING_AUGMENTATION`] before the
+    /// caller cuts back.
+    ///
+    /// Why the scaled retries: the next set of a primal-dual active-set (semi-smooth Newton)
+    /// iteration depends on the augmentation `eps`, its fixed points do not (Hintermüller, Ito &
+    /// Kunisch, SIAM J Optim 13 (2002) 865: the complementarity function's constant changes the
+    /// path, not the solution). A rounded corner resting on one to three nodes with friction
+    /// sends the iteration round a cycle of a dozen sets at every increment size, so cutting
+    /// back does not help (a free punch at mu 0.3 stopped in its seventh cycle at 1/256 of an
+    /// increment); another `eps` leaves the cycle and reaches the same law's solution.
     pub(super) fn interface_iterations(
         &mut self,
         cd: &condensed::Condensed,
@@ -431,28 +441,38 @@ impl StaticAnalysis<'_> {
         // Sets of another row layout (another pairing's model) are no start.
         let (nc, nfr) = (self.disc.contact.rows.len(), self.disc.contact.friction_rows.len());
         let given = self.start_sets.take().filter(|g| g.active.len() == nc && g.status.len() == nfr);
-        let warm = given.is_some();
-        let solve = self.interface_iterations_from(cd, predictor, sets, given, step, t)?;
-        let InterfaceSolve::Failed(StepOutcome::NotConverged { iterations: spent, .. }) = solve else {
-            return Ok(solve);
-        };
-        if !warm {
-            return Ok(solve);
-        }
-        tracing::debug!(step, t, spent, "active-set iterations from the given sets failed: again from the prediction");
-        Ok(match self.interface_iterations_from(cd, predictor, sets, None, step, t)? {
-            InterfaceSolve::Solved { dlam, dw, iterations } => {
-                InterfaceSolve::Solved { dlam, dw, iterations: iterations + spent }
+        let predicted = std::iter::once(1.0)
+            .chain(CYCLE_BREAKING_AUGMENTATION)
+            .map(|augmentation| SetStart::Predicted { augmentation });
+        let mut spent = 0;
+        for start in given.map(SetStart::Given).into_iter().chain(predicted) {
+            let from = start.describe();
+            match self.interface_iterations_from(cd, predictor, sets, start, step, t)? {
+                InterfaceSolve::Solved { dlam, dw, iterations } => {
+                    return Ok(InterfaceSolve::Solved { dlam, dw, iterations: iterations + spent });
+                }
+                InterfaceSolve::Failed(StepOutcome::NotConverged { iterations, .. }) => {
+                    spent += iterations;
+                    tracing::debug!(
+                        step,
+                        t,
+                        iterations,
+                        from,
+                        "active-set iterations failed: again from another start"
+                    );
+                }
+                failed => return Ok(failed),
             }
-            failed => failed,
-        })
+        }
+        Ok(InterfaceSolve::Failed(StepOutcome::NotConverged { iterations: spent, residual: f64::INFINITY }))
     }
 
     /// The active-set iterations on the live interface rows for the bulk predictor `z`: each
-    /// iteration updates the sets from the current interface values (the first from `given`
-    /// if any, else the augmented-Lagrangian prediction from the step's start), then solves
-    /// the dense interface system of their laws for the multiplier and row-value changes
-    /// `dlam`, `dw`. Stops when the sets repeat; fails (the caller cuts back) when they cycle,
+    /// iteration updates the sets from the current interface values (the first from the
+    /// given sets of `start_sets`, else the augmented-Lagrangian prediction from the step's
+    /// start; every prediction with its augmentation factor), then solves the dense interface
+    /// system of their laws for the multiplier and row-value changes `dlam`, `dw`. Stops when
+    /// the sets repeat; fails (the caller tries another start, then cuts back) when they cycle,
     /// do not settle within `max_set_iterations` (default: one per live contact row, at least
     /// the Newton limit), or the interface system is singular.
     pub(super) fn interface_iterations_from(
@@ -460,11 +480,14 @@ impl StaticAnalysis<'_> {
         cd: &condensed::Condensed,
         predictor: Predictor,
         sets: &mut SetIterate,
-        given: Option<ContactSets>,
+        start_sets: SetStart,
         step: usize,
         t: f64,
     ) -> Result<InterfaceSolve, AnalysisError> {
-        let mut given = given;
+        let (mut given, augmentation) = match start_sets {
+            SetStart::Given(sets) => (Some(sets), 1.0),
+            SetStart::Predicted { augmentation } => (None, augmentation),
+        };
         let Predictor { z, start, lam0 } = predictor;
         let (m, shared) = (self.model, Arc::clone(&self.disc));
         let disc: &Discretisation = &shared;
@@ -516,7 +539,7 @@ impl StaticAnalysis<'_> {
                 Some(given) => given_sets(&disc.contact, &given, &mut sets.active, &mut sets.status),
                 None => update_sets(
                     &disc.contact,
-                    SetValues { mult: &mult, gaps: &sets.gaps, slip: &sets.slip },
+                    SetValues { mult: &mult, gaps: &sets.gaps, slip: &sets.slip, augmentation },
                     it == 0,
                     Some(&live_rows),
                     &mut sets.active,
@@ -664,6 +687,28 @@ impl StaticAnalysis<'_> {
         })?;
         cd.log.push(batch);
         Ok(())
+    }
+}
+
+/// Factors on the contact's augmentation for the retries of a step's active-set iterations
+/// after the predicted sets cycled (see [`StaticAnalysis::interface_iterations`]): each tried
+/// in turn, smaller and larger, a decade and then two from the contact's own.
+const CYCLE_BREAKING_AUGMENTATION: [f64; 4] = [0.1, 10.0, 0.01, 100.0];
+
+/// Where a step's active-set iterations start: from given sets (a step's first solve, the
+/// last computed cycle at the same increment), or from the augmented-Lagrangian prediction
+/// with the contact's augmentation scaled by `augmentation` (1: its own).
+pub(super) enum SetStart {
+    Given(ContactSets),
+    Predicted { augmentation: f64 },
+}
+
+impl SetStart {
+    fn describe(&self) -> String {
+        match self {
+            SetStart::Given(_) => "the given sets".to_string(),
+            SetStart::Predicted { augmentation } => format!("the prediction, augmentation x{augmentation}"),
+        }
     }
 }
 
