@@ -444,7 +444,9 @@ impl StaticAnalysis<'_> {
         let predicted = std::iter::once(1.0)
             .chain(CYCLE_BREAKING_AUGMENTATION)
             .map(|augmentation| SetStart::Predicted { augmentation });
-        let mut spent = 0;
+        // Iterations of the failed starts (added to a solve's count), and of the last one (the
+        // count a failure reports: each start has the whole iteration limit).
+        let (mut spent, mut last) = (0, 0);
         for start in given.map(SetStart::Given).into_iter().chain(predicted) {
             let from = start.describe();
             match self.interface_iterations_from(cd, predictor, sets, start, step, t)? {
@@ -453,6 +455,7 @@ impl StaticAnalysis<'_> {
                 }
                 InterfaceSolve::Failed(StepOutcome::NotConverged { iterations, .. }) => {
                     spent += iterations;
+                    last = iterations;
                     tracing::debug!(
                         step,
                         t,
@@ -464,7 +467,7 @@ impl StaticAnalysis<'_> {
                 failed => return Ok(failed),
             }
         }
-        Ok(InterfaceSolve::Failed(StepOutcome::NotConverged { iterations: spent, residual: f64::INFINITY }))
+        Ok(InterfaceSolve::Failed(StepOutcome::NotConverged { iterations: last, residual: f64::INFINITY }))
     }
 
     /// The active-set iterations on the live interface rows for the bulk predictor `z`: each
