@@ -451,31 +451,13 @@ fn coarse_grained_multipliers_follow_one_rule_whether_or_not_a_side_wears() {
     let (wearing, not_wearing) = (nodes(&text), nodes(&unworn));
     assert_eq!(wearing, not_wearing, "multiplier nodes with and without wear");
     assert!(wearing < 200, "{wearing} multiplier nodes: the 241-vertex arc is not coarse-grained");
-    let case = ResultFiles::in_scratch("cases", "pin_fine.toml");
-    std::fs::write(&*case, &text).unwrap();
-    let out = ResultFiles::in_scratch("cases", "pin_fine.h5");
-    let status = Command::new(env!("CARGO_BIN_EXE_mortex"))
-        .args(["run", case.to_str().unwrap(), "--quiet", "-o", out.to_str().unwrap()])
-        .status()
-        .unwrap();
-    assert!(status.success());
-    let f = hdf5::File::open(&out).unwrap();
-    let lambda = read2(&f, "series/contacts/track/pressure");
-    let nodal = read2(&f, "series/contacts/track/nodal_pressure");
-    let x = f.dataset("series/contacts/track/position").unwrap().read_dyn::<f64>().unwrap();
-    let mut pressed: Vec<(f64, f64)> =
-        (0..lambda.ncols()).filter(|&k| lambda[[0, k]] > 0.0).map(|k| (x[[0, k, 0]], lambda[[0, k]])).collect();
-    pressed.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let peak = (0..pressed.len()).max_by(|&a, &b| pressed[a].1.total_cmp(&pressed[b].1)).unwrap();
+    let out = run_text("pin_fine", &text);
+    let PinContact { pressed, peak, nodal_peak } = pin_contact_after_ramp(&out);
     for k in 1..pressed.len() {
         let rising = pressed[k].1 > pressed[k - 1].1;
         assert_eq!(rising, k <= peak, "multipliers not single-peaked (a checkerboard): {pressed:?}");
     }
-    // Hertz, plane strain: E* from both bodies, a = sqrt(4 P R / (pi E*)), p0 = 2 P / (pi a).
-    let e_star = 1.0 / ((1.0 - 0.3f64.powi(2)) / 210000.0 + (1.0 - 0.33f64.powi(2)) / 70000.0);
-    let a = (4.0 * 20.0 * 2.0 / (std::f64::consts::PI * e_star)).sqrt();
-    let p0 = 2.0 * 20.0 / (std::f64::consts::PI * a);
-    let nodal_peak = nodal.row(0).iter().fold(0.0_f64, |m, &v| m.max(v));
+    let p0 = pin_hertz_p0();
     assert!((nodal_peak / p0 - 1.0).abs() < 0.06, "peak nodal traction {nodal_peak} against p0 = {p0}");
 }
 
@@ -498,15 +480,8 @@ fn pin_hertz_pressure_within_two_percent_on_a_resolved_contact() {
         .replace("cycles = 3", "cycles = 1");
     assert!(text.contains("[1000, 20]") && text.contains("[20, 480]") && text.contains("cycles = 1"));
     let out = run_text("pin_resolved", &text);
-    let f = hdf5::File::open(&*out).unwrap();
-    let lambda = read2(&f, "series/contacts/track/pressure");
-    let nodal = read2(&f, "series/contacts/track/nodal_pressure");
-    let x = f.dataset("series/contacts/track/position").unwrap().read_dyn::<f64>().unwrap();
-    let mut pressed: Vec<(f64, f64)> =
-        (0..lambda.ncols()).filter(|&k| lambda[[0, k]] > 0.0).map(|k| (x[[0, k, 0]], lambda[[0, k]])).collect();
-    pressed.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let PinContact { pressed, peak, nodal_peak } = pin_contact_after_ramp(&out);
     assert!(pressed.len() >= 10, "{} multiplier rows pressed", pressed.len());
-    let peak = (0..pressed.len()).max_by(|&a, &b| pressed[a].1.total_cmp(&pressed[b].1)).unwrap();
     for k in 1..pressed.len() {
         // Equal neighbours (the symmetric pair about the middle) count as the peak.
         let step = pressed[k].1 - pressed[k - 1].1;
@@ -515,12 +490,38 @@ fn pin_hertz_pressure_within_two_percent_on_a_resolved_contact() {
             "multipliers not single-peaked (a checkerboard): {pressed:?}"
         );
     }
-    let e_star = 1.0 / ((1.0 - 0.3f64.powi(2)) / 210000.0 + (1.0 - 0.33f64.powi(2)) / 70000.0);
-    let a = (4.0 * 20.0 * 2.0 / (std::f64::consts::PI * e_star)).sqrt();
-    let p0 = 2.0 * 20.0 / (std::f64::consts::PI * a);
-    let nodal_peak = nodal.row(0).iter().fold(0.0_f64, |m, &v| m.max(v));
+    let p0 = pin_hertz_p0();
     assert!((nodal_peak / p0 - 1.0).abs() < 0.02, "peak nodal traction {nodal_peak} against p0 = {p0}");
     assert!((pressed[peak].1 / p0 - 1.0).abs() < 0.03, "peak multiplier {} against p0 = {p0}", pressed[peak].1);
+}
+
+/// Hertz's p0 of the `pin_on_plate` scene (plane strain, steel pin R = 2 mm on aluminium,
+/// P = 20 N/mm): E* from both bodies, `a = sqrt(4 P R / (pi E*))`, `p0 = 2 P / (pi a)`.
+fn pin_hertz_p0() -> f64 {
+    let e_star = 1.0 / ((1.0 - 0.3f64.powi(2)) / 210000.0 + (1.0 - 0.33f64.powi(2)) / 70000.0);
+    let a = (4.0 * 20.0 * 2.0 / (std::f64::consts::PI * e_star)).sqrt();
+    2.0 * 20.0 / (std::f64::consts::PI * a)
+}
+
+/// The pin's contact at the end of the ramp (the first output step): the pressed multiplier
+/// rows `(x, lambda)` sorted along x, the index of the largest, and the peak nodal traction.
+struct PinContact {
+    pressed: Vec<(f64, f64)>,
+    peak: usize,
+    nodal_peak: f64,
+}
+
+fn pin_contact_after_ramp(out: &Path) -> PinContact {
+    let f = hdf5::File::open(out).unwrap();
+    let lambda = read2(&f, "series/contacts/track/pressure");
+    let nodal = read2(&f, "series/contacts/track/nodal_pressure");
+    let x = f.dataset("series/contacts/track/position").unwrap().read_dyn::<f64>().unwrap();
+    let mut pressed: Vec<(f64, f64)> =
+        (0..lambda.ncols()).filter(|&k| lambda[[0, k]] > 0.0).map(|k| (x[[0, k, 0]], lambda[[0, k]])).collect();
+    pressed.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let peak = (0..pressed.len()).max_by(|&a, &b| pressed[a].1.total_cmp(&pressed[b].1)).unwrap();
+    let nodal_peak = nodal.row(0).iter().fold(0.0_f64, |m, &v| m.max(v));
+    PinContact { pressed, peak, nodal_peak }
 }
 
 /// Sliding wear under a free punch (`free_punch_wear`, see its header): pressure-loaded, its top
