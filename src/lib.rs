@@ -21,8 +21,10 @@
 //!   the SWT critical plane of a point's stress-strain history and its strain-life.
 //! * [`state`]: [`state::SimState`], the one mutable struct (what a checkpoint holds).
 //! * [`model`]: [`model::Model`], the immutable problem data, and its builder;
-//!   [`model::Discretisation`], the run-time geometry derived from it (surfaces, cuts, DOF
-//!   map, contact rows), which the driver owns and re-derives as surfaces move or wear.
+//!   [`model::Discretisation`], a placement of the surfaces and what follows from it (cuts,
+//!   DOF map, contact rows), with its read-only queries; the model keeps its builder's one.
+//! * [`geometry`]: the moving geometry: what derives another discretisation as surfaces move,
+//!   wear and re-pair (re-embedding, re-cutting on the fixed points, re-pairing).
 //! * [`solve`]: the solve of one step ([`solve::StepSolver`]): load stepping with cut-backs,
 //!   monolithic Newton and condensed active-set iteration, finite sliding's pairing fixed
 //!   point; it owns the geometry of the moment and returns a [`solve::SolvedStep`].
@@ -41,6 +43,7 @@ pub mod cut;
 pub mod driver;
 pub mod fatigue;
 pub mod fem;
+pub mod geometry;
 pub mod io;
 pub mod mesh;
 pub mod model;

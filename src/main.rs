@@ -246,10 +246,10 @@ fn main() -> ExitCode {
         Command::Study { study: StudyCommand::Gather { file } } => study_gather(&file),
         Command::Study { study: StudyCommand::Stability { output } } => cli::stability::stability(&output)
             .map(|md| println!("stability: table {}", md.display()))
-            .map_err(|e| e.to_string()),
+            .map_err(anyhow::Error::from),
         Command::Study { study: StudyCommand::Relocation { file } } => cli::relocation::relocation(&file)
             .map(|md| println!("{}: table {}", file.display(), md.display()))
-            .map_err(|e| e.to_string()),
+            .map_err(anyhow::Error::from),
         Command::Study { study: StudyCommand::Task { runs, index } } => cli::study::study_task(&runs, index),
         Command::Plot { result, wear: true, output, .. } => {
             let out = output.unwrap_or_else(|| {
@@ -258,7 +258,7 @@ fn main() -> ExitCode {
             });
             mortex::io::plot::write_wear_png(&result, &out)
                 .map(|n| println!("{} worn surface(s) -> {}", n, out.display()))
-                .map_err(|e| e.to_string())
+                .map_err(anyhow::Error::from)
         }
         Command::Plot { result, plastic: true, body, step, output, .. } => {
             let out = output.unwrap_or_else(|| {
@@ -267,7 +267,7 @@ fn main() -> ExitCode {
             });
             mortex::io::plot_field::write_plastic_png(&result, body.as_deref(), step, &out)
                 .map(|(step, top)| println!("step {step}: largest cell plastic strain {top:.3e} -> {}", out.display()))
-                .map_err(|e| e.to_string())
+                .map_err(anyhow::Error::from)
         }
         Command::Plot { result, cycle: Some(cycle), reference, pair, output, .. } => {
             let out = output.unwrap_or_else(|| {
@@ -276,7 +276,7 @@ fn main() -> ExitCode {
             });
             mortex::io::plot::write_cycle_png(&result, cycle, reference.as_deref(), pair.as_deref(), &out)
                 .map(|(found, n)| println!("cycle {found}: {n} increments -> {}", out.display()))
-                .map_err(|e| e.to_string())
+                .map_err(anyhow::Error::from)
         }
         Command::Plot { result, step, pair, output, xlim, .. } => cli::plot::plot(result, step, pair, output, xlim),
         Command::Bench { wear: true, case, at, .. } => {
@@ -315,9 +315,10 @@ fn study_execution(runs: StudyRuns) -> cli::study::Execution {
 
 /// `mortex study gather`: the study kind from its file (`[[knob]]`: convergence; `reference`:
 /// Pareto; else a sweep), gathered without running anything.
-fn study_gather(file: &std::path::Path) -> Result<(), String> {
-    let text = std::fs::read_to_string(file).map_err(|e| format!("{}: {e}", file.display()))?;
-    let table: toml::Table = toml::from_str(&text).map_err(|e| format!("{}: {}", file.display(), e.message()))?;
+fn study_gather(file: &std::path::Path) -> anyhow::Result<()> {
+    let text = std::fs::read_to_string(file).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+    let table: toml::Table =
+        toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {}", file.display(), e.message()))?;
     let exec = cli::study::Execution::Gather;
     if table.contains_key("knob") {
         cli::convergence::study_convergence(file, exec)

@@ -13,6 +13,20 @@ use crate::solver::linear::LinearSolverKind;
 use crate::solver::newton::NewtonParams;
 use std::time::Instant;
 
+/// Why a scene could not be built or solved.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error(transparent)]
+    Model(#[from] crate::model::ModelError),
+    #[error(transparent)]
+    Mesh(#[from] crate::mesh::MeshError),
+    #[error(transparent)]
+    Analysis(#[from] crate::solve::AnalysisError),
+    /// The least-squares Fourier fit of the tie tractions has a singular normal matrix.
+    #[error("singular Fourier fit of {nodes} tie tractions with {harmonics} harmonics")]
+    SingularFit { nodes: usize, harmonics: usize },
+}
+
 /// The `n x n` block model.
 pub fn block_model(n: usize) -> Model {
     let mesh = match generate::rectangle(0.0, 0.0, 1.0, 1.0, n, n, 1.0, 1.0, CellKind::Quad4) {
@@ -136,18 +150,16 @@ pub struct HertzRun {
     pub l2_error: f64,
 }
 
-pub fn run_hertz(h_core: f64, virtual_top: bool) -> Result<HertzRun, String> {
+pub fn run_hertz(h_core: f64, virtual_top: bool) -> Result<HertzRun, SceneError> {
     let start = Instant::now();
-    let model = hertz_model(h_core, virtual_top).map_err(|e| e.to_string())?;
-    let mut analysis = crate::solve::StaticAnalysis::new(&model).map_err(|e| e.to_string())?;
+    let model = hertz_model(h_core, virtual_top)?;
+    let mut analysis = crate::solve::StaticAnalysis::new(&model)?;
     let mut state = analysis.initial_state();
     let mut iterations = 0;
-    analysis
-        .run(&mut state, |r, _| {
-            iterations += r.iterations;
-            Ok(())
-        })
-        .map_err(|e| e.to_string())?;
+    analysis.run(&mut state, |r, _| {
+        iterations += r.iterations;
+        Ok(())
+    })?;
     let seconds = start.elapsed().as_secs_f64();
     let e_star = 210_000.0 / (2.0 * (1.0 - 0.09));
     let a = (4.0 * 100.0 * 10.0 / (std::f64::consts::PI * e_star)).sqrt();
@@ -209,10 +221,10 @@ pub fn fretting_blocks_model(steps: usize) -> Result<Model, crate::model::ModelE
 }
 
 /// Solves a one-step model to its end.
-fn solve_to_end(model: &Model) -> Result<crate::state::SimState, String> {
-    let mut analysis = crate::solve::StaticAnalysis::new(model).map_err(|e| e.to_string())?;
+fn solve_to_end(model: &Model) -> Result<crate::state::SimState, SceneError> {
+    let mut analysis = crate::solve::StaticAnalysis::new(model)?;
     let mut state = analysis.initial_state();
-    analysis.run(&mut state, |_, _| Ok(())).map_err(|e| e.to_string())?;
+    analysis.run(&mut state, |_, _| Ok(()))?;
     Ok(state)
 }
 
@@ -241,7 +253,7 @@ pub fn tied_inclusion_oscillation(
     space: crate::mortar::MultiplierSpace,
     e_patch: f64,
     load: InclusionLoad,
-) -> Result<(f64, usize), String> {
+) -> Result<(f64, usize), SceneError> {
     use nalgebra::{Point2, Vector2};
     let hyp = PlaneHypothesis::PlaneStrain;
     let mut b = ModelBuilder::new(hyp);
@@ -250,15 +262,14 @@ pub fn tied_inclusion_oscillation(
     let mp = b.add_material("patch", elastic(e_patch));
     let nh: usize = 20;
     let hh = 10.0 / nh as f64;
-    let host =
-        generate::rectangle(0.0, 0.0, 10.0, 10.0, nh, nh, 1.0, 1.0, CellKind::Quad4).map_err(|e| e.to_string())?;
+    let host = generate::rectangle(0.0, 0.0, 10.0, 10.0, nh, nh, 1.0, 1.0, CellKind::Quad4)?;
     let nodes = host.nodes.clone();
     let (right, left) = (host.edge_sets["right"].clone(), host.edge_sets["left"].clone());
     let h = b.add_body("host", host, mh, Formulation::Standard, 1.0);
     let (radius, c) = (3.0_f64, Point2::new(5.13, 4.91));
     let nt = ((std::f64::consts::TAU * radius) * ratio as f64 / hh).round() as usize;
     let nr = (radius * ratio as f64 / hh).round().max(2.0) as usize;
-    let patch = generate::disc(c, radius, nr, nt).map_err(|e| e.to_string())?;
+    let patch = generate::disc(c, radius, nr, nt)?;
     let p = b.add_body("patch", patch, mp, Formulation::Standard, 1.0);
     // Consistent nodal loads of the linear traction on the host's left and right edges.
     let stress = |y: f64| match load {
@@ -278,15 +289,13 @@ pub fn tied_inclusion_oscillation(
     b.fix_node(h, n_l, 1, 0.0);
     b.fix_node(h, n_l, 0, 0.0);
     b.fix_node(h, n_r, if load == InclusionLoad::Tension { 1 } else { 0 }, 0.0);
-    b.add_tie("t", h, p, &["arc".to_string()], space).map_err(|e| e.to_string())?;
-    let model = b
-        .build(
-            LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)]).map_err(|e| e.to_string())?,
-            vec![1.0],
-            NewtonParams::default(),
-            LinearSolverKind::Cholesky,
-        )
-        .map_err(|e| e.to_string())?;
+    b.add_tie("t", h, p, &["arc".to_string()], space)?;
+    let model = b.build(
+        LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)])?,
+        vec![1.0],
+        NewtonParams::default(),
+        LinearSolverKind::Cholesky,
+    )?;
     let s = solve_to_end(&model)?;
     let tie = &model.ties[0];
     let nl = tie.multipliers.num_nodes;
@@ -304,7 +313,10 @@ pub fn tied_inclusion_oscillation(
     let mut refs = vec![[0.0; 2]; nl];
     for comp in 0..2 {
         let t = nalgebra::DVector::from_fn(nl, |i, _| traction(i, comp));
-        let coef = (a.transpose() * &a).lu().solve(&(a.transpose() * &t)).ok_or("singular Fourier fit")?;
+        let coef = (a.transpose() * &a)
+            .lu()
+            .solve(&(a.transpose() * &t))
+            .ok_or(SceneError::SingularFit { nodes: nl, harmonics })?;
         let fit = &a * coef;
         refs.iter_mut().zip(fit.iter()).for_each(|(r, f)| r[comp] = *f);
     }
@@ -325,8 +337,8 @@ pub fn hertz_density_deviation(
     virtual_top: bool,
     space: crate::mortar::MultiplierSpace,
     frac: f64,
-) -> Result<(f64, usize), String> {
-    let model = hertz_model_with(h, refine, 0.15, virtual_top, space).map_err(|e| e.to_string())?;
+) -> Result<(f64, usize), SceneError> {
+    let model = hertz_model_with(h, refine, 0.15, virtual_top, space)?;
     let s = solve_to_end(&model)?;
     let r = crate::post::AnalyticContact::hertz(100.0, 10.0, STABILITY_E / (2.0 * (1.0 - STABILITY_NU.powi(2))), 0.0);
     let prof = crate::post::contact_profile(model.initial(), &s, 0);

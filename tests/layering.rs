@@ -1,13 +1,13 @@
 //! The library's rooms import one way only, down the stack
 //!
 //! ```text
-//! mesh, solver -> fem -> assembly, surface -> cut -> discretisation, mortar -> contact -> wear, fatigue
-//!   -> state -> model -> solve -> driver -> post -> scenes -> io, case -> relocation
+//! mesh, solver -> fem -> assembly, surface -> cut -> moving, mortar -> contact -> wear, fatigue
+//!   -> state -> model -> geometry -> solve -> driver -> post -> scenes -> io, case -> relocation
 //! ```
 //!
 //! (`wear` is the wear physics: laws, swept integration, rate filter, cycle jump; it knows
 //! neither the model nor the solve. `state` is the one mutable struct, `model` the immutable
-//! problem data, `solve` the solve of one step, `driver` the run and the wear loop around the solve, `scenes` the
+//! problem data, `geometry` what moves and re-pairs a discretisation, `solve` the solve of one step, `driver` the run and the wear loop around the solve, `scenes` the
 //! model scenes of the tests and benches, which nothing in the library imports; `relocation` the
 //! node-relocation baseline, which rebuilds cases on moved meshes; the binary,
 //! `main.rs` and `cli/`, sits above every room.)
@@ -31,6 +31,7 @@ const LAYERS: &[&[&str]] = &[
     &["wear", "fatigue"],
     &["state"],
     &["model"],
+    &["geometry"],
     &["solve"],
     &["driver"],
     &["post"],

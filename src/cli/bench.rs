@@ -184,23 +184,22 @@ pub fn run_output_bench(
     fields_every: usize,
     checkpoint_every: usize,
     out: &std::path::Path,
-) -> Result<OutputRun, String> {
-    let model = fretting_blocks_model(steps).map_err(|e| e.to_string())?;
+) -> anyhow::Result<OutputRun> {
+    let model = fretting_blocks_model(steps)?;
     let mut state = mortex::solve::StaticAnalysis::initial_state_of(&model);
-    let mut writer = mortex::io::ResultWriter::create(out, &model, "output-bench").map_err(|e| e.to_string())?;
+    let mut writer = mortex::io::ResultWriter::create(out, &model, "output-bench")?;
     writer.set_fields_every(fields_every);
     writer.set_checkpoint_every(checkpoint_every);
     let mut output = 0.0;
     let start = Instant::now();
     mortex::driver::run(&model, &mut state, mortex::driver::RunOptions::default(), |r, s, m, d| {
         let t0 = Instant::now();
-        writer.write_step(m, d, r, s).map_err(|e| e.to_string())?;
+        writer.write_step(m, d, r, s)?;
         output += t0.elapsed().as_secs_f64();
         Ok(())
-    })
-    .map_err(|e| e.to_string())?;
+    })?;
     let t0 = Instant::now();
-    let file = writer.finish(true).map_err(|e| e.to_string())?;
+    let file = writer.finish(true)?;
     output += t0.elapsed().as_secs_f64();
     let total = start.elapsed().as_secs_f64();
     let size = |p: &std::path::Path| std::fs::metadata(p).map(|m| m.len()).unwrap_or(0);
@@ -217,37 +216,33 @@ pub fn run_output_bench(
 /// Re-cut after a surface move: a straight open surface crossing an `n x n` `Quad4` unit square
 /// host, moving one cell down; returns (cells, band cells, cut cells, seconds per move: embed,
 /// re-cut, refit, ghost penalty, DOF map, averaged over `moves` moves).
-pub fn time_recut(n: usize, moves: usize) -> Result<(usize, usize, usize, f64), String> {
+pub fn time_recut(n: usize, moves: usize) -> anyhow::Result<(usize, usize, usize, f64)> {
     use mortex::moving::SurfaceMotion;
     use nalgebra::{Point2, Vector2};
     let hyp = PlaneHypothesis::PlaneStrain;
     let mut b = ModelBuilder::new(hyp);
     let mi = b.add_material("steel", Material::Elastic(Elastic { young: 210_000.0, poisson: 0.3, hypothesis: hyp }));
-    let host = generate::rectangle(0.0, 0.0, 1.0, 1.0, n, n, 1.0, 1.0, CellKind::Quad4).map_err(|e| e.to_string())?;
+    let host = generate::rectangle(0.0, 0.0, 1.0, 1.0, n, n, 1.0, 1.0, CellKind::Quad4)?;
     let body = b.add_body("host", host, mi, Formulation::Standard, 1.0);
     let h = 1.0 / n as f64;
     let y0 = 0.5 + 0.37 * h;
-    b.add_cut("surface", body, vec![Point2::new(-0.1, y0), Point2::new(1.1, y0 + 0.013)], false, false)
-        .map_err(|e| e.to_string())?;
-    let curve = b.add_curve(LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)]).map_err(|e| e.to_string())?);
-    b.set_cut_motion("surface", SurfaceMotion::Translation { direction: Vector2::new(0.0, -h), curve })
-        .map_err(|e| e.to_string())?;
-    b.fix(body, "bottom", 0, 0.0).map_err(|e| e.to_string())?;
-    b.fix(body, "bottom", 1, 0.0).map_err(|e| e.to_string())?;
-    let model = b
-        .build(
-            LoadPath::new(vec![(0.0, 1.0), (1.0, 1.0)]).map_err(|e| e.to_string())?,
-            vec![1.0],
-            NewtonParams::default(),
-            LinearSolverKind::Cholesky,
-        )
-        .map_err(|e| e.to_string())?;
+    b.add_cut("surface", body, vec![Point2::new(-0.1, y0), Point2::new(1.1, y0 + 0.013)], false, false)?;
+    let curve = b.add_curve(LoadPath::new(vec![(0.0, 0.0), (1.0, 1.0)])?);
+    b.set_cut_motion("surface", SurfaceMotion::Translation { direction: Vector2::new(0.0, -h), curve })?;
+    b.fix(body, "bottom", 0, 0.0)?;
+    b.fix(body, "bottom", 1, 0.0)?;
+    let model = b.build(
+        LoadPath::new(vec![(0.0, 1.0), (1.0, 1.0)])?,
+        vec![1.0],
+        NewtonParams::default(),
+        LinearSolverKind::Cholesky,
+    )?;
     let band = model.bands[body].as_ref().map_or(0, |b| b.cells.len());
     let mut disc = model.initial().clone();
     let start = Instant::now();
     let mut cut = 0;
     for k in 1..=moves {
-        let r = disc.place_surfaces(&model, k as f64 / moves as f64).map_err(|e| e.to_string())?;
+        let r = disc.place_surfaces(&model, k as f64 / moves as f64)?;
         cut = r.cut_cells_by_degree.iter().sum::<usize>() + r.unfitted_cells;
     }
     Ok((n * n, band, cut, start.elapsed().as_secs_f64() / moves as f64))
@@ -256,12 +251,12 @@ pub fn time_recut(n: usize, moves: usize) -> Result<(usize, usize, usize, f64), 
 /// `bench --wear`: the case run to its end with its output (fields, checkpoints as the case
 /// says), then per chosen cycle the scar of every wearing surface and the wear balance, and
 /// the time split.
-pub(crate) fn bench_wear(path: PathBuf, at: &[u64]) -> Result<(), String> {
-    let c = case::load(&path).map_err(|e| e.to_string())?;
+pub(crate) fn bench_wear(path: PathBuf, at: &[u64]) -> anyhow::Result<()> {
+    let c = case::load(&path)?;
     let model = &c.model;
     let out = std::env::temp_dir().join(format!("mortex-bench-wear-{}.h5", std::process::id()));
     let started = std::time::Instant::now();
-    let mut writer = ResultWriter::create(&out, model, &c.name).map_err(|e| e.to_string())?;
+    let mut writer = ResultWriter::create(&out, model, &c.name)?;
     writer.set_checkpoint_every(c.checkpoint_every);
     writer.set_keep_checkpoints(c.keep_checkpoints);
     writer.set_fields_every(c.fields_every);
@@ -273,18 +268,17 @@ pub(crate) fn bench_wear(path: PathBuf, at: &[u64]) -> Result<(), String> {
         mortex::driver::RunOptions { parallel: !c.serial },
         |r, s, m, d| {
             let t0 = std::time::Instant::now();
-            writer.write_step(m, d, r, s).map_err(|e| e.to_string())?;
+            writer.write_step(m, d, r, s)?;
             output += t0.elapsed().as_secs_f64();
             Ok(())
         },
-    )
-    .map_err(|e| e.to_string())?;
+    )?;
     let t0 = std::time::Instant::now();
-    let file = writer.finish(true).map_err(|e| e.to_string())?;
+    let file = writer.finish(true)?;
     output += t0.elapsed().as_secs_f64();
     let wall = started.elapsed().as_secs_f64();
     let size = std::fs::metadata(&file).map(|m| m.len()).unwrap_or(0);
-    let table = mortex::io::wear_table(&file, model, at).map_err(|e| e.to_string())?;
+    let table = mortex::io::wear_table(&file, model, at)?;
     println!(
         "{}: {} cycles, {} computed, {} steps, {} DOFs",
         c.name,
@@ -329,13 +323,13 @@ pub(crate) fn bench_wear(path: PathBuf, at: &[u64]) -> Result<(), String> {
     Ok(())
 }
 
-pub(crate) fn bench(n: usize, repeat: usize, serial: bool) -> Result<(), String> {
+pub(crate) fn bench(n: usize, repeat: usize, serial: bool) -> anyhow::Result<()> {
     if n == 0 || repeat == 0 {
-        return Err("bench: n and repeat must be at least 1".into());
+        return Err(anyhow::anyhow!("bench: n and repeat must be at least 1"));
     }
     let mut best: Option<crate::cli::bench::LinearSolveTimes> = None;
     for _ in 0..repeat {
-        let t = crate::cli::bench::time_linear_solve(n, !serial).map_err(|e| e.to_string())?;
+        let t = crate::cli::bench::time_linear_solve(n, !serial)?;
         best = Some(match best {
             None => t,
             Some(b) => crate::cli::bench::LinearSolveTimes {
@@ -351,7 +345,7 @@ pub(crate) fn bench(n: usize, repeat: usize, serial: bool) -> Result<(), String>
         });
     }
     let Some(t) = best else {
-        return Err("no repetition ran".into());
+        return Err(anyhow::anyhow!("no repetition ran"));
     };
     println!("{n} x {n} Quad4 plane-strain block: {} DOFs, {} non-zeros (best of {repeat}, {} element loop, {} rayon threads)", t.dofs, t.nnz, if serial { "serial" } else { "parallel" }, rayon::current_num_threads());
     println!("  sparsity pattern      {:8.4} s", t.pattern);
@@ -365,13 +359,13 @@ pub(crate) fn bench(n: usize, repeat: usize, serial: bool) -> Result<(), String>
     Ok(())
 }
 
-pub(crate) fn bench_embed(n: usize, segments: usize, repeat: usize) -> Result<(), String> {
+pub(crate) fn bench_embed(n: usize, segments: usize, repeat: usize) -> anyhow::Result<()> {
     if n == 0 || repeat == 0 || segments < 3 {
-        return Err("bench --embed: n and repeat must be at least 1, segments at least 3".into());
+        return Err(anyhow::anyhow!("bench --embed: n and repeat must be at least 1, segments at least 3"));
     }
     let mut best: Option<crate::cli::bench::EmbedTimes> = None;
     for _ in 0..repeat {
-        let t = crate::cli::bench::time_embedding(n, segments).map_err(|e| e.to_string())?;
+        let t = crate::cli::bench::time_embedding(n, segments)?;
         best = Some(match best {
             None => t,
             Some(b) => crate::cli::bench::EmbedTimes {
@@ -384,7 +378,7 @@ pub(crate) fn bench_embed(n: usize, segments: usize, repeat: usize) -> Result<()
             },
         });
     }
-    let Some(t) = best else { return Err("no repetition ran".into()) };
+    let Some(t) = best else { return Err(anyhow::anyhow!("no repetition ran")) };
     println!(
         "closed surface of {} segments in a {n} x {n} Quad4 host ({} cells): {} cut cells (best of {repeat})",
         t.segments, t.cells, t.cut_cells
@@ -398,9 +392,9 @@ pub(crate) fn bench_embed(n: usize, segments: usize, repeat: usize) -> Result<()
     Ok(())
 }
 
-pub(crate) fn bench_hertz(repeat: usize) -> Result<(), String> {
+pub(crate) fn bench_hertz(repeat: usize) -> anyhow::Result<()> {
     if repeat == 0 {
-        return Err("bench --hertz: repeat must be at least 1".into());
+        return Err(anyhow::anyhow!("bench --hertz: repeat must be at least 1"));
     }
     println!(
         "Hertz, cylinder R = 10 on block 40 x 20, P = 100 N/mm, frictionless (best of {repeat}, {} rayon threads)",
@@ -416,7 +410,7 @@ pub(crate) fn bench_hertz(repeat: usize) -> Result<(), String> {
                     best = Some(r);
                 }
             }
-            let Some(r) = best else { return Err("no repetition ran".into()) };
+            let Some(r) = best else { return Err(anyhow::anyhow!("no repetition ran")) };
             println!(
                 "  {h:<9}  {:<8}  {:<8}  {:7.3}  {:10}  {:+7.3}%  {:+7.3}%  {:7.3}%",
                 if virtual_top { "virtual" } else { "real" },
@@ -432,12 +426,12 @@ pub(crate) fn bench_hertz(repeat: usize) -> Result<(), String> {
     Ok(())
 }
 
-pub(crate) fn bench_output(steps: usize) -> Result<(), String> {
+pub(crate) fn bench_output(steps: usize) -> anyhow::Result<()> {
     if steps == 0 {
-        return Err("bench --output: give at least 1 step".into());
+        return Err(anyhow::anyhow!("bench --output: give at least 1 step"));
     }
     let dir = std::env::temp_dir().join(format!("mortex-bench-output-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    std::fs::create_dir_all(&dir).map_err(|e| anyhow::anyhow!("{}: {e}", dir.display()))?;
     println!("output benchmark: {steps} steps of a fretting scene (contact series every step)");
     println!("  fields  checkpoints  DOFs     solve s   output s  output share  h5 MB    csv MB");
     for (fields, checkpoints) in [(100, 0), (100, 100), (1, 1)] {
@@ -460,9 +454,9 @@ pub(crate) fn bench_output(steps: usize) -> Result<(), String> {
     Ok(())
 }
 
-pub(crate) fn bench_recut(n: usize, repeat: usize) -> Result<(), String> {
+pub(crate) fn bench_recut(n: usize, repeat: usize) -> anyhow::Result<()> {
     if n < 2 || repeat == 0 {
-        return Err("bench --recut: n >= 2 and repeat >= 1".into());
+        return Err(anyhow::anyhow!("bench --recut: n >= 2 and repeat >= 1"));
     }
     let (cells, band, cut, secs) = crate::cli::bench::time_recut(n, repeat.max(4))?;
     println!(

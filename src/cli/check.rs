@@ -49,8 +49,8 @@ pub(crate) fn computed_steps(m: &mortex::model::Model) -> String {
     }
 }
 
-pub(crate) fn check(path: PathBuf) -> Result<(), String> {
-    let c = case::load(&path).map_err(|e| e.to_string())?;
+pub(crate) fn check(path: PathBuf) -> anyhow::Result<()> {
+    let c = case::load(&path)?;
     let m = &c.model;
     println!("case '{}' ({}): valid", c.name, path.display());
     let hypothesis = match m.hypothesis {

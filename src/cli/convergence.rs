@@ -366,8 +366,8 @@ fn chart(out: &Path, knobs: &[Knob], rows: &[Row]) {
     }
 }
 
-pub(crate) fn study_convergence(file: &std::path::Path, exec: super::study::Execution) -> Result<(), String> {
-    let s = match convergence(file, &exec, &super::study::study_exe()?).map_err(|e| e.to_string())? {
+pub(crate) fn study_convergence(file: &std::path::Path, exec: super::study::Execution) -> anyhow::Result<()> {
+    let s = match convergence(file, &exec, &super::study::study_exe()?)? {
         super::study::Outcome::Gathered(s) => s,
         super::study::Outcome::Submitted(job) => {
             super::study::report_submitted(file, &job);
@@ -391,7 +391,7 @@ pub(crate) fn study_convergence(file: &std::path::Path, exec: super::study::Exec
     println!("-> {} (+ convergence.md, convergence.png)", s.table.display());
     let missing = s.rows.iter().filter(|r| r.result.is_none()).count();
     if missing > 0 {
-        return Err(format!("{missing} figures missing: a run failed (see its run.log)"));
+        return Err(anyhow::anyhow!("{missing} figures missing: a run failed (see its run.log)"));
     }
     Ok(())
 }

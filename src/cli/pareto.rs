@@ -172,8 +172,8 @@ fn chart(out: &Path, points: &[Point]) {
     }
 }
 
-pub(crate) fn study_pareto(file: &std::path::Path, exec: super::study::Execution) -> Result<(), String> {
-    let s = match pareto(file, &exec, &super::study::study_exe()?).map_err(|e| e.to_string())? {
+pub(crate) fn study_pareto(file: &std::path::Path, exec: super::study::Execution) -> anyhow::Result<()> {
+    let s = match pareto(file, &exec, &super::study::study_exe()?)? {
         super::study::Outcome::Gathered(s) => s,
         super::study::Outcome::Submitted(job) => {
             super::study::report_submitted(file, &job);
@@ -210,7 +210,7 @@ pub(crate) fn study_pareto(file: &std::path::Path, exec: super::study::Execution
     println!("-> {} (+ pareto.md, pareto.png)", s.table.display());
     let missing = s.points.iter().filter(|p| p.error.is_none()).count();
     if missing > 0 {
-        return Err(format!("{missing} runs without an error: a run failed (see its run.log)"));
+        return Err(anyhow::anyhow!("{missing} runs without an error: a run failed (see its run.log)"));
     }
     Ok(())
 }

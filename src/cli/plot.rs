@@ -8,12 +8,12 @@ pub(crate) fn plot(
     pair: Option<String>,
     output: Option<PathBuf>,
     xlim: Option<Vec<f64>>,
-) -> Result<(), String> {
+) -> anyhow::Result<()> {
     use mortex::io::plot;
-    let profile = plot::read_profile(&result, step, pair.as_deref()).map_err(|e| e.to_string())?;
+    let profile = plot::read_profile(&result, step, pair.as_deref())?;
     let xlim = match xlim.as_deref() {
         Some(&[a, b]) if a.is_finite() && b.is_finite() && b > a => (a, b),
-        Some(v) => return Err(format!("--xlim {v:?}: give two finite values, X_MIN < X_MAX")),
+        Some(v) => return Err(anyhow::anyhow!("--xlim {v:?}: give two finite values, X_MIN < X_MAX")),
         None => plot::default_xlim(&profile),
     };
     let out = output.unwrap_or_else(|| {
@@ -21,7 +21,7 @@ pub(crate) fn plot(
         let stem = name.trim_end_matches(".partial").trim_end_matches(".h5");
         result.with_file_name(format!("{stem}_{}_step{}.png", profile.pair, profile.step))
     });
-    plot::write_png(&profile, xlim, &out).map_err(|e| e.to_string())?;
+    plot::write_png(&profile, xlim, &out)?;
     println!("contact '{}', step {}: {}", profile.pair, profile.step, out.display());
     if let Some(r) = &profile.reference {
         let (p, q) = plot::reference_errors(&profile, r);

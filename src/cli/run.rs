@@ -12,8 +12,8 @@ pub(crate) fn run(
     quiet: bool,
     restart: Option<PathBuf>,
     from_step: Option<usize>,
-) -> Result<(), String> {
-    let c = case::load(&path).map_err(|e| e.to_string())?;
+) -> anyhow::Result<()> {
+    let c = case::load(&path)?;
     let model = &c.model;
     let (mut state, out) = starting_state(&c, output, restart.as_deref(), from_step)?;
     // Modes beyond the contact normal: held by friction, or by how the contact pressure is
@@ -31,17 +31,17 @@ pub(crate) fn run(
         None => state.step >= model.times.len(),
     };
     if done {
-        return Err(format!("nothing to run: the checkpoint is at the case's last output step {}", state.step));
+        return Err(anyhow::anyhow!("nothing to run: the checkpoint is at the case's last output step {}", state.step));
     }
-    let mut writer = ResultWriter::create(&out, model, &c.name).map_err(|e| e.to_string())?;
+    let mut writer = ResultWriter::create(&out, model, &c.name)?;
     writer.set_checkpoint_every(c.checkpoint_every);
     writer.set_keep_checkpoints(c.keep_checkpoints);
     writer.set_fields_every(c.fields_every);
     if let Some(file) = &restart {
-        writer.set_restart_origin(file, state.step).map_err(|e| e.to_string())?;
+        writer.set_restart_origin(file, state.step)?;
     }
     if let Some((pair, r)) = &c.reference {
-        writer.write_reference(pair, r).map_err(|e| e.to_string())?;
+        writer.write_reference(pair, r)?;
     }
     let first_step = state.step;
     let bar = progress_bar(quiet, wear_cycles, model, &state);
@@ -70,14 +70,14 @@ pub(crate) fn run(
     };
     bar.finish_and_clear();
     let completed = res.is_ok();
-    let file = writer.finish(completed).map_err(|e| e.to_string())?;
+    let file = writer.finish(completed)?;
     match res {
         Ok(()) => {
             let wall = started.elapsed().as_secs_f64();
             print_run_summary(&c, &state, &tally, state.step - first_step, wall, &file);
             Ok(())
         }
-        Err(e) => Err(format!("{e} (converged steps up to {} kept in {})", state.step, file.display())),
+        Err(e) => Err(anyhow::anyhow!("{e} (converged steps up to {} kept in {})", state.step, file.display())),
     }
 }
 
@@ -206,14 +206,14 @@ pub(crate) fn starting_state(
     output: Option<PathBuf>,
     restart: Option<&std::path::Path>,
     from_step: Option<usize>,
-) -> Result<(mortex::state::SimState, PathBuf), String> {
+) -> anyhow::Result<(mortex::state::SimState, PathBuf)> {
     let Some(file) = restart else {
         return Ok((
             mortex::solve::StaticAnalysis::initial_state_of(&c.model),
             output.unwrap_or_else(|| c.output.clone()),
         ));
     };
-    let cp = mortex::io::checkpoint::read(file, from_step, &c.model).map_err(|e| e.to_string())?;
+    let cp = mortex::io::checkpoint::read(file, from_step, &c.model)?;
     let out = output.unwrap_or_else(|| {
         let name = file.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
         let stem = name.trim_end_matches(".partial").trim_end_matches(".h5");
@@ -232,7 +232,7 @@ pub(crate) fn starting_state(
     };
     let partial_of_out = PathBuf::from(format!("{}.partial", out.display()));
     if same(&out, file) || same(&partial_of_out, file) {
-        return Err(format!(
+        return Err(anyhow::anyhow!(
             "--restart {}: the continuation would overwrite the file it resumes from; choose another --output",
             file.display()
         ));

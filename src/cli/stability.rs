@@ -31,7 +31,8 @@ struct Row {
 /// Runs the study into `output`; returns the Markdown table's path.
 pub fn stability(output: &Path) -> Result<PathBuf, StudyError> {
     std::fs::create_dir_all(output).map_err(io_err(output))?;
-    let scene_err = |e: String| StudyError::Io { path: output.display().to_string(), msg: e };
+    let scene_err =
+        |e: mortex::scenes::SceneError| StudyError::Io { path: output.display().to_string(), msg: e.to_string() };
     let total = 4 * TIE_RATIOS.len() + CONTACT_REFINEMENTS.len();
     let bar = indicatif::ProgressBar::new(total as u64);
     if let Ok(style) =

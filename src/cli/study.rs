@@ -771,8 +771,8 @@ fn chart(out: &Path, vary: &[Vary], runs: &[Vec<toml::Value>], columns: &[String
 }
 
 /// The `mortex` binary each study run starts.
-pub(crate) fn study_exe() -> Result<PathBuf, String> {
-    std::env::current_exe().map_err(|e| format!("the mortex binary: {e}"))
+pub(crate) fn study_exe() -> anyhow::Result<PathBuf> {
+    std::env::current_exe().map_err(|e| anyhow::anyhow!("the mortex binary: {e}"))
 }
 
 /// The study's runs handed to Slurm: what was written and submitted, and how to gather.
@@ -796,12 +796,12 @@ pub(crate) fn report_submitted(file: &std::path::Path, job: &crate::cli::study::
     }
 }
 
-pub(crate) fn study_task(runs: &std::path::Path, index: usize) -> Result<(), String> {
-    crate::cli::study::task(runs, index, &study_exe()?).map_err(|e| e.to_string())
+pub(crate) fn study_task(runs: &std::path::Path, index: usize) -> anyhow::Result<()> {
+    crate::cli::study::task(runs, index, &study_exe()?).map_err(anyhow::Error::from)
 }
 
-pub(crate) fn study_sweep(file: &std::path::Path, exec: crate::cli::study::Execution) -> Result<(), String> {
-    let s = match crate::cli::study::sweep(file, &exec, &study_exe()?).map_err(|e| e.to_string())? {
+pub(crate) fn study_sweep(file: &std::path::Path, exec: crate::cli::study::Execution) -> anyhow::Result<()> {
+    let s = match crate::cli::study::sweep(file, &exec, &study_exe()?)? {
         crate::cli::study::Outcome::Gathered(s) => s,
         crate::cli::study::Outcome::Submitted(job) => {
             report_submitted(file, &job);
@@ -818,7 +818,7 @@ pub(crate) fn study_sweep(file: &std::path::Path, exec: crate::cli::study::Execu
         s.table.display()
     );
     if s.failed > 0 {
-        return Err(format!("{} of {} runs failed: see their run.log and the status column", s.failed, s.runs));
+        return Err(anyhow::anyhow!("{} of {} runs failed: see their run.log and the status column", s.failed, s.runs));
     }
     Ok(())
 }

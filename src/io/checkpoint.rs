@@ -23,7 +23,7 @@
 use crate::contact::FrictionStatus;
 use crate::fem::material::{PlasticState, Stress4};
 use crate::model::Model;
-use crate::state::SimState;
+use crate::state::{FieldKind, FieldKindMismatch, FieldRef, FieldValue, SimState};
 use ndarray::Array1;
 use std::path::{Path, PathBuf};
 
@@ -55,6 +55,9 @@ pub enum CheckpointError {
          --restart)"
     )]
     PathChanged { path: String, step: usize, key: &'static str },
+    /// The checkpoint reader asked for a field as another kind than its type's (a defect).
+    #[error("checkpoint reader: {0}")]
+    FieldKind(#[from] FieldKindMismatch),
 }
 
 const HISTORY_COLS: usize = 9;
@@ -110,68 +113,65 @@ fn path_key_name(key: &str) -> &'static str {
     }
 }
 
-/// Writes the checkpoint of `state` into the step group `g`. The state is destructured field
-/// by field: a field added to [`SimState`] (or to the wear state and its controller) does not
-/// compile until the checkpoint writes it, and [`read`] builds the state by a full literal.
+/// Writes the checkpoint of `state` into the step group `g`, field after field of the state's
+/// one declaration ([`SimState::fields`]), each by its kind: counts and numbers as attributes
+/// under the field's name, per-entry values as datasets, the interface log as `interface_rows`
+/// and `interface_batches`, the wear and fatigue states in their groups (written only where the
+/// run has them), born ghost faces as `ghost_*` datasets (only if any).
 pub(super) fn write(g: &hdf5::Group, state: &SimState, model: &Model) -> hdf5::Result<()> {
-    let SimState {
-        step,
-        time,
-        load_factor,
-        u,
-        history,
-        stress,
-        f_int,
-        multipliers,
-        friction_status,
-        slip_increment,
-        accumulated_slip,
-        dissipation,
-        interface_log,
-        wear,
-        ghost,
-        fatigue,
-    } = state;
     let c = g.create_group("checkpoint")?;
-    super::write_attr(&c, "step", &(*step as u64))?;
-    super::write_attr(&c, "time", time)?;
-    super::write_attr(&c, "load_factor", load_factor)?;
-    super::write_attr(&c, "dissipation", dissipation)?;
     for (key, value) in path_keys(model) {
         super::write_attr(&c, key, &value)?;
     }
-    // Sparse datasets (a third or more zeros: the plastic history of elastic bodies, slips of
-    // open rows) are compressed (lossless); dense ones stored as they are.
-    let vec1 = |name: &str, v: &[f64]| super::put(&c, name, &Array1::from(v.to_vec()));
-    vec1("u", u)?;
-    vec1("f_int", f_int)?;
-    vec1("multipliers", multipliers)?;
-    vec1("slip_increment", slip_increment)?;
-    vec1("accumulated_slip", accumulated_slip)?;
-    super::put(&c, "friction_status", &Array1::from(friction_status.clone()))?;
-    let h: Vec<f64> = history
-        .iter()
-        .flat_map(|p| p.eps_p.iter().chain(p.back.iter()).copied().chain(std::iter::once(p.alpha)))
-        .collect();
-    super::put(&c, "history", &super::array2(history.len(), HISTORY_COLS, h))?;
-    let s: Vec<f64> = stress.iter().flat_map(|s| [s[0], s[1], s[2], s[3]]).collect();
-    c.new_dataset_builder().with_data(&super::array2(stress.len(), 4, s)).create("stress")?;
-    let rows: Vec<u64> = interface_log.iter().flatten().map(|&r| r as u64).collect();
-    let batches: Vec<u64> = interface_log.iter().map(|b| b.len() as u64).collect();
-    c.new_dataset_builder().with_data(&Array1::from(rows)).create("interface_rows")?;
-    c.new_dataset_builder().with_data(&Array1::from(batches)).create("interface_batches")?;
-    if !wear.vertices.is_empty() {
-        write_wear(&c, wear)?;
-    }
-    if !ghost.faces.is_empty() {
-        write_ghost(&c, ghost)?;
-    }
-    if model.fatigue.is_some() {
-        write_fatigue(&c, fatigue)?;
+    for (name, field) in state.fields() {
+        write_field(&c, name, field, model)?;
     }
     // Written last: a checkpoint without it was cut short (a killed run) and is not offered.
     super::write_attr(&c, "complete", &1u8)?;
     Ok(())
+}
+
+/// Writes one state field into the checkpoint group `c`. Sparse datasets (a third or more
+/// zeros: the plastic history of elastic bodies, slips of open rows) are compressed
+/// (lossless); dense ones stored as they are.
+fn write_field(c: &hdf5::Group, name: &str, field: FieldRef<'_>, model: &Model) -> hdf5::Result<()> {
+    match field {
+        FieldRef::Count(n) => super::write_attr(c, name, &(n as u64)),
+        FieldRef::Scalar(x) => super::write_attr(c, name, &x),
+        FieldRef::Values(v) => super::put(c, name, &Array1::from(v.to_vec())),
+        FieldRef::Codes(v) => super::put(c, name, &Array1::from(v.to_vec())),
+        FieldRef::History(history) => {
+            let h: Vec<f64> = history
+                .iter()
+                .flat_map(|p| p.eps_p.iter().chain(p.back.iter()).copied().chain(std::iter::once(p.alpha)))
+                .collect();
+            super::put(c, name, &super::array2(history.len(), HISTORY_COLS, h))
+        }
+        FieldRef::Stress(stress) => {
+            let s: Vec<f64> = stress.iter().flat_map(|s| [s[0], s[1], s[2], s[3]]).collect();
+            c.new_dataset_builder().with_data(&super::array2(stress.len(), 4, s)).create(name)?;
+            Ok(())
+        }
+        FieldRef::Batches(log) => {
+            let (rows_name, batches_name) = batch_names(name);
+            let rows: Vec<u64> = log.iter().flatten().map(|&r| r as u64).collect();
+            let batches: Vec<u64> = log.iter().map(|b| b.len() as u64).collect();
+            c.new_dataset_builder().with_data(&Array1::from(rows)).create(rows_name.as_str())?;
+            c.new_dataset_builder().with_data(&Array1::from(batches)).create(batches_name.as_str())?;
+            Ok(())
+        }
+        FieldRef::Wear(wear) if !wear.vertices.is_empty() => write_wear(c, wear),
+        FieldRef::Ghost(ghost) if !ghost.faces.is_empty() => write_ghost(c, ghost),
+        FieldRef::Fatigue(fatigue) if model.fatigue.is_some() => write_fatigue(c, fatigue),
+        FieldRef::Wear(_) | FieldRef::Ghost(_) | FieldRef::Fatigue(_) => Ok(()),
+    }
+}
+
+/// The datasets a batch log `name` is stored in: its rows and its batch lengths
+/// (`interface_log`: `interface_rows`, `interface_batches`).
+fn batch_names(name: &str) -> (String, String) {
+    let stem = name.strip_suffix("_log").unwrap_or(name);
+    (format!("{stem}_rows"), format!("{stem}_batches"))
 }
 
 /// The fatigue state under `checkpoint/fatigue`: `history` (the computed cycle's records so
@@ -750,19 +750,6 @@ pub fn read(path: &Path, step: Option<usize>, model: &Model) -> Result<SimState,
     let attr_f64 = |name: &str| -> Result<f64, CheckpointError> {
         c.attr(name).and_then(|a| a.read_scalar::<f64>()).map_err(|e| read_err(format!("attribute {name}: {e}")))
     };
-    let vec_f64 = |name: &str| -> Result<Vec<f64>, CheckpointError> {
-        c.dataset(name).and_then(|d| d.read_raw::<f64>()).map_err(|e| read_err(format!("dataset {name}: {e}")))
-    };
-    let vec_u64 = |name: &str| -> Result<Vec<u64>, CheckpointError> {
-        c.dataset(name).and_then(|d| d.read_raw::<u64>()).map_err(|e| read_err(format!("dataset {name}: {e}")))
-    };
-    let size = |what: &str, found: usize, expected: usize| -> Result<(), CheckpointError> {
-        if found == expected {
-            Ok(())
-        } else {
-            Err(CheckpointError::SizeMismatch { path: p.clone(), step, what: what.into(), found, expected })
-        }
-    };
     let time = attr_f64("time")?;
     // (A checkpoint written before the path was recorded has none of these attributes.)
     for (key, expected) in path_keys(model) {
@@ -773,7 +760,7 @@ pub fn read(path: &Path, step: Option<usize>, model: &Model) -> Result<SimState,
         }
     }
     // Wear runs jump cycles: their steps are not the case's output times one for one.
-    let wear = if model.wear.is_empty() {
+    if model.wear.is_empty() {
         if step > model.times.len() {
             return Err(CheckpointError::BeyondCase { path: p.clone(), step, steps: model.times.len() });
         }
@@ -781,66 +768,110 @@ pub fn read(path: &Path, step: Option<usize>, model: &Model) -> Result<SimState,
         if time.to_bits() != expected.to_bits() {
             return Err(CheckpointError::TimeMismatch { path: p.clone(), step, found: time, expected });
         }
-        crate::state::WearState::default()
-    } else {
-        read_wear(&c, model).map_err(read_err)?
-    };
-    let u = vec_f64("u")?;
-    size("u", u.len(), model.num_dofs())?;
-    let f_int = vec_f64("f_int")?;
-    size("f_int", f_int.len(), model.num_dofs())?;
-    let multipliers = vec_f64("multipliers")?;
-    size("multipliers", multipliers.len(), model.num_multipliers())?;
-    let nfr = model.initial().contact.friction_rows.len();
-    let slip_increment = vec_f64("slip_increment")?;
-    size("slip_increment", slip_increment.len(), nfr)?;
-    let accumulated_slip = vec_f64("accumulated_slip")?;
-    size("accumulated_slip", accumulated_slip.len(), nfr)?;
-    let friction_status = c
-        .dataset("friction_status")
-        .and_then(|d| d.read_raw::<u8>())
-        .map_err(|e| read_err(format!("dataset friction_status: {e}")))?;
-    size("friction_status", friction_status.len(), nfr)?;
-    let h = vec_f64("history")?;
-    size("history", h.len() / HISTORY_COLS, model.elements.num_states())?;
-    let history = h
-        .chunks_exact(HISTORY_COLS)
-        .map(|r| PlasticState { eps_p: [r[0], r[1], r[2], r[3]], back: [r[4], r[5], r[6], r[7]], alpha: r[8] })
-        .collect();
-    let s = vec_f64("stress")?;
-    size("stress", s.len() / 4, model.elements.num_points())?;
-    let stress = s.chunks_exact(4).map(|r| Stress4::new(r[0], r[1], r[2], r[3])).collect();
-    let rows = vec_u64("interface_rows")?;
-    let batches = vec_u64("interface_batches")?;
-    if batches.iter().sum::<u64>() != rows.len() as u64 || rows.iter().any(|&r| r as usize >= multipliers.len()) {
-        return Err(read_err("interface log inconsistent with the multipliers".into()));
     }
-    let mut interface_log = vec![];
-    let mut at = 0;
-    for &b in &batches {
-        interface_log.push(rows[at..at + b as usize].iter().map(|&r| r as usize).collect());
-        at += b as usize;
-    }
-    let state = SimState {
-        step,
-        time,
-        load_factor: attr_f64("load_factor")?,
-        u,
-        history,
-        stress,
-        f_int,
-        multipliers,
-        friction_status,
-        slip_increment,
-        accumulated_slip,
-        dissipation: attr_f64("dissipation")?,
-        interface_log,
-        wear,
-        ghost: read_ghost(&c, model.num_dofs()).map_err(read_err)?,
-        fatigue: read_fatigue(&c, model).map_err(read_err)?,
-    };
+    let reader = FieldReader { c: &c, model, path: &p, step };
+    let state = SimState::from_fields(|name, kind| reader.read(name, kind))?;
     if !state.u.iter().chain(&state.multipliers).all(|v| v.is_finite()) {
         return Err(read_err("non-finite displacement or multiplier".into()));
     }
     Ok(state)
+}
+
+/// Reads the fields of one checkpoint group, each by its kind, and checks each against the
+/// model's sizes.
+struct FieldReader<'a> {
+    c: &'a hdf5::Group,
+    model: &'a Model,
+    path: &'a str,
+    step: usize,
+}
+
+impl FieldReader<'_> {
+    fn err(&self, msg: String) -> CheckpointError {
+        CheckpointError::Read { path: self.path.to_string(), msg: format!("step {}: {msg}", self.step) }
+    }
+
+    /// The number of entries the model gives the per-entry field `name`.
+    fn expected_len(&self, name: &str) -> Result<usize, CheckpointError> {
+        let m = self.model;
+        let friction_rows = m.initial().contact.friction_rows.len();
+        match name {
+            "u" | "f_int" => Ok(m.num_dofs()),
+            "multipliers" => Ok(m.num_multipliers()),
+            "friction_status" | "slip_increment" | "accumulated_slip" => Ok(friction_rows),
+            "history" => Ok(m.elements.num_states()),
+            "stress" => Ok(m.elements.num_points()),
+            _ => Err(self.err(format!("no size is known for the state field {name}"))),
+        }
+    }
+
+    fn sized<T>(&self, name: &str, v: Vec<T>, per_entry: usize) -> Result<Vec<T>, CheckpointError> {
+        let (found, expected) = (v.len() / per_entry, self.expected_len(name)?);
+        if found != expected {
+            return Err(CheckpointError::SizeMismatch {
+                path: self.path.to_string(),
+                step: self.step,
+                what: name.into(),
+                found,
+                expected,
+            });
+        }
+        Ok(v)
+    }
+
+    fn dataset<T: hdf5::H5Type>(&self, name: &str) -> Result<Vec<T>, CheckpointError> {
+        self.c.dataset(name).and_then(|d| d.read_raw::<T>()).map_err(|e| self.err(format!("dataset {name}: {e}")))
+    }
+
+    fn read(&self, name: &'static str, kind: FieldKind) -> Result<FieldValue, CheckpointError> {
+        let attr = |name: &str| self.c.attr(name).map_err(|e| self.err(format!("attribute {name}: {e}")));
+        Ok(match kind {
+            // The step is the one of the group read (its attribute holds the same).
+            FieldKind::Count if name == "step" => FieldValue::Count(self.step),
+            FieldKind::Count => FieldValue::Count(
+                attr(name)?.read_scalar::<u64>().map_err(|e| self.err(format!("attribute {name}: {e}")))? as usize,
+            ),
+            FieldKind::Scalar => FieldValue::Scalar(
+                attr(name)?.read_scalar::<f64>().map_err(|e| self.err(format!("attribute {name}: {e}")))?,
+            ),
+            FieldKind::Values => FieldValue::Values(self.sized(name, self.dataset::<f64>(name)?, 1)?),
+            FieldKind::Codes => FieldValue::Codes(self.sized(name, self.dataset::<u8>(name)?, 1)?),
+            FieldKind::History => {
+                let h = self.sized(name, self.dataset::<f64>(name)?, HISTORY_COLS)?;
+                FieldValue::History(
+                    h.chunks_exact(HISTORY_COLS)
+                        .map(|r| PlasticState {
+                            eps_p: [r[0], r[1], r[2], r[3]],
+                            back: [r[4], r[5], r[6], r[7]],
+                            alpha: r[8],
+                        })
+                        .collect(),
+                )
+            }
+            FieldKind::Stress => {
+                let s = self.sized(name, self.dataset::<f64>(name)?, 4)?;
+                FieldValue::Stress(s.chunks_exact(4).map(|r| Stress4::new(r[0], r[1], r[2], r[3])).collect())
+            }
+            FieldKind::Batches => {
+                let (rows_name, batches_name) = batch_names(name);
+                let rows = self.dataset::<u64>(&rows_name)?;
+                let batches = self.dataset::<u64>(&batches_name)?;
+                let num_rows = self.model.num_multipliers() as u64;
+                if batches.iter().sum::<u64>() != rows.len() as u64 || rows.iter().any(|&r| r >= num_rows) {
+                    return Err(self.err(format!("{name} inconsistent with the multipliers")));
+                }
+                let mut log = Vec::with_capacity(batches.len());
+                let mut at = 0;
+                for &b in &batches {
+                    log.push(rows[at..at + b as usize].iter().map(|&r| r as usize).collect());
+                    at += b as usize;
+                }
+                FieldValue::Batches(log)
+            }
+            FieldKind::Wear if self.model.wear.is_empty() => FieldValue::Wear(Default::default()),
+            FieldKind::Wear => FieldValue::Wear(read_wear(self.c, self.model).map_err(|m| self.err(m))?),
+            FieldKind::Ghost => FieldValue::Ghost(read_ghost(self.c, self.model.num_dofs()).map_err(|m| self.err(m))?),
+            FieldKind::Fatigue => FieldValue::Fatigue(read_fatigue(self.c, self.model).map_err(|m| self.err(m))?),
+        })
+    }
 }

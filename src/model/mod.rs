@@ -29,7 +29,7 @@ use crate::mortar::{
     build_multipliers, build_multipliers_local, other_side_spacing, tying_rows, ConstraintRow, MortarSide,
     MultiplierSpace, Multipliers, OtherSide,
 };
-use crate::moving::{band_cell_rule, held_dofs, Band, FreeSurface, RecutReport, SurfaceMotion};
+use crate::moving::{held_dofs, Band, FreeSurface, SurfaceMotion};
 use crate::solver::linear::LinearSolverKind;
 use crate::solver::newton::NewtonParams;
 use crate::surface::{cell_polygon, cell_size, embed, BoxIndex, Embedding, SurfaceError, VirtualSurface};
@@ -472,7 +472,7 @@ pub const DEFAULT_GHOST_PENALTY: f64 = 0.05;
 
 /// The first of the named surfaces whose embedding runs through the host cell where a cut was
 /// found inconsistent (`None` for another error, or when none does).
-pub(super) fn surface_through<'a>(
+pub(crate) fn surface_through<'a>(
     mut named: impl Iterator<Item = (&'a String, &'a Embedding)>,
     e: &SurfaceError,
 ) -> Option<String> {
