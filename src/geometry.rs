@@ -148,10 +148,10 @@ impl Discretisation {
             for face in
                 crate::cut::ghost_faces(&body.mesh, &band.adjacency, cut, body.node_offset, young, model.ghost_penalty)
             {
-                let key = (b, face.cells.0, face.cells.1);
+                let key = (b, face.cut_cell, face.neighbour);
                 let force = match births.faces.binary_search_by(|e| e.0.cmp(&key)) {
                     Ok(k) => std::mem::take(&mut births.faces[k].1),
-                    Err(_) if yielded(b, face.cells.0) || yielded(b, face.cells.1) => face.force(u),
+                    Err(_) if yielded(b, face.cut_cell) || yielded(b, face.neighbour) => face.force(u),
                     Err(_) => vec![],
                 };
                 next.push((key, force));

@@ -13,6 +13,14 @@ use crate::solver::linear::LinearSolverKind;
 use crate::solver::newton::NewtonParams;
 use std::time::Instant;
 
+/// What a stability scene measures of one multiplier space: the traction's deviation from its
+/// reference (relative), and the number of multiplier nodes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MultiplierFigure {
+    pub deviation: f64,
+    pub multipliers: usize,
+}
+
 /// Why a scene could not be built or solved.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
@@ -72,23 +80,37 @@ pub fn hertz_model_with(
     virtual_top: bool,
     multipliers: crate::mortar::MultiplierSpace,
 ) -> Result<Model, crate::model::ModelError> {
-    hertz_model_materials(h_core, cylinder_refinement, cylinder_core, virtual_top, multipliers, STEEL, STEEL)
+    let materials = HertzMaterials { cylinder: STEEL, block: STEEL };
+    hertz_model_materials(h_core, cylinder_refinement, cylinder_core, virtual_top, multipliers, materials)
+}
+
+/// An isotropic elastic material: Young's modulus and Poisson's ratio.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Isotropic {
+    pub young: f64,
+    pub poisson: f64,
 }
 
 /// Steel: E = 210 GPa, nu = 0.3 (MPa).
-pub const STEEL: (f64, f64) = (210_000.0, 0.3);
+pub const STEEL: Isotropic = Isotropic { young: 210_000.0, poisson: 0.3 };
 /// Aluminium: E = 70 GPa, nu = 0.33 (MPa).
-pub const ALUMINIUM: (f64, f64) = (70_000.0, 0.33);
+pub const ALUMINIUM: Isotropic = Isotropic { young: 70_000.0, poisson: 0.33 };
 
-/// [`hertz_model_with`] with the cylinder's and the block's `(E, nu)`.
+/// The materials of the Hertz scene's two bodies.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HertzMaterials {
+    pub cylinder: Isotropic,
+    pub block: Isotropic,
+}
+
+/// [`hertz_model_with`] with the cylinder's and the block's materials.
 pub fn hertz_model_materials(
     h_core: f64,
     cylinder_refinement: f64,
     cylinder_core: f64,
     virtual_top: bool,
     multipliers: crate::mortar::MultiplierSpace,
-    cylinder_material: (f64, f64),
-    block_material: (f64, f64),
+    materials: HertzMaterials,
 ) -> Result<Model, crate::model::ModelError> {
     use crate::model::ContactOther;
     use nalgebra::{Point2, Vector2};
@@ -96,9 +118,9 @@ pub fn hertz_model_materials(
     const CORE: f64 = 0.5;
     let hyp = PlaneHypothesis::PlaneStrain;
     let mut b = ModelBuilder::new(hyp);
-    let elastic = |(young, poisson): (f64, f64)| Material::Elastic(Elastic { young, poisson, hypothesis: hyp });
-    let mi_cyl = b.add_material("cylinder", elastic(cylinder_material));
-    let mi = b.add_material("block", elastic(block_material));
+    let elastic = |m: Isotropic| Material::Elastic(Elastic { young: m.young, poisson: m.poisson, hypothesis: hyp });
+    let mi_cyl = b.add_material("cylinder", elastic(materials.cylinder));
+    let mi = b.add_material("block", elastic(materials.block));
     let n_core = (2.0 * CORE / h_core).round().max(2.0) as usize;
     let n_depth = (CORE / h_core).round().max(1.0) as usize;
     let top = if virtual_top { 0.013 } else { 0.0 };
@@ -106,8 +128,8 @@ pub fn hertz_model_materials(
     let gy = generate::end_plateau(n_depth, CORE / (20.0 + top), 20);
     let mesh_err =
         |e: crate::mesh::MeshError| crate::model::ModelError::Mesh { body: "hertz".into(), msg: e.to_string() };
-    let block = generate::rectangle_from_divisions(-20.0, -20.0, 40.0, 20.0 + top, &gx, &gy, CellKind::Quad4)
-        .map_err(mesh_err)?;
+    let (origin, size) = (Point2::new(-20.0, -20.0), Vector2::new(40.0, 20.0 + top));
+    let block = generate::rectangle_from_divisions(origin, size, &gx, &gy, CellKind::Quad4).map_err(mesh_err)?;
     let n_cyl = |core: f64| ((core / h_core * cylinder_refinement).round() as usize).max(1);
     let rs = generate::end_plateau(n_cyl(cylinder_core), cylinder_core / R, 20);
     let ts = generate::plateau_graded(n_cyl(2.0 * cylinder_core), (2.0 * cylinder_core / R) / std::f64::consts::PI, 20);
@@ -253,7 +275,7 @@ pub fn tied_inclusion_oscillation(
     space: crate::mortar::MultiplierSpace,
     e_patch: f64,
     load: InclusionLoad,
-) -> Result<(f64, usize), SceneError> {
+) -> Result<MultiplierFigure, SceneError> {
     use nalgebra::{Point2, Vector2};
     let hyp = PlaneHypothesis::PlaneStrain;
     let mut b = ModelBuilder::new(hyp);
@@ -325,7 +347,7 @@ pub fn tied_inclusion_oscillation(
         worst = worst.max(((traction(i, 0) - r[0]).powi(2) + (traction(i, 1) - r[1]).powi(2)).sqrt());
         mean += (r[0].powi(2) + r[1].powi(2)).sqrt() / nl as f64;
     }
-    Ok((worst / mean, nl))
+    Ok(MultiplierFigure { deviation: worst / mean, multipliers: nl })
 }
 
 /// Hertz contact of [`hertz_model_with`] (block core elements `h`, cylinder `refine` times
@@ -337,7 +359,7 @@ pub fn hertz_density_deviation(
     virtual_top: bool,
     space: crate::mortar::MultiplierSpace,
     frac: f64,
-) -> Result<(f64, usize), SceneError> {
+) -> Result<MultiplierFigure, SceneError> {
     let model = hertz_model_with(h, refine, 0.15, virtual_top, space)?;
     let s = solve_to_end(&model)?;
     let r = crate::post::AnalyticContact::hertz(100.0, 10.0, STABILITY_E / (2.0 * (1.0 - STABILITY_NU.powi(2))), 0.0);
@@ -348,5 +370,5 @@ pub fn hertz_density_deviation(
         .map(|n| (n.pressure - r.pressure(n.x.x)).abs())
         .fold(0.0, f64::max)
         / r.p0;
-    Ok((dev, model.initial().contact.pairs[0].multipliers.num_nodes))
+    Ok(MultiplierFigure { deviation: dev, multipliers: model.initial().contact.pairs[0].multipliers.num_nodes })
 }

@@ -869,6 +869,12 @@ fn nowell_hills_offset_of_the_stick_zone() {
         (stick.iter().copied().fold(f64::INFINITY, f64::min), stick.iter().copied().fold(f64::NEG_INFINITY, f64::max));
     let offset = 0.5 * (lo + hi) - r.x0;
     assert!((offset - r.e).abs() < 0.03 * r.a, "stick zone centred {offset} from the contact's, e = {}", r.e);
+    // The stick zone's half-width against Cattaneo-Mindlin's c = a sqrt(1 - Q / mu P), within
+    // 3% of a (the target; the contact nodes are 2% of a apart, so the last stick node lies
+    // within one spacing of the edge).
+    let c = r.c.expect("a Cattaneo-Mindlin stick zone");
+    let half_width = 0.5 * (hi - lo);
+    assert!((half_width - c).abs() < 0.03 * r.a, "stick half-width {half_width} against c = {c} (a = {})", r.a);
     let (pressure, shear) = mortex::io::plot::reference_errors(&profile, &r);
     let shear = shear.expect("a Cattaneo-Mindlin shear");
     assert!(pressure < 0.03 && shear < 0.03, "pressure L2 {pressure}, shear L2 {shear}");

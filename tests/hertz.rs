@@ -56,7 +56,14 @@ fn hertz_on(gx: &[f64], gy: &[f64], rs: &[f64], ts: &[f64], virtual_top: bool) -
     // Virtual variant: the host block reaches 0.013 mm above the contact surface y = 0, which is
     // a virtual line cutting its top cells (host material kept below).
     let top = if virtual_top { 0.013 } else { 0.0 };
-    let block = generate::rectangle_from_divisions(-20.0, -20.0, 40.0, 20.0 + top, gx, gy, CellKind::Quad4).unwrap();
+    let block = generate::rectangle_from_divisions(
+        nalgebra::Point2::new(-20.0, -20.0),
+        nalgebra::Vector2::new(40.0, 20.0 + top),
+        gx,
+        gy,
+        CellKind::Quad4,
+    )
+    .unwrap();
     let cyl = generate::half_disc_from_divisions(Point2::new(0.0, R), R, rs, ts).unwrap();
     let bl = b.add_body("block", block, mi, Formulation::Standard, 1.0);
     let cy = b.add_body("cylinder", cyl, mi, Formulation::Standard, 1.0);
@@ -219,7 +226,8 @@ fn density_deviation(
     space: mortex::mortar::MultiplierSpace,
     frac: f64,
 ) -> (f64, usize) {
-    mortex::scenes::hertz_density_deviation(h, refine, virtual_top, space, frac).expect("Hertz scene")
+    let f = mortex::scenes::hertz_density_deviation(h, refine, virtual_top, space, frac).expect("Hertz scene");
+    (f.deviation, f.multipliers)
 }
 
 /// curved-surface density contrast: a finely meshed cylinder (8x finer than the
@@ -315,10 +323,13 @@ fn hertz_cylinder_refinement_table() {
 /// Returns (p0 error, pressure L2 over [-2a, 2a]) against Hertz with
 /// `1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2`.
 fn dissimilar(h: f64, refine: f64, space: MultiplierSpace) -> (f64, f64) {
-    use mortex::scenes::{hertz_model_materials, ALUMINIUM, STEEL};
-    let model = hertz_model_materials(h, refine, 0.5, false, space, STEEL, ALUMINIUM).unwrap();
+    use mortex::scenes::{hertz_model_materials, HertzMaterials, ALUMINIUM, STEEL};
+    let materials = HertzMaterials { cylinder: STEEL, block: ALUMINIUM };
+    let model = hertz_model_materials(h, refine, 0.5, false, space, materials).unwrap();
     let s = solve(&model);
-    let e_star = 1.0 / ((1.0 - STEEL.1 * STEEL.1) / STEEL.0 + (1.0 - ALUMINIUM.1 * ALUMINIUM.1) / ALUMINIUM.0);
+    let e_star = 1.0
+        / ((1.0 - STEEL.poisson * STEEL.poisson) / STEEL.young
+            + (1.0 - ALUMINIUM.poisson * ALUMINIUM.poisson) / ALUMINIUM.young);
     let a = (4.0 * 100.0 * 10.0 / (std::f64::consts::PI * e_star)).sqrt();
     let p0 = 2.0 * 100.0 / (std::f64::consts::PI * a);
     let prof: Vec<(f64, f64)> =

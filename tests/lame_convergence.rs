@@ -16,6 +16,9 @@ use mortex::model::{Model, ModelBuilder};
 
 const A_IN: f64 = 1.0;
 const B_OUT: f64 = 2.0;
+/// The quarter annulus of the Lame problem.
+const QUARTER: generate::Sector =
+    generate::Sector { r_in: A_IN, r_out: B_OUT, theta0: 0.0, theta1: std::f64::consts::FRAC_PI_2 };
 const P: f64 = 100.0;
 const E: f64 = 210_000.0;
 const NU: f64 = 0.3;
@@ -37,7 +40,7 @@ fn lame(x: f64, y: f64) -> ([f64; 2], [f64; 4]) {
 }
 
 fn model(nr: usize, nt: usize) -> Model {
-    let mesh = generate::annulus_sector(A_IN, B_OUT, 0.0, std::f64::consts::FRAC_PI_2, nr, nt, 1.0).unwrap();
+    let mesh = generate::annulus_sector(QUARTER, nr, nt, 1.0).unwrap();
     let hyp = PlaneHypothesis::PlaneStrain;
     let mut b = ModelBuilder::new(hyp);
     let mi = b.add_material("steel", Material::Elastic(Elastic { young: E, poisson: NU, hypothesis: hyp }));

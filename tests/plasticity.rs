@@ -22,6 +22,9 @@ use mortex::solver::newton::NewtonParams;
 
 const A_IN: f64 = 1.0;
 const B_OUT: f64 = 2.0;
+/// The quarter annulus of the Lame problem.
+const QUARTER: generate::Sector =
+    generate::Sector { r_in: A_IN, r_out: B_OUT, theta0: 0.0, theta1: std::f64::consts::FRAC_PI_2 };
 const SY: f64 = 250.0;
 
 fn hill_pressure(c: f64) -> f64 {
@@ -37,7 +40,7 @@ fn thick_cylinder_plastic_radius_matches_hill() {
         isotropic_hardening: 0.0,
         kinematic_hardening: 0.0,
     };
-    let mesh = generate::annulus_sector(A_IN, B_OUT, 0.0, std::f64::consts::FRAC_PI_2, 40, 10, 1.0).unwrap();
+    let mesh = generate::annulus_sector(QUARTER, 40, 10, 1.0).unwrap();
     let h = (B_OUT - A_IN) / 40.0;
     let mut b = ModelBuilder::new(hyp);
     let mi = b.add_material("steel", Material::J2Plastic(mat));
@@ -239,7 +242,7 @@ fn kinematic_hardening_loop() {
 fn serial_and_parallel_plastic_runs_are_identical() {
     let hyp = PlaneHypothesis::PlaneStrain;
     let mat = shear_material(1000.0, 1000.0);
-    let mesh = generate::annulus_sector(A_IN, B_OUT, 0.0, std::f64::consts::FRAC_PI_2, 12, 30, 1.0).unwrap();
+    let mesh = generate::annulus_sector(QUARTER, 12, 30, 1.0).unwrap();
     let mut b = ModelBuilder::new(hyp);
     let mi = b.add_material("steel", Material::J2Plastic(mat));
     let body = b.add_body("cylinder", mesh, mi, Formulation::BBar, 1.0);

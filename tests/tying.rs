@@ -140,7 +140,8 @@ fn tied_patch_test_on_grid_lines_and_nodes() {
 fn inclusion_oscillation(ratio: usize, space: MultiplierSpace, e_patch: f64, load: &str) -> (f64, usize) {
     use mortex::scenes::InclusionLoad;
     let load = if load == "tension" { InclusionLoad::Tension } else { InclusionLoad::Bending };
-    mortex::scenes::tied_inclusion_oscillation(ratio, space, e_patch, load).expect("tied inclusion")
+    let f = mortex::scenes::tied_inclusion_oscillation(ratio, space, e_patch, load).expect("tied inclusion");
+    (f.deviation, f.multipliers)
 }
 
 /// Density contrast (the failure the stabilisation exists for): host/patch element size ratios

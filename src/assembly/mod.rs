@@ -97,28 +97,33 @@ pub struct SparsityPattern {
     penalty_scatter: Vec<(usize, f64)>,
 }
 
+/// What the saddle-point pattern holds beside the bulk (see
+/// [`SparsityPattern::with_constraints`]): the constraint rows over global DOFs, the constant
+/// penalty entries `(dof_i, dof_j, value)`, the number of leading rows without a diagonal of
+/// their own (ties), and the `(row, column)` couplings between constraint rows (friction).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SaddleRows<'a> {
+    pub constraints: &'a [Vec<(usize, f64)>],
+    pub penalty: &'a [(usize, usize, f64)],
+    pub fixed_rows: usize,
+    pub couplings: &'a [(usize, usize)],
+}
+
 impl SparsityPattern {
     /// Builds the pattern from node adjacency (no triplet sort): column `j` of node `n` holds the
     /// free DOFs of all nodes sharing a cell with `n`, in increasing order.
     pub fn new(num_nodes: usize, elements: &ElementTable, dofs: &DofMap) -> Self {
-        Self::with_constraints(num_nodes, elements, dofs, &[], &[], 0, &[])
+        Self::with_constraints(num_nodes, elements, dofs, SaddleRows::default())
     }
 
     /// Pattern of the saddle-point matrix `[K + P, C^T; C 0]`: the free DOFs first, then one
     /// unknown per constraint row (`sum coef u[dof] = 0`, global DOFs). `penalty` holds constant
     /// extra stiffness entries `(dof_i, dof_j, value)` in global DOFs (ghost penalty).
-    pub fn with_constraints(
-        num_nodes: usize,
-        elements: &ElementTable,
-        dofs: &DofMap,
-        constraints: &[Vec<(usize, f64)>],
-        penalty: &[(usize, usize, f64)],
-        fixed_rows: usize,
-        couplings: &[(usize, usize)],
-    ) -> Self {
+    pub fn with_constraints(num_nodes: usize, elements: &ElementTable, dofs: &DofMap, rows: SaddleRows<'_>) -> Self {
+        let SaddleRows { constraints, penalty, fixed_rows, couplings } = rows;
         let nf = dofs.num_free;
         let n = nf + constraints.len();
-        let (col_ptr, row_idx) = columns(num_nodes, elements, dofs, constraints, penalty, fixed_rows, couplings);
+        let (col_ptr, row_idx) = columns(num_nodes, elements, dofs, rows);
         let entry = |row: usize, col: usize| {
             row_idx[col_ptr[col]..col_ptr[col + 1]].binary_search(&row).ok().map(|p| col_ptr[col] + p)
         };
@@ -669,15 +674,8 @@ impl Assembler {
 /// matrix: per free equation the free DOFs of its node's neighbours, the penalty couplings and
 /// the constraint rows touching it; per constraint row its free DOFs, its own diagonal (rows
 /// from `fixed_rows` on) and its coupled rows.
-fn columns(
-    num_nodes: usize,
-    elements: &ElementTable,
-    dofs: &DofMap,
-    constraints: &[Vec<(usize, f64)>],
-    penalty: &[(usize, usize, f64)],
-    fixed_rows: usize,
-    couplings: &[(usize, usize)],
-) -> (Vec<usize>, Vec<usize>) {
+fn columns(num_nodes: usize, elements: &ElementTable, dofs: &DofMap, rows: SaddleRows<'_>) -> (Vec<usize>, Vec<usize>) {
+    let SaddleRows { constraints, penalty, fixed_rows, couplings } = rows;
     let mut coupled_rows: Vec<Vec<usize>> = vec![Vec::new(); constraints.len()];
     for &(r, c) in couplings {
         assert!(r >= fixed_rows && c >= fixed_rows && r < constraints.len() && c < constraints.len());

@@ -737,7 +737,7 @@ pub fn parse_with_nodes(
     let mut b = ModelBuilder::new(hyp);
 
     let materials = add_materials(&cx, hyp, &raw.materials, &mut b)?;
-    let body_names = add_bodies(&cx, hyp, &raw.bodies, &materials, base, nodes, &mut b)?;
+    let body_names = add_bodies(&cx, hyp, &raw.bodies, &materials, MeshSources { base, nodes }, &mut b)?;
     let curves = add_curves(&cx, &raw.curves, &mut b)?;
     add_rigid_sets(&cx, &raw.rigid, &body_names, &mut b)?;
     add_bcs(&cx, &raw.bcs, &body_names, &curves, &mut b)?;
@@ -954,17 +954,25 @@ struct MaterialTable<'a> {
     models: Vec<MaterialModel>,
 }
 
-/// `[[bodies]]`: adds each body's mesh (its nodes moved where `nodes` names it), material,
+/// Where the bodies' meshes come from: mesh files relative to `base`, and per body the node
+/// positions that replace its mesh's (`nodes`, by body name: a relocated mesh).
+#[derive(Clone, Copy)]
+struct MeshSources<'a> {
+    base: &'a Path,
+    nodes: &'a [(String, Vec<Point2<f64>>)],
+}
+
+/// `[[bodies]]`: adds each body's mesh (its nodes moved where `sources` names it), material,
 /// thickness and formulation; returns their names.
 fn add_bodies<'a>(
     cx: &Ctx,
     hyp: PlaneHypothesis,
     bodies: &'a [BodySpec],
     materials: &MaterialTable,
-    base: &Path,
-    nodes: &[(String, Vec<Point2<f64>>)],
+    sources: MeshSources<'_>,
     b: &mut ModelBuilder,
 ) -> Result<Vec<&'a str>, CaseError> {
+    let MeshSources { base, nodes } = sources;
     if bodies.is_empty() {
         return Err(cx.err("bodies", "the case defines no body"));
     }
@@ -1677,8 +1685,8 @@ fn build_mesh(spec: &MeshSpec, base: &Path) -> Result<Mesh2, String> {
                 CellSpec::Quad4 => CellKind::Quad4,
                 CellSpec::Tri3 => CellKind::Tri3,
             };
-            let mesh =
-                generate::rectangle_from_divisions(origin[0], origin[1], size[0], size[1], &lines(0), &lines(1), kind);
+            let (corner, extent) = (Point2::new(origin[0], origin[1]), Vector2::new(size[0], size[1]));
+            let mesh = generate::rectangle_from_divisions(corner, extent, &lines(0), &lines(1), kind);
             // Rotation about the origin corner (orientation and sets are preserved).
             mesh.map(|mut m| {
                 if *rotation != 0.0 {
@@ -1696,15 +1704,13 @@ fn build_mesh(spec: &MeshSpec, base: &Path) -> Result<Mesh2, String> {
             generate::disc(Point2::new(centre[0], centre[1]), *radius, divisions[0], divisions[1])
         }
         MeshSpec::AnnulusSector { inner_radius, outer_radius, angles, divisions, radial_grading } => {
-            generate::annulus_sector(
-                *inner_radius,
-                *outer_radius,
-                angles[0].to_radians(),
-                angles[1].to_radians(),
-                divisions[0],
-                divisions[1],
-                *radial_grading,
-            )
+            let sector = generate::Sector {
+                r_in: *inner_radius,
+                r_out: *outer_radius,
+                theta0: angles[0].to_radians(),
+                theta1: angles[1].to_radians(),
+            };
+            generate::annulus_sector(sector, divisions[0], divisions[1], *radial_grading)
         }
         MeshSpec::HalfDisc { centre, radius, divisions, radial_grading, angular_grading, upside_down, fine_zone } => {
             let c = Point2::new(centre[0], centre[1]);

@@ -89,6 +89,9 @@ pub(crate) struct RunTally {
     /// Finite-sliding wear increments solved in sub-steps, and the sub-steps in all.
     cut_increments: usize,
     sub_steps: usize,
+    /// Steps whose Newton had to cut back, and the halvings in all.
+    cut_back_steps: usize,
+    cutbacks: usize,
     /// How many steps took each number of bulk Newton iterations.
     bulk_iterations: std::collections::BTreeMap<usize, usize>,
 }
@@ -99,6 +102,10 @@ impl RunTally {
         if r.sub_steps > 1 {
             self.cut_increments += 1;
             self.sub_steps += r.sub_steps;
+        }
+        if r.cutbacks > 0 {
+            self.cut_back_steps += 1;
+            self.cutbacks += r.cutbacks;
         }
         *self.bulk_iterations.entry(r.newton_iterations).or_default() += 1;
     }
@@ -183,6 +190,14 @@ pub(crate) fn print_run_summary(
         println!(
             "{}: {} increments solved in sub-steps ({} sub-steps in all; /series/sub_steps per step)",
             c.name, tally.cut_increments, tally.sub_steps
+        );
+    }
+    if tally.cut_back_steps > 0 {
+        println!(
+            "{}: {} cut back ({} in all; `-v` logs each step's count)",
+            c.name,
+            plural(tally.cut_back_steps, "step"),
+            plural(tally.cutbacks, "halving")
         );
     }
 }

@@ -11,7 +11,9 @@
 
 use super::study::{io_err, StudyError};
 use mortex::mortar::MultiplierSpace;
-use mortex::scenes::{hertz_density_deviation, tied_inclusion_oscillation, InclusionLoad, STABILITY_E};
+use mortex::scenes::{
+    hertz_density_deviation, tied_inclusion_oscillation, InclusionLoad, MultiplierFigure, STABILITY_E,
+};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -24,8 +26,8 @@ struct Row {
     scene: &'static str,
     variant: String,
     contrast: f64,
-    classical: (f64, usize),
-    coarse: (f64, usize),
+    classical: MultiplierFigure,
+    coarse: MultiplierFigure,
 }
 
 /// Runs the study into `output`; returns the Markdown table's path.
@@ -86,7 +88,13 @@ pub fn stability(output: &Path) -> Result<PathBuf, StudyError> {
         let _ = writeln!(
             csv,
             "{},{},{},{:.6e},{},{:.6e},{}",
-            r.scene, r.variant, r.contrast, r.classical.0, r.classical.1, r.coarse.0, r.coarse.1
+            r.scene,
+            r.variant,
+            r.contrast,
+            r.classical.deviation,
+            r.classical.multipliers,
+            r.coarse.deviation,
+            r.coarse.multipliers
         );
     }
     let path = output.join("stability.csv");
@@ -109,7 +117,7 @@ fn write_summary(output: &Path, rows: &[Row]) -> Result<PathBuf, StudyError> {
         let cells: Vec<String> = rows
             .iter()
             .filter(|r| r.scene == "tied inclusion" && r.variant == v)
-            .map(|r| format!("{:.5} / {:.5}", r.classical.0, r.coarse.0))
+            .map(|r| format!("{:.5} / {:.5}", r.classical.deviation, r.coarse.deviation))
             .collect();
         let _ = writeln!(md, "| {v} | {} |", cells.join(" | "));
     }
@@ -119,7 +127,13 @@ fn write_summary(output: &Path, rows: &[Row]) -> Result<PathBuf, StudyError> {
          | cylinder finer by | classical | coarse-grained |\n|---|---|---|\n",
     );
     for r in rows.iter().filter(|r| r.scene == "Hertz contact") {
-        let _ = writeln!(md, "| {} | {:.2}% | {:.2}% |", r.contrast, 100.0 * r.classical.0, 100.0 * r.coarse.0);
+        let _ = writeln!(
+            md,
+            "| {} | {:.2}% | {:.2}% |",
+            r.contrast,
+            100.0 * r.classical.deviation,
+            100.0 * r.coarse.deviation
+        );
     }
     let path = output.join("stability.md");
     std::fs::write(&path, md).map_err(io_err(&path))?;
@@ -133,12 +147,12 @@ fn charts(output: &Path, rows: &[Row]) {
         vec![
             Series {
                 label: "classical".into(),
-                points: rows.iter().map(|r| (r.contrast, scale * r.classical.0)).collect(),
+                points: rows.iter().map(|r| (r.contrast, scale * r.classical.deviation)).collect(),
                 joined: true,
             },
             Series {
                 label: "coarse-grained".into(),
-                points: rows.iter().map(|r| (r.contrast, scale * r.coarse.0)).collect(),
+                points: rows.iter().map(|r| (r.contrast, scale * r.coarse.deviation)).collect(),
                 joined: true,
             },
         ]

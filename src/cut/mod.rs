@@ -743,12 +743,13 @@ pub fn rule_points(mesh: &Mesh2, c: usize, rule: &QuadratureRule) -> Vec<Point2<
     rule.points.iter().map(|xi| m.map(*xi)).collect()
 }
 
-/// One face of the ghost penalty: the host edge between `cells.0` (cut) and `cells.1`, and its
+/// One face of the ghost penalty: the host edge between `cut_cell` and its `neighbour`, and its
 /// contributions `(dof_i, dof_j, value)` to the penalty matrix in the order they are summed
 /// (Gauss point by Gauss point, so that [`ghost_penalty`] adds them as it always did).
 #[derive(Debug, Clone, PartialEq)]
 pub struct GhostFace {
-    pub cells: (usize, usize),
+    pub cut_cell: usize,
+    pub neighbour: usize,
     pub entries: Vec<(usize, usize, f64)>,
 }
 
@@ -845,7 +846,7 @@ pub fn ghost_faces(
                     }
                 }
             }
-            faces.push(GhostFace { cells: (c, nb), entries });
+            faces.push(GhostFace { cut_cell: c, neighbour: nb, entries });
         }
     }
     faces

@@ -968,32 +968,34 @@ impl ResultWriter {
                 }
                 let attrs: Vec<(&str, String)> = attrs
                     .into_iter()
-                    .map(|(a, ty, prec)| (a, slab(&h5, &format!("{series}/{a}"), k, rows, &[*l], ty, prec)))
+                    .map(|(a, ty, precision)| {
+                        let path = format!("{series}/{a}");
+                        (a, slab(&XdmfDataset { h5: &h5, path, rows, rest: &[*l], ty, precision }, k))
+                    })
                     .collect();
-                let geometry = slab(&h5, &format!("{series}/position"), k, rows, &[*l, 2], "Float", 8);
-                polyline_grid(
-                    &mut x,
-                    &h5,
+                let geometry = slab(&XdmfDataset::floats(&h5, format!("{series}/position"), rows, &[*l, 2]), k);
+                let grid = PolylineGrid {
                     name,
-                    &format!("/mesh/contacts/{name}/segments"),
-                    l.saturating_sub(1),
-                    &geometry,
-                    &attrs,
-                );
+                    segments_path: &format!("/mesh/contacts/{name}/segments"),
+                    segments: l.saturating_sub(1),
+                    geometry: &geometry,
+                    attrs: &attrs,
+                };
+                polyline_grid(&mut x, &h5, grid);
             }
             if let (Some(w), Some(r)) = (wear, wear_row) {
                 for (name, v, segments) in &w.meta {
-                    let geometry = slab(&h5, &format!("/wear/{name}/vertices"), r, w.rows, &[*v, 2], "Float", 8);
-                    let depth = slab(&h5, &format!("/wear/{name}/depth"), r, w.rows, &[*v], "Float", 8);
-                    polyline_grid(
-                        &mut x,
-                        &h5,
+                    let geometry =
+                        slab(&XdmfDataset::floats(&h5, format!("/wear/{name}/vertices"), w.rows, &[*v, 2]), r);
+                    let depth = slab(&XdmfDataset::floats(&h5, format!("/wear/{name}/depth"), w.rows, &[*v]), r);
+                    let grid = PolylineGrid {
                         name,
-                        &format!("/wear/{name}/segments"),
-                        *segments,
-                        &geometry,
-                        &[("depth", depth)],
-                    );
+                        segments_path: &format!("/wear/{name}/segments"),
+                        segments: *segments,
+                        geometry: &geometry,
+                        attrs: &[("depth", depth)],
+                    };
+                    polyline_grid(&mut x, &h5, grid);
                 }
             }
             if k + 1 == rows {
@@ -1058,8 +1060,27 @@ impl ResultWriter {
 /// XML); steps with full fields and wear updates are always listed.
 const XDMF_MAX_STEPS: usize = 2000;
 
-/// An XDMF hyperslab: row `row` of a dataset of shape `(rows, rest...)`.
-fn slab(h5: &str, path: &str, row: usize, rows: usize, rest: &[usize], ty: &str, precision: usize) -> String {
+/// An XDMF hyperslab: row `row` of a series.
+/// A dataset of shape `(rows, rest...)` in the result file `h5`, of XDMF number type `ty` and
+/// `precision` bytes.
+struct XdmfDataset<'a> {
+    h5: &'a str,
+    path: String,
+    rows: usize,
+    rest: &'a [usize],
+    ty: &'a str,
+    precision: usize,
+}
+
+impl<'a> XdmfDataset<'a> {
+    /// A dataset of f64 values.
+    fn floats(h5: &'a str, path: String, rows: usize, rest: &'a [usize]) -> Self {
+        XdmfDataset { h5, path, rows, rest, ty: "Float", precision: 8 }
+    }
+}
+
+fn slab(data: &XdmfDataset<'_>, row: usize) -> String {
+    let XdmfDataset { h5, ref path, rows, rest, ty, precision } = *data;
     let dims: Vec<String> = rest.iter().map(|d| d.to_string()).collect();
     let dims = dims.join(" ");
     let rank = rest.len() + 1;
@@ -1100,17 +1121,19 @@ fn fatigue_points_grid(x: &mut String, h5: &str, np: usize) {
     let _ = writeln!(x, "    </Grid>");
 }
 
-/// A polyline grid: segments from `segments_path`, geometry and node attributes given as data
-/// items.
-fn polyline_grid(
-    x: &mut String,
-    h5: &str,
-    name: &str,
-    segments_path: &str,
+/// A polyline grid of the XDMF: its segments (`segments` of them, at `segments_path`), its
+/// geometry and node attributes as data items.
+struct PolylineGrid<'a> {
+    name: &'a str,
+    segments_path: &'a str,
     segments: usize,
-    geometry: &str,
-    attrs: &[(&str, String)],
-) {
+    geometry: &'a str,
+    attrs: &'a [(&'a str, String)],
+}
+
+/// Writes a polyline grid of the result file `h5` into `x`.
+fn polyline_grid(x: &mut String, h5: &str, grid: PolylineGrid<'_>) {
+    let PolylineGrid { name, segments_path, segments, geometry, attrs } = grid;
     let _ = writeln!(x, "    <Grid Name=\"{name}\" GridType=\"Uniform\">");
     let _ = writeln!(
         x,

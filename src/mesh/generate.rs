@@ -2,7 +2,7 @@
 //! (cylinder pressed on its lowest point) with refinement toward the contact point.
 
 use super::{Cell, CellKind, Mesh2, MeshError};
-use nalgebra::Point2;
+use nalgebra::{Point2, Vector2};
 
 /// `n + 1` coordinates in `[0, 1]` with a geometric progression of spacings whose last/first
 /// ratio is `ratio` (`ratio = 1` gives a uniform division).
@@ -159,21 +159,21 @@ pub fn rectangle(
     check(lx > 0.0 && ly > 0.0, "rectangle size must be positive")?;
     check(nx >= 1 && ny >= 1, "rectangle needs at least one division per direction")?;
     check(grading_x > 0.0 && grading_y > 0.0, "grading ratios must be positive")?;
-    rectangle_from_divisions(x0, y0, lx, ly, &graded(nx, grading_x), &graded(ny, grading_y), kind)
+    let (origin, size) = (Point2::new(x0, y0), Vector2::new(lx, ly));
+    rectangle_from_divisions(origin, size, &graded(nx, grading_x), &graded(ny, grading_y), kind)
 }
 
 /// Rectangle whose grid lines sit at `x0 + lx gx[i]`, `y0 + ly gy[j]` (`gx`, `gy` increasing from
 /// 0 to 1, e.g. from [`graded`] or [`graded_to_centre`]: a block refined toward the middle of
 /// its top for a contact patch). Same sets as [`rectangle`].
 pub fn rectangle_from_divisions(
-    x0: f64,
-    y0: f64,
-    lx: f64,
-    ly: f64,
+    origin: Point2<f64>,
+    size: Vector2<f64>,
     gx: &[f64],
     gy: &[f64],
     kind: CellKind,
 ) -> Result<Mesh2, MeshError> {
+    let (x0, y0, lx, ly) = (origin.x, origin.y, size.x, size.y);
     check(lx > 0.0 && ly > 0.0, "rectangle size must be positive")?;
     check(gx.len() >= 2 && gy.len() >= 2, "rectangle needs at least one division per direction")?;
     check(
@@ -218,18 +218,20 @@ pub fn rectangle_from_divisions(
     Ok(m)
 }
 
-/// Annular sector `r_in <= r <= r_out`, `theta0 <= theta <= theta1` (radians), `Quad4` cells
-/// (`nr` radial, `nt` angular divisions), radial spacing ratio `grading_r` (outer/inner).
-/// Sets: `inner`, `outer`, `start` (theta0 ray), `end` (theta1 ray).
-pub fn annulus_sector(
-    r_in: f64,
-    r_out: f64,
-    theta0: f64,
-    theta1: f64,
-    nr: usize,
-    nt: usize,
-    grading_r: f64,
-) -> Result<Mesh2, MeshError> {
+/// The region `r_in <= r <= r_out`, `theta0 <= theta <= theta1` (radians) of an annulus
+/// centred at the origin.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sector {
+    pub r_in: f64,
+    pub r_out: f64,
+    pub theta0: f64,
+    pub theta1: f64,
+}
+
+/// Annular sector, `Quad4` cells (`nr` radial, `nt` angular divisions), radial spacing ratio
+/// `grading_r` (outer/inner). Sets: `inner`, `outer`, `start` (theta0 ray), `end` (theta1 ray).
+pub fn annulus_sector(sector: Sector, nr: usize, nt: usize, grading_r: f64) -> Result<Mesh2, MeshError> {
+    let Sector { r_in, r_out, theta0, theta1 } = sector;
     check(r_in > 0.0 && r_out > r_in, "annulus needs 0 < r_in < r_out")?;
     check(
         theta1 > theta0 && theta1 - theta0 <= std::f64::consts::TAU,
@@ -368,8 +370,8 @@ mod tests {
     fn centre_graded_block_is_finest_at_the_middle() {
         // 40 divisions, end/centre spacing ratio 10: the middle cells are 10x smaller.
         let g = graded_to_centre(40, 10.0);
-        let m = rectangle_from_divisions(-20.0, -20.0, 40.0, 20.0, &g, &graded(20, 0.1), CellKind::Quad4)
-            .expect("valid block");
+        let (origin, size) = (Point2::new(-20.0, -20.0), Vector2::new(40.0, 20.0));
+        let m = rectangle_from_divisions(origin, size, &g, &graded(20, 0.1), CellKind::Quad4).expect("valid block");
         let h_end = g[1] - g[0];
         let h_mid = g[21] - g[20];
         assert!((h_end / h_mid - 10.0).abs() < 1e-9, "ratio {}", h_end / h_mid);
@@ -389,7 +391,13 @@ mod tests {
 
     #[test]
     fn annulus_is_valid_and_oriented() {
-        let m = annulus_sector(1.0, 2.0, 0.0, std::f64::consts::FRAC_PI_2, 4, 6, 1.0).expect("valid annulus");
+        let m = annulus_sector(
+            Sector { r_in: 1.0, r_out: 2.0, theta0: 0.0, theta1: std::f64::consts::FRAC_PI_2 },
+            4,
+            6,
+            1.0,
+        )
+        .expect("valid annulus");
         for &e in &m.edge_sets["inner"] {
             let (n, _) = m.edge_normal(e);
             let mid = (m.nodes[e[0]].coords + m.nodes[e[1]].coords) * 0.5;

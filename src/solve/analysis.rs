@@ -514,15 +514,14 @@ impl<'m> StaticAnalysis<'m> {
         let alpha = if mean_coef > 0.0 && e_max > 0.0 { e_max / mean_coef } else { 1.0 };
         let scaled: Vec<Vec<(usize, f64)>> =
             all_rows.iter().map(|r| r.iter().map(|&(d, c)| (d, alpha * c)).collect()).collect();
-        let pattern = SparsityPattern::with_constraints(
-            model.num_nodes(),
-            &model.elements,
-            &disc.dofs,
-            &scaled,
-            &disc.penalty,
-            model.constraints.len(),
-            &friction_couplings(&disc.contact),
-        );
+        let couplings = friction_couplings(&disc.contact);
+        let rows = crate::assembly::SaddleRows {
+            constraints: &scaled,
+            penalty: &disc.penalty,
+            fixed_rows: model.constraints.len(),
+            couplings: &couplings,
+        };
+        let pattern = SparsityPattern::with_constraints(model.num_nodes(), &model.elements, &disc.dofs, rows);
         let solver = SparseSolver::new(&pattern.symbolic, model.linear_solver)?;
         let nnz = pattern.nnz();
         tracing::info!(
@@ -710,10 +709,15 @@ impl<'m> StaticAnalysis<'m> {
                         }
                         .into());
                     }
-                    tracing::warn!(step, time = t_try, residual = res, "Newton failed; cutting the increment in half");
+                    // One line per halving only at debug level: a run that cuts a lot would print
+                    // thousands; the step's count follows at its end, the run's in its summary.
+                    tracing::debug!(step, time = t_try, residual = res, "Newton failed; cutting the increment in half");
                     dt *= 0.5;
                 }
             }
+        }
+        if report.cutbacks > 0 {
+            tracing::info!(step, time = t_end, cutbacks = report.cutbacks, "step converged after cutting back");
         }
         state.step = step;
         report.load_factor = state.load_factor;

@@ -163,9 +163,13 @@ impl StepSolver<'_> {
     ) -> Result<Trial, AnalysisError> {
         let solved = self.solve(state, request)?;
         if check_sweep {
-            let u = (solved.start_u.as_slice(), state.u.as_slice());
-            let lambda = (solved.start_multipliers.as_slice(), state.multipliers.as_slice());
-            if let Some(check) = crate::wear::sweep_check(&solved.disc.contact, u, lambda).filter(|c| !c.acceptable()) {
+            let path = crate::wear::StepPath {
+                u_prev: &solved.start_u,
+                u: &state.u,
+                lambda_prev: Some(&solved.start_multipliers),
+                multipliers: &state.multipliers,
+            };
+            if let Some(check) = crate::wear::sweep_check(&solved.disc.contact, path).filter(|c| !c.acceptable()) {
                 return Ok(Trial::Cut(check));
             }
         }

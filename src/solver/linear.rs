@@ -488,8 +488,7 @@ impl SparseSolver {
                             && with_fixed_columns(
                                 &block.symbolic,
                                 &f.l,
-                                (&touching, &local_cols),
-                                nf,
+                                FixedColumns { cols: &touching, local: &local_cols, nf },
                                 &f.fixed,
                                 &mut scratch,
                                 &mut gram,
@@ -575,19 +574,26 @@ fn supernodal_congruence(
     Some(())
 }
 
-/// The share `W^T W` of a block whose first `nf` columns `cols` (global index, local entries;
-/// and the local entries alone) are fixed, into `out`: theirs kept in `fixed` (formed on their
-/// own when absent or different), the others' formed here, and the cross products over the
-/// supernodes both reach. `None` if the factor is simplicial.
+/// The columns of a block's share whose first `nf` are fixed: each with its global index and
+/// local entries (`cols`), and the local entries alone (`local`).
+struct FixedColumns<'a> {
+    cols: &'a [(usize, Vec<(usize, f64)>)],
+    local: &'a [Vec<(usize, f64)>],
+    nf: usize,
+}
+
+/// The share `W^T W` of a block whose first `nf` columns are fixed, into `out`: theirs kept in
+/// `fixed` (formed on their own when absent or different), the others' formed here, and the
+/// cross products over the supernodes both reach. `None` if the factor is simplicial.
 fn with_fixed_columns(
     symbolic: &SymbolicCholesky<usize>,
     values: &[f64],
-    (cols, local): (&[(usize, Vec<(usize, f64)>)], &[Vec<(usize, f64)>]),
-    nf: usize,
+    columns: FixedColumns<'_>,
     fixed: &std::sync::Mutex<Option<FixedShare>>,
     scratch: &mut Scratch,
     out: &mut Dense,
 ) -> Option<()> {
+    let FixedColumns { cols, local, nf } = columns;
     let Scratch { w: w_buffer, update, gram: product, cross, others } = scratch;
     let mut kept = fixed.lock().ok()?;
     if !matches!(kept.as_ref(), Some(k) if k.cols[..] == cols[..nf]) {
@@ -734,7 +740,8 @@ fn substitute(
             update.resize(pattern.len() * js.len(), 0.0);
             let product = MatMut::from_column_major_slice_mut(update, pattern.len(), js.len());
             matmul(product, Accum::Replace, l_bot, block, 1.0, Par::Seq);
-            scatter_update(update, pattern, js, (&super_of, begin), (&cols_of, &offset, &size), &mut w, &mut position);
+            let targets = TargetBlocks { super_of: &super_of, begin, cols_of: &cols_of, offset: &offset, size: &size };
+            scatter_update(update, pattern, js, &targets, &mut w, &mut position);
         }
     }
     tracing::debug!(
@@ -786,20 +793,31 @@ fn accumulate_gram(out: &mut Dense, gram: &mut Dense, block: faer::MatRef<f64>, 
     }
 }
 
+/// Where the rows of `W` go: the supernode of each row (`super_of`) and each supernode's first
+/// row (`begin`); the block of `W` of each supernode: its sorted columns (`cols_of`), where it
+/// starts in `w` (`offset`) and its row count (`size`).
+struct TargetBlocks<'a> {
+    super_of: &'a [usize],
+    begin: &'a [usize],
+    cols_of: &'a [Vec<usize>],
+    offset: &'a [usize],
+    size: &'a [usize],
+}
+
 /// Subtracts a supernode's `update` (column-major; rows: its below-diagonal `pattern`, sorted;
-/// columns: its own `js`) from the blocks of `W` (in `w`, laid out by `cols_of`, `offset`,
-/// `size`) of the supernodes those rows belong to. The rows come supernode by supernode; the
+/// columns: its own `js`) from the blocks of `W` (in `w`, laid out by `targets`) of the
+/// supernodes those rows belong to. The rows come supernode by supernode; the
 /// positions of `js` in each target's sorted column set are merged once per target (an
 /// ancestor's set holds its descendants' columns).
 fn scatter_update(
     update: &[f64],
     pattern: &[usize],
     js: &[usize],
-    (super_of, begin): (&[usize], &[usize]),
-    (cols_of, offset, size): (&[Vec<usize>], &[usize], &[usize]),
+    targets: &TargetBlocks<'_>,
     w: &mut [f64],
     position: &mut Vec<usize>,
 ) {
+    let TargetBlocks { super_of, begin, cols_of, offset, size } = *targets;
     let below = pattern.len();
     let mut p = 0;
     while p < below {

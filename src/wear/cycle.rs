@@ -18,7 +18,7 @@
 use super::{
     bounded_implicit_jump, depth_increment, next_jump, pairing_position, prediction_cap, swept_step_wear,
     vertex_measure, wear_coupling, wearing_resolution, worn_vertices, ControllerState, JumpContact, JumpOperator,
-    JumpPolicy, JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel, PRESSURE_PREDICTION_TOLERANCE,
+    JumpPolicy, JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel, WearSide, PRESSURE_PREDICTION_TOLERANCE,
 };
 use crate::contact::ContactSet;
 use crate::fem::material::PlasticState;
@@ -171,18 +171,11 @@ pub fn accumulate_step_wear(
     path: StepPath,
     sensitivity: Option<GapSensitivity>,
 ) {
-    let StepPath { u_prev, u, lambda_prev, multipliers } = path;
+    let StepPath { u, multipliers, .. } = path;
     let mut steps = Vec::with_capacity(scene.model.surfaces.len());
     for (w, ws) in scene.model.surfaces.iter().enumerate() {
-        let sw = swept_step_wear(
-            scene.contact,
-            &scene.hosts,
-            ws,
-            &scene.surfaces[ws.surface],
-            scene.coords,
-            (u_prev, u),
-            (lambda_prev, multipliers),
-        );
+        let side = WearSide { set: scene.contact, hosts: &scene.hosts, ws, surface: &scene.surfaces[ws.surface] };
+        let sw = swept_step_wear(side, scene.coords, path);
         for (a, v) in wear.cycle_volume[w].iter_mut().zip(&sw.volume) {
             *a += v;
         }

@@ -258,20 +258,28 @@ pub fn wear_coupling(
     Some(WearCoupling { entries, phi })
 }
 
+/// One wearing surface in its step's pairing: the contact set, the host meshes (with their node
+/// offsets), the surface's wear declaration and where it is now.
+#[derive(Clone, Copy)]
+pub struct WearSide<'a> {
+    pub set: &'a ContactSet,
+    pub hosts: &'a [(&'a Mesh2, usize)],
+    pub ws: &'a WearingSurface,
+    pub surface: &'a FreeSurface,
+}
+
 /// Wear of one converged step on one wearing surface. `sub`: displacements at the start and
 /// end of the step (or of a part of it); `x` places nodes where the pair is paired for the step: the
 /// reference geometry under small sliding (the material points that meet stay paired, as in its
 /// mechanics), the configuration halfway through the step under finite sliding (the wear lands
 /// on the material that slid under the point).
 pub fn step_wear(
-    set: &ContactSet,
-    hosts: &[(&Mesh2, usize)],
-    ws: &WearingSurface,
-    surface: &FreeSurface,
+    side: WearSide<'_>,
     sub: SubStep<'_>,
     multipliers: &[f64],
     x: &dyn Fn(usize) -> Point2<f64>,
 ) -> StepWear {
+    let WearSide { set, hosts, ws, surface } = side;
     let c = &set.pairs[ws.contact];
     let (nt, nn) = (set.first_multiplier, set.rows.len());
     let n_lm = c.multipliers.num_nodes;
@@ -325,29 +333,22 @@ pub fn step_wear(
 /// both sides, exact for tractions linear over the step (the mortar side's own wear stays on its
 /// nodes: one position at mid-step). The worn area balances that work exactly; only where it
 /// lands follows the path (sampling one position per step aliases: spikes in the scar at the
-/// increment ends). `u = (u_prev, u_end)`.
-pub fn swept_step_wear(
-    set: &ContactSet,
-    hosts: &[(&Mesh2, usize)],
-    ws: &WearingSurface,
-    surface: &FreeSurface,
-    coords: &[Point2<f64>],
-    u: (&[f64], &[f64]),
-    lambda: (Option<&[f64]>, &[f64]),
-) -> StepWear {
-    let (u_prev, u_end) = u;
+/// increment ends).
+pub fn swept_step_wear(side: WearSide<'_>, coords: &[Point2<f64>], path: StepPath<'_>) -> StepWear {
+    let WearSide { set, ws, surface, .. } = side;
+    let StepPath { u_prev, u: u_end, lambda_prev, multipliers: lambda_end } = path;
     let finite = set.pairs[ws.contact].sliding == crate::contact::Sliding::Finite;
-    let lambda_prev = lambda.0.filter(|_| finite);
-    let subs = sweep_positions(set, ws, surface, u_prev, u_end, lambda.1);
+    let lambda_prev = lambda_prev.filter(|_| finite);
+    let subs = sweep_positions(set, ws, surface, u_prev, u_end, lambda_end);
     let at = |j: usize| {
         let f = (j as f64 + 0.5) / subs as f64;
         let interpolated: Vec<f64>;
         let multipliers = match lambda_prev {
             Some(l0) => {
-                interpolated = interpolated_tractions(set, l0, lambda.1, f);
+                interpolated = interpolated_tractions(set, l0, lambda_end, f);
                 &interpolated
             }
-            None => lambda.1,
+            None => lambda_end,
         };
         let sub = match subs {
             1 => SubStep::whole(u_prev, u_end),
@@ -359,7 +360,7 @@ pub fn swept_step_wear(
             },
         };
         let x = sub_step_position(set, ws, coords, sub);
-        step_wear(set, hosts, ws, surface, sub, multipliers, &x)
+        step_wear(side, sub, multipliers, &x)
     };
     // The sub-positions are independent: paired side by side, summed in their order (the
     // same sums on any thread count).
@@ -510,9 +511,12 @@ impl SweepCheck {
     }
 }
 
-/// The [`SweepCheck`] of the finite-sliding step from `(u0, lambda0)` to `(u1, lambda1)` in the
-/// step's pairing `set` (`None`: no finite-sliding pair carries pressure).
-pub fn sweep_check(set: &ContactSet, (u0, u1): (&[f64], &[f64]), (l0, l1): (&[f64], &[f64])) -> Option<SweepCheck> {
+/// The [`SweepCheck`] of the finite-sliding step along `path` (from `(u_prev, lambda_prev)`, a
+/// start without tractions if none are given, to `(u, multipliers)`) in the step's pairing `set`
+/// (`None`: no finite-sliding pair carries pressure).
+pub fn sweep_check(set: &ContactSet, path: StepPath<'_>) -> Option<SweepCheck> {
+    let StepPath { u_prev: u0, u: u1, lambda_prev, multipliers: l1 } = path;
+    let l0 = lambda_prev.unwrap_or(&[]);
     let nt = set.first_multiplier;
     let mut worst: Option<SweepCheck> = None;
     for c in set.pairs.iter().filter(|c| c.sliding == crate::contact::Sliding::Finite) {

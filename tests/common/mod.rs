@@ -201,8 +201,14 @@ impl CylinderPair {
             let gx = generate::plateau_graded(self.n_fine, 2.0 * w / 21.0, 40);
             let height = CYL_R + 0.013;
             let gy = generate::end_plateau((self.n_fine / 2).max(1), (w + 0.013) / height, 40);
-            generate::rectangle_from_divisions(-10.5, -CYL_R, 21.0, height, &gx, &gy, CellKind::Quad4)
-                .expect("host mesh")
+            generate::rectangle_from_divisions(
+                nalgebra::Point2::new(-10.5, -CYL_R),
+                nalgebra::Vector2::new(21.0, height),
+                &gx,
+                &gy,
+                CellKind::Quad4,
+            )
+            .expect("host mesh")
         } else {
             // The upper half disc turned by 180 degrees (a rotation keeps the cells' orientation).
             let mut m = generate::half_disc_from_divisions(

@@ -510,7 +510,9 @@ pub(super) fn setup(
         Some(values) if values.len() == assembler.pattern.nnz() => (values, ts, ts, true),
         _ => {
             kept_compliance = None;
-            let values = factor_bulk(m, disc, &mut assembler, &mut solver, &equations, e_max, parallel)?;
+            let mut values = bulk_stiffness(m, disc, &mut assembler, parallel);
+            decouple_held(disc, &assembler.pattern, &equations, e_max, &mut values);
+            solver.factor(&values)?;
             let (t1, t2) = (ts, t0.elapsed().as_secs_f64());
             (values, t1, t2, false)
         }
@@ -620,7 +622,12 @@ fn bulk_structure(
 ) -> Result<(Assembler, SparseSolver, Option<(Vec<f64>, Option<Compliance>)>, bool), LinearSolverError> {
     let build = |pairs: &[(usize, usize)]| {
         let structure: Vec<(usize, usize, f64)> = pairs.iter().map(|&(i, j)| (i, j, 0.0)).collect();
-        SparsityPattern::with_constraints(m.num_nodes(), &m.elements, equations, &[], &structure, 0, &[])
+        SparsityPattern::with_constraints(
+            m.num_nodes(),
+            &m.elements,
+            equations,
+            crate::assembly::SaddleRows { penalty: &structure, ..Default::default() },
+        )
     };
     let mut reused = false;
     let mut kept = None;
@@ -680,17 +687,10 @@ fn regularisation(
     (entries, rho_tie, rho_ground)
 }
 
-/// Assembles `K_rho` (the bulk stiffness, its ghost penalty and regularisation, switched-off
-/// DOFs decoupled) into the assembler's pattern and factors it numerically.
-fn factor_bulk(
-    m: &Model,
-    disc: &Discretisation,
-    assembler: &mut Assembler,
-    solver: &mut SparseSolver,
-    equations: &DofMap,
-    e_max: f64,
-    parallel: bool,
-) -> Result<Vec<f64>, LinearSolverError> {
+/// Assembles `K_rho` (the bulk stiffness, its ghost penalty and regularisation) into the
+/// assembler's pattern, at zero displacement; the caller decouples the switched-off DOFs
+/// ([`decouple_held`]) and factors it.
+fn bulk_stiffness(m: &Model, disc: &Discretisation, assembler: &mut Assembler, parallel: bool) -> Vec<f64> {
     let mut values = vec![0.0; assembler.pattern.nnz()];
     let u = vec![0.0; disc.dofs.num_dofs];
     let history = vec![PlasticState::default(); m.elements.num_states()];
@@ -719,9 +719,7 @@ fn factor_bulk(
         parallel,
     );
     assembler.set_elastic_force_from_kept(from_kept);
-    decouple_held(disc, &assembler.pattern, equations, e_max, &mut values);
-    solver.factor(&values)?;
-    Ok(values)
+    values
 }
 
 /// Switched-off DOFs exactly decoupled (a support below the material threshold may still
