@@ -271,6 +271,7 @@ fn close_cycle(m: &Model, disc: &Discretisation, state: &mut SimState) -> Result
         (state.wear.cycle_ratcheting, state.wear.cycle_plastic_strain) =
             cycle_plasticity(&state.wear.plastic_start, &state.history);
     }
+    let done_before = state.wear.cycle as f64 + state.wear.cycle_fraction;
     apply_cycle_wear(&disc.wear_scene(m), &mut state.wear, count, true)?;
     if let Some(fatigue) = &m.fatigue {
         // The worn surfaces of the fatigue body.
@@ -282,10 +283,11 @@ fn close_cycle(m: &Model, disc: &Discretisation, state: &mut SimState) -> Result
             .filter(|(ws, _)| disc.surfaces[ws.surface].body == fatigue.body_index)
             .map(|(_, v)| v.as_slice())
             .collect();
-        let (done, jump) = (state.wear.cycle, state.wear.jump);
+        // Cycles of damage: the jump's, or the part of a cycle whose wear this pass applied.
+        let done = state.wear.cycle as f64 + state.wear.cycle_fraction;
         fatigue
-            .close_cycle(&mut state.fatigue, done, jump, &worn)
-            .map_err(|source| AnalysisError::Fatigue { cycle: done, source })?;
+            .close_cycle(&mut state.fatigue, done, done - done_before, &worn)
+            .map_err(|source| AnalysisError::Fatigue { cycle: state.wear.cycle, source })?;
     }
     if m.has_plasticity() {
         state.wear.plastic_start = plastic_snapshot(&state.history);

@@ -323,7 +323,7 @@ fn damage_under_uniform_wear_matches_the_closed_form() -> Result<(), Box<dyn std
                     history[at + 4] = sign * s / E;
                 }
             }
-            model.cycle_damage(&history, cycles, dn, &mut state)?;
+            model.cycle_damage(&history, cycles as f64, dn as f64, &mut state)?;
             cycles += dn;
             let worn = [[1.0, -W * cycles as f64], [-1.0, -W * cycles as f64]];
             model.retire_cut_away(&[&worn[..]], &mut state.retired);

@@ -205,7 +205,7 @@ impl Winkler {
                     p.iter().zip(&dp).map(|(p, d)| self.k_ds * (p + d)).collect()
                 }
             };
-            for (wi, d) in w.iter_mut().zip(mortex::wear::depth_increment(&applied, &measure, dn)) {
+            for (wi, d) in w.iter_mut().zip(mortex::wear::depth_increment(&applied, &measure, dn as f64)) {
                 *wi += d;
             }
             worst = worst.max(self.kappa * self.k_ds * dn as f64);

@@ -187,6 +187,11 @@ pub struct CycleJumpSpec {
     /// times that of the last computed cycle; default 1e-4). A body that ratchets more than
     /// this per cycle is computed cycle by cycle.
     pub ratcheting_tolerance: Option<f64>,
+    /// Adaptive jumps with the implicit scheme: smallest fraction of a computed cycle's wear one
+    /// update applies when a whole cycle's would change the pressure by more than
+    /// `pressure_change` (default 1: whole cycles only; 1/256 a good floor for accelerated
+    /// coefficients).
+    pub min_fraction: Option<f64>,
 }
 
 /// A rigid set: the nodes of a node or edge set move together (no rotation); load it with a
@@ -1395,6 +1400,15 @@ fn add_cycle_jump(cx: &Ctx, j: &CycleJumpSpec, wear: &[WearSpec], b: &mut ModelB
             return Err(cx.err("cycle_jump.smoothing", format!("must be finite and >= 0, got {}", Num(sm))));
         }
         b.set_wear_smoothing(sm);
+    }
+    if let Some(f) = j.min_fraction {
+        if !(f.is_finite() && f > 0.0 && f <= 1.0) {
+            return Err(cx.err("cycle_jump.min_fraction", format!("must be in (0, 1], got {}", Num(f))));
+        }
+        if j.fixed.is_some() {
+            return Err(cx.err("cycle_jump.min_fraction", "applies to adaptive jumps; fixed jumps apply whole cycles"));
+        }
+        b.set_wear_min_fraction(f);
     }
     if let Some(tol) = j.ratcheting_tolerance {
         if !(tol.is_finite() && tol >= 0.0) {

@@ -173,8 +173,8 @@ impl FatigueModel {
     pub fn cycle_damage(
         &self,
         history: &[f64],
-        cycles_before: u64,
-        dn: u64,
+        cycles_before: f64,
+        dn: f64,
         state: &mut FatigueState,
     ) -> Result<CycleFatigue, FatigueError> {
         let np = self.points.len();
@@ -204,9 +204,9 @@ impl FatigueModel {
             let (swt, angle, life) = r?;
             if !state.retired[p] {
                 let before = state.damage[p];
-                state.damage[p] += dn as f64 / life;
+                state.damage[p] += dn / life;
                 if before < 1.0 && state.damage[p] >= 1.0 {
-                    let cycle = cycles_before as f64 + (1.0 - before) * life;
+                    let cycle = cycles_before + (1.0 - before) * life;
                     let first = state.initiation.is_none_or(|i| cycle < i.cycle);
                     if first {
                         state.initiation = Some(Initiation { cycle, point: p, angle, depth: 0.0 });
@@ -279,20 +279,21 @@ fn on_removed_side(line: &[[f64; 2]], x: Point2<f64>) -> bool {
 
 impl FatigueModel {
     /// The end of a computed cycle: its damage, and the jump's (`jump` cycles of it, the run at
-    /// `cycles_done` after it), added to every point; the first initiation located below the
+    /// `cycles_done` after it; less than one where the pass applied part of a cycle's wear, see
+    /// [`crate::wear::fractional_update`]), added to every point; the first initiation located below the
     /// `worn` surfaces of the body; the points those surfaces passed retired (after the jump's
     /// damage: a point passed within the jump is counted through it). The cycle's history is
     /// consumed.
     pub fn close_cycle(
         &self,
         state: &mut FatigueState,
-        cycles_done: u64,
-        jump: u64,
+        cycles_done: f64,
+        jump: f64,
         worn: &[&[[f64; 2]]],
     ) -> Result<(), FatigueError> {
         let history = std::mem::take(&mut state.history);
         let initiated = state.initiation.is_some();
-        state.last = self.cycle_damage(&history, cycles_done.saturating_sub(jump), jump, state)?;
+        state.last = self.cycle_damage(&history, (cycles_done - jump).max(0.0), jump, state)?;
         if let Some(first) = state.initiation.as_mut().filter(|_| !initiated) {
             let x = self.points[first.point].position;
             first.depth = distance_to_polylines(worn, x);

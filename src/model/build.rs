@@ -708,6 +708,8 @@ impl ModelBuilder {
             scheme: self.wear_scheme,
             smoothing: self.wear_smoothing,
             ratcheting_tolerance: self.ratcheting_tolerance,
+            // A repeated pass over a cycle would advance a yielding body's history.
+            min_fraction: if self.materials.iter().any(|m| m.has_state()) { 1.0 } else { self.wear_min_fraction },
         };
         for (name, law, coefficient, max_depth) in &self.wear_cuts {
             let Some(surface) = self.free_cut_index(name) else {

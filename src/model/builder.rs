@@ -87,6 +87,7 @@ pub struct ModelBuilder {
     pub(super) wear_jump: crate::wear::JumpPolicy,
     pub(super) wear_scheme: crate::wear::JumpScheme,
     pub(super) wear_smoothing: f64,
+    pub(super) wear_min_fraction: f64,
     pub(super) ratcheting_tolerance: f64,
     pub(super) ghost_penalty: f64,
     pub(super) contacts: Vec<ContactSpec>,
@@ -118,6 +119,7 @@ impl ModelBuilder {
             wear_jump: crate::wear::JumpPolicy::default(),
             wear_scheme: crate::wear::JumpScheme::default(),
             wear_smoothing: crate::wear::DEFAULT_SMOOTHING,
+            wear_min_fraction: crate::wear::DEFAULT_MIN_FRACTION,
             ratcheting_tolerance: crate::wear::DEFAULT_RATCHETING_TOLERANCE,
             fatigue: None,
         }
@@ -197,6 +199,12 @@ impl ModelBuilder {
     /// Wear-rate smoothing length in segments (see [`crate::wear::smooth_rate`]; 0: none).
     pub fn set_wear_smoothing(&mut self, segments: f64) {
         self.wear_smoothing = segments;
+    }
+
+    /// Smallest fraction of a cycle's wear one update may apply (see
+    /// [`crate::wear::WearModel::min_fraction`]; 1: whole cycles only).
+    pub fn set_wear_min_fraction(&mut self, fraction: f64) {
+        self.wear_min_fraction = fraction;
     }
 
     /// Largest net plastic strain a cycle jump may drop at a point (see

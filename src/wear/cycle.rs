@@ -16,7 +16,7 @@
 //! state lives in [`WearState`], which a checkpoint saves.
 
 use super::{
-    bounded_implicit_jump, depth_increment, next_jump, pairing_position, prediction_cap, swept_step_wear,
+    bounded_implicit_jump, depth_increment, fractional_update, next_jump, FractionBounds, pairing_position, prediction_cap, swept_step_wear,
     vertex_measure, wear_coupling, wearing_resolution, worn_vertices, ControllerState, JumpContact, JumpOperator,
     JumpPolicy, JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel, WearSide, PRESSURE_PREDICTION_TOLERANCE,
 };
@@ -37,8 +37,14 @@ pub struct WearState {
     pub computed_cycles: u64,
     /// Increments of the current cycle that have converged.
     pub increment: usize,
-    /// Jump `dN` the current cycle's wear is applied with.
+    /// Jump `dN` the current cycle's wear is applied with: cycles the last update completed (0
+    /// for an update that applied only part of a cycle's wear, see `cycle_fraction`).
     pub jump: u64,
+    /// The part of the current cycle's wear that earlier passes over it applied (0 <= f < 1):
+    /// wear so fast that one cycle's would move the pressure by more than the adaptive bound is
+    /// applied in parts, the cycle computed again on the worn geometry after each (see
+    /// [`crate::wear::fractional_update`]).
+    pub cycle_fraction: f64,
     /// Current vertices (reference configuration of the host).
     pub vertices: Vec<Vec<[f64; 2]>>,
     /// Accumulated wear depth per vertex.
@@ -371,12 +377,16 @@ pub fn apply_cycle_wear(scene: &WearScene<'_>, wear: &mut WearState, count: u64,
     if jump && wear.computed_cycles == 0 {
         check_something_wears(scene, &cycle.rates, count)?;
     }
-    let (volumes, works, rates) = applied_cycle_wear(scene, wear, &cycle, linearised, &mut dn);
+    let mut size = UpdateSize { dn, fraction: 1.0 };
+    let (volumes, works, rates) = applied_cycle_wear(scene, wear, &cycle, linearised, &mut size);
+    let (mut dn, fraction) = (size.dn, size.fraction);
     wear.cycle_jumps.clear();
     wear.cycle_steps = 0;
+    // Cycles of wear this update applies: the jump, or a part of one cycle.
+    let scale = if fraction < 1.0 { fraction } else { dn as f64 };
     for (k, ws) in scene.model.surfaces.iter().enumerate() {
         let measure = &cycle.measures[k];
-        let inc = depth_increment(&rates[k], measure, dn);
+        let inc = depth_increment(&rates[k], measure, scale);
         let verts: Vec<Point2<f64>> = wear.vertices[k].iter().map(|p| Point2::new(p[0], p[1])).collect();
         let moved = worn_vertices(&verts, scene.surfaces[ws.surface].base.closed, &inc);
         for (d, (i, a)) in wear.depth[k].iter_mut().zip(inc.iter().zip(measure)) {
@@ -387,7 +397,7 @@ pub fn apply_cycle_wear(scene: &WearScene<'_>, wear: &mut WearState, count: u64,
         let deepest = wear.depth[k].iter().fold(0.0_f64, |a, &b| a.max(b));
         if !deepest.is_finite() || deepest > ws.max_depth {
             return Err(WearError {
-                cycle: wear.cycle + dn,
+                cycle: wear.cycle + if fraction < 1.0 { 1 } else { dn },
                 surface: ws.name.clone(),
                 msg: format!(
                     "wear depth {deepest:.6e} passes max_depth = {} (the band of fixed points prepared for it): \
@@ -397,12 +407,22 @@ pub fn apply_cycle_wear(scene: &WearScene<'_>, wear: &mut WearState, count: u64,
             });
         }
         wear.vertices[k] = moved.iter().map(|p| [p.x, p.y]).collect();
-        wear.worn_area[k] += dn as f64 * volumes[k].iter().sum::<f64>();
-        wear.work[k] += dn as f64 * works[k];
+        wear.worn_area[k] += scale * volumes[k].iter().sum::<f64>();
+        wear.work[k] += scale * works[k];
         wear.cycle_volume[k].iter_mut().for_each(|v| *v = 0.0);
         wear.cycle_work[k] = 0.0;
     }
     if jump {
+        // A part of a cycle's wear completes the cycle when the parts sum to one (they are
+        // powers of two: the sum is exact).
+        if fraction < 1.0 {
+            wear.cycle_fraction += fraction;
+            if wear.cycle_fraction >= 1.0 {
+                wear.cycle_fraction = 0.0;
+            } else {
+                dn = 0;
+            }
+        }
         wear.cycle += dn;
         wear.computed_cycles += 1;
         wear.jump = dn;
@@ -411,14 +431,21 @@ pub fn apply_cycle_wear(scene: &WearScene<'_>, wear: &mut WearState, count: u64,
     Ok(())
 }
 
+/// How much wear one update applies: `dn` cycles of the computed cycle's, or (`fraction` < 1) a
+/// part of one cycle's (see [`crate::wear::fractional_update`]).
+struct UpdateSize {
+    dn: u64,
+    fraction: f64,
+}
+
 /// The cycle's wear volumes, works and rates as applied (see [`apply_cycle_wear`]), and the
-/// jump `dn` the implicit correction settles on.
+/// jump `dn` (or the fraction of a cycle) the implicit correction settles on.
 fn applied_cycle_wear(
     scene: &WearScene<'_>,
     wear: &mut WearState,
     cycle: &CycleRates,
     linearised: bool,
-    dn: &mut u64,
+    size: &mut UpdateSize,
 ) -> (Vec<Vec<f64>>, Vec<f64>, Vec<Vec<f64>>) {
     // The cycle's wear volumes and work as applied: the computed ones (explicit), or
     // (implicit) those at the end-of-jump pressure. A computed cycle not jumped over (dN = 1)
@@ -428,17 +455,20 @@ fn applied_cycle_wear(
     // past 2 (accelerated coefficients reach hundreds: the contact rests on islands), implicit
     // decays at any `a`, and the two agree to `a^2` where `a` is small.
     if linearised {
-        match implicit_correction(scene, wear, cycle, dn) {
+        match implicit_correction(scene, wear, cycle, size) {
             Some((volumes, works)) => {
                 let rates = cycle.of_volumes(&volumes);
                 // What the next computed cycle should find (checked by `prediction_cap`).
-                if *dn > 1 {
+                if size.dn > 1 {
                     wear.controller.predicted_area_rate = volumes.iter().map(|v| v.iter().sum()).collect();
                 }
                 (volumes, works, rates)
             }
-            None if *dn == 1 => {
-                // A singular linearisation: the cycle as computed (explicit).
+            None if size.dn == 1 => {
+                // A singular linearisation: the cycle as computed (explicit), the rest of it
+                // if passes over it applied a part already.
+                size.fraction = 1.0 - wear.cycle_fraction;
+                wear.controller.last_fraction = 0.0;
                 wear.controller.forget_prediction();
                 (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates.clone())
             }
@@ -448,13 +478,17 @@ fn applied_cycle_wear(
                     "implicit wear jump: the linearised interface system is singular (a contact row with no \
                      stiffness); this cycle's wear is applied as computed, without a jump"
                 );
-                *dn = 1;
+                size.dn = 1;
                 wear.controller.last_jump = 1;
+                size.fraction = 1.0 - wear.cycle_fraction;
+                wear.controller.last_fraction = 0.0;
                 wear.controller.forget_prediction();
                 (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates.clone())
             }
         }
     } else {
+        size.fraction = 1.0 - wear.cycle_fraction;
+        wear.controller.last_fraction = 0.0;
         wear.controller.forget_prediction();
         (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates.clone())
     }
@@ -549,8 +583,9 @@ fn implicit_correction(
     scene: &WearScene<'_>,
     wear: &mut WearState,
     cycle: &CycleRates,
-    dn: &mut u64,
+    size: &mut UpdateSize,
 ) -> Option<(Vec<Vec<f64>>, Vec<f64>)> {
+    let dn = &mut size.dn;
     let jumps = std::mem::take(&mut wear.cycle_jumps);
     let coefficients: Vec<f64> = scene.model.surfaces.iter().map(|ws| ws.coefficient).collect();
     let surfaces = jump_surfaces(&jumps, cycle, &coefficients);
@@ -590,7 +625,30 @@ fn implicit_correction(
             }
         }
     }
+    // Parts of a cycle's wear: while a cycle's wear is being applied in parts (or the last
+    // update was one), the next update is at most the rest of the cycle.
+    let parts = match scene.model.jump {
+        JumpPolicy::Adaptive { pressure_change, .. } if scene.model.min_fraction < 1.0 => Some(pressure_change),
+        _ => None,
+    };
+    if parts.is_some() && (wear.cycle_fraction > 0.0 || controller.last_fraction > 0.0) {
+        *dn = 1;
+    }
     let (n, dp) = bounded_implicit_jump(scene.model.jump, &mut controller, *dn, &contact.pressure, &weights, &solve)?;
+    let (fraction, dp) = match parts {
+        Some(pressure_change) if n == 1 => {
+            let bounds = FractionBounds {
+                remaining: 1.0 - wear.cycle_fraction,
+                min_fraction: scene.model.min_fraction,
+                whole: Some(dp),
+            };
+            let solve_part = |f: f64| operator.fractional_contact_change(f, &contact);
+            fractional_update(pressure_change, &mut controller, bounds, &contact.pressure, &weights, &solve_part)?
+        }
+        _ => (1.0, dp),
+    };
+    size.fraction = fraction;
+    let dn = &mut size.dn;
     if n > 1 {
         controller.predicted = all_pressure;
         let nrows = scene.contact.rows.len();
@@ -610,6 +668,7 @@ fn implicit_correction(
         cycle = wear.cycle,
         proposed = *dn,
         jump = n,
+        fraction = size.fraction,
         pressure_change = (dp.iter().zip(&weights).map(|(d, w)| w * d * d).sum::<f64>()
             / contact.pressure.iter().zip(&weights).map(|(p, w)| w * p * p).sum::<f64>())
         .sqrt(),
