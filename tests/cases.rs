@@ -831,7 +831,12 @@ fn rounded_punch_in_fractions_of_a_cycle_wears_a_flat_groove_at_any_increment_co
         den += d32[i].powi(2);
     }
     assert!((num / den).sqrt() < INCREMENTS_AGREE, "16 against 32 increments: L2 {}", (num / den).sqrt());
-    assert!((deepest(&d16) / deepest(&d32) - 1.0).abs() < INCREMENTS_AGREE, "deepest {} {}", deepest(&d16), deepest(&d32));
+    assert!(
+        (deepest(&d16) / deepest(&d32) - 1.0).abs() < INCREMENTS_AGREE,
+        "deepest {} {}",
+        deepest(&d16),
+        deepest(&d32)
+    );
 }
 
 /// Reciprocating sliding wear under a free rounded punch, pressure-loaded with no platen

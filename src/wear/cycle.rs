@@ -16,9 +16,10 @@
 //! state lives in [`WearState`], which a checkpoint saves.
 
 use super::{
-    bounded_implicit_jump, depth_increment, fractional_update, next_jump, FractionBounds, pairing_position, prediction_cap, swept_step_wear,
-    vertex_measure, wear_coupling, wearing_resolution, worn_vertices, ControllerState, JumpContact, JumpOperator,
-    JumpPolicy, JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel, WearSide, PRESSURE_PREDICTION_TOLERANCE,
+    bounded_implicit_jump, depth_increment, fractional_update, next_jump, pairing_position, prediction_cap,
+    swept_step_wear, vertex_measure, wear_coupling, wearing_resolution, worn_vertices, ControllerState, FractionBounds,
+    JumpContact, JumpOperator, JumpPolicy, JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel, WearSide,
+    PRESSURE_PREDICTION_TOLERANCE,
 };
 use crate::contact::ContactSet;
 use crate::fem::material::PlasticState;
@@ -572,6 +573,35 @@ fn open_row_gaps(scene: &WearScene<'_>, sens: &GapSensitivity, u: &[f64]) -> Vec
         .collect()
 }
 
+/// The jump `dn` capped by the last implicit jump's prediction against this computed cycle:
+/// the pressure of every contact row at every increment (`all_pressure`, over `increments`
+/// stacked increments) and the worn-area rate of each surface (see [`prediction_cap`]).
+fn capped_by_last_prediction(
+    scene: &WearScene<'_>,
+    wear: &WearState,
+    controller: &ControllerState,
+    all_pressure: &[f64],
+    increments: usize,
+    mut dn: u64,
+) -> u64 {
+    if let JumpPolicy::Adaptive { prediction_tolerance, .. } = scene.model.jump {
+        let area_rate: Vec<f64> = wear.cycle_volume.iter().map(|v| v.iter().sum()).collect();
+        let (last, ones) = (controller.last_jump, vec![1.0; area_rate.len()]);
+        let phi: Vec<f64> = (0..increments).flat_map(|_| scene.contact.phi.iter().copied()).collect();
+        let pressure_check =
+            prediction_cap(&controller.predicted, all_pressure, &phi, last, PRESSURE_PREDICTION_TOLERANCE, 2);
+        let area_check =
+            prediction_cap(&controller.predicted_area_rate, &area_rate, &ones, last, prediction_tolerance, 1);
+        for (what, check) in [("pressure", pressure_check), ("area rate", area_check)] {
+            if let Some((error, cap)) = check {
+                tracing::debug!(cycle = wear.cycle, what, error, cap, proposed = dn, "implicit jump: last prediction");
+                dn = dn.min(cap);
+            }
+        }
+    }
+    dn
+}
+
 /// The implicit jump's cycle volumes and works per surface (the computed cycle's, each
 /// increment's row work moved by its change at the end-of-jump pressure, never below zero: the
 /// wear balance holds exactly), and the jump after the controller's pressure-change bound.
@@ -610,21 +640,7 @@ fn implicit_correction(
     // The last jump's prediction against this cycle: the pressure of every contact row at
     // every increment, the worn-area rate of each surface.
     let all_pressure: Vec<f64> = jumps.iter().flat_map(|j| j.all_pressure.iter().copied()).collect();
-    if let JumpPolicy::Adaptive { prediction_tolerance, .. } = scene.model.jump {
-        let area_rate: Vec<f64> = wear.cycle_volume.iter().map(|v| v.iter().sum()).collect();
-        let (last, ones) = (controller.last_jump, vec![1.0; area_rate.len()]);
-        let phi: Vec<f64> = (0..jumps.len()).flat_map(|_| scene.contact.phi.iter().copied()).collect();
-        let pressure_check =
-            prediction_cap(&controller.predicted, &all_pressure, &phi, last, PRESSURE_PREDICTION_TOLERANCE, 2);
-        let area_check =
-            prediction_cap(&controller.predicted_area_rate, &area_rate, &ones, last, prediction_tolerance, 1);
-        for (what, check) in [("pressure", pressure_check), ("area rate", area_check)] {
-            if let Some((error, cap)) = check {
-                tracing::debug!(cycle = wear.cycle, what, error, cap, proposed = *dn, "implicit jump: last prediction");
-                *dn = (*dn).min(cap);
-            }
-        }
-    }
+    *dn = capped_by_last_prediction(scene, wear, &controller, &all_pressure, jumps.len(), *dn);
     // Parts of a cycle's wear: while a cycle's wear is being applied in parts (or the last
     // update was one), the next update is at most the rest of the cycle.
     let parts = match scene.model.jump {

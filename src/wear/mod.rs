@@ -1299,7 +1299,11 @@ pub fn fractional_update(
     while mean_square(&dp) > allowed && f > floor {
         f = (0.5 * f).max(floor);
         dp = solve(f)?;
-        tracing::trace!(fraction = f, change = mean_square(&dp) / mean_square(pressure), "fractional wear update trial");
+        tracing::trace!(
+            fraction = f,
+            change = mean_square(&dp) / mean_square(pressure),
+            "fractional wear update trial"
+        );
     }
     c.last_fraction = if f == remaining && remaining == 1.0 { 0.0 } else { f };
     Some((f, dp))
