@@ -665,7 +665,8 @@ fn implicit_correction(
     };
     size.fraction = fraction;
     let dn = &mut size.dn;
-    if n > 1 {
+    if n > 1 || fraction < 1.0 {
+        // What the next computed cycle (or the next pass over this one) should find.
         controller.predicted = all_pressure;
         let nrows = scene.contact.rows.len();
         let mut first = 0;
