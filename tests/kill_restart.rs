@@ -188,8 +188,17 @@ fn checkpoint_bits(file: &Path, step: usize) -> Vec<u64> {
     for a in ["cycle", "computed_cycles", "increment", "cycle_steps", "jump", "last_jump", "jump_before"] {
         b.push(w.attr(a).unwrap().read_scalar::<u64>().unwrap());
     }
-    b.push(w.attr("decay").unwrap().read_scalar::<f64>().unwrap().to_bits());
+    for a in ["decay", "last_fraction", "cycle_fraction"] {
+        b.push(w.attr(a).unwrap().read_scalar::<f64>().unwrap().to_bits());
+    }
     b
+}
+
+/// The part of a cycle's wear applied so far at the checkpoint of `step` (0 between cycles).
+fn checkpoint_cycle_fraction(file: &Path, step: usize) -> f64 {
+    let f = hdf5::File::open(file).unwrap();
+    let w = f.group(&format!("steps/{step:06}/checkpoint/wear")).unwrap();
+    w.attr("cycle_fraction").unwrap().read_scalar::<f64>().unwrap()
 }
 
 /// kill -9 at five moments of a wear run with adaptive cycle jumps (the McColl fretting case
@@ -240,6 +249,21 @@ fn kill_minus_nine_during_elastic_plastic_wear_then_resume_is_bit_identical() {
     kill_during_wear("mccoll_j2", "cycles = 1000", 60, &[]);
 }
 
+/// The same during wear in fractions of a cycle (`sliding_wear`, k = 1e-4, 4 cycles, its own
+/// 16 increments, `min_fraction = 1/256`: the first cycles' wear, 8 um against the contact's
+/// compliance, is applied in 1/32 to 1/2 parts, each cycle recomputed on the worn geometry):
+/// resumes from checkpoints between two parts (the part applied so far and the last part's size
+/// and predicted pressure are in the state), bit for bit.
+#[test]
+fn kill_minus_nine_during_wear_in_fractions_of_a_cycle_then_resume_is_bit_identical() {
+    kill_during_wear(
+        "sliding_wear",
+        "cycles = 20",
+        4,
+        &[("[steps]", "[cycle_jump]\nmin_fraction = 0.00390625\n\n[steps]")],
+    );
+}
+
 /// kill -9 at five moments of the wear case `name` (its `cycles` line replaced to run
 /// `cycles`, on coarser meshes, a checkpoint every step, `edits` applied), then `--restart`.
 fn kill_during_wear(name: &str, cycles_line: &str, cycles: u64, edits: &[(&str, &str)]) {
@@ -253,11 +277,13 @@ fn kill_during_wear(name: &str, cycles_line: &str, cycles: u64, edits: &[(&str, 
         .replace("divisions = [30, 160]", "divisions = [14, 60]")
         .replace("divisions = [120, 30]", "divisions = [50, 12]")
         .replace(cycles_line, &format!("cycles = {cycles}"))
-        .replace("checkpoint_every = 100", "checkpoint_every = 1");
+        .replace("checkpoint_every = 100", "checkpoint_every = 1")
+        .replace("checkpoint_every = 80", "checkpoint_every = 1");
     for (from, to) in edits {
         text = text.replace(from, to);
     }
-    assert!(text.contains(&format!("cycles = {cycles}")) && text.contains("divisions = [14, 60]"));
+    assert!(text.contains(&format!("cycles = {cycles}")) && text.contains("checkpoint_every = 1\n"));
+    assert!(name != "mccoll_fretting" || text.contains("divisions = [14, 60]"));
     let case = tmpfile(&format!("kill_wear{tag}.toml"));
     std::fs::write(&case, text).unwrap();
     let exe = env!("CARGO_BIN_EXE_mortex");
@@ -279,7 +305,7 @@ fn kill_during_wear(name: &str, cycles_line: &str, cycles: u64, edits: &[(&str, 
         );
         jumps.len()
     };
-    let mut resumed_from = vec![];
+    let (mut resumed_from, mut fractions_at_resume) = (vec![], vec![]);
     for (i, fraction) in [0.15, 0.32, 0.5, 0.67, 0.85].into_iter().enumerate() {
         let Some((k, cont)) =
             kill_then_resume(&case, &format!("kill_wear{tag}_{i}"), wall.mul_f64(fraction), i == 1, k_ref)
@@ -300,9 +326,20 @@ fn kill_during_wear(name: &str, cycles_line: &str, cycles: u64, edits: &[(&str, 
         let n = k_ref - k;
         assert_eq!(a[a.len() - n..], b[b.len() - n..], "kill {i}: resumed from step {k}: iterations differ");
         resumed_from.push(k);
+        if i != 1 {
+            // The killed run's file (the damaged one excepted) holds the checkpoint resumed from.
+            let partial = PathBuf::from(format!("{}.partial", tmpfile(&format!("kill_wear{tag}_{i}.h5")).display()));
+            fractions_at_resume.push(checkpoint_cycle_fraction(&partial, k));
+        }
     }
     eprintln!("wear run{tag} ({computed} wear updates, {k_ref} steps, {wall:?}): resumed from steps {resumed_from:?}");
     assert!(resumed_from.len() >= 3, "most kills must land mid-run (resumed from {resumed_from:?})");
+    if edits.iter().any(|e| e.1.contains("min_fraction")) {
+        assert!(
+            fractions_at_resume.iter().filter(|&&f| f > 0.0).count() >= 2,
+            "resumes must start between two fractions of a cycle's wear: fractions applied {fractions_at_resume:?}"
+        );
+    }
     clean_scratch();
 }
 
