@@ -292,7 +292,7 @@ fn read_ghost(c: &hdf5::Group, num_dofs: usize) -> Result<crate::state::GhostBir
 /// The wear state under `checkpoint/wear`: counters as attributes, per surface `i` the datasets
 /// `vertices_i` `(n, 2)`, `depth_i`, `cycle_volume_i` `(n)`, per surface `cycle_work`,
 /// `worn_area`, `work`, and the jump controller (`last_rate`, `last_change`, `predicted`, `predicted_area_rate`, attributes
-/// `last_jump`, `jump_before`, `decay`, `last_fraction`; `cycle_fraction`), per increment `j` of the cycle where the next computed
+/// `last_jump`, `jump_before`, `decay`, `last_fraction`, `fraction_scale`; `cycle_fraction`), per increment `j` of the cycle where the next computed
 /// cycle starts: the finite-sliding pairing guess `pairing_guess_j` and the sets its step
 /// starts from, `start_active_j` and `start_status_j` (see [`read_start_sets`]; attributes
 /// `pairing_guesses`, `start_sets`: their counts), and the implicit jump's linearisation of each
@@ -328,6 +328,7 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
         predicted,
         predicted_area_rate,
         last_fraction,
+        fraction_scale,
     } = controller;
     let g = c.create_group("wear")?;
     for (name, v) in [
@@ -360,6 +361,7 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
     super::write_attr(&g, "decay", decay)?;
     super::write_attr(&g, "cycle_fraction", cycle_fraction)?;
     super::write_attr(&g, "last_fraction", last_fraction)?;
+    super::write_attr(&g, "fraction_scale", fraction_scale)?;
     super::write_attr(&g, "pairing_guesses", &(pairing_guess.len() as u64))?;
     for (j, u) in pairing_guess.iter().enumerate() {
         vec1(&format!("pairing_guess_{j}"), u)?;
@@ -628,6 +630,7 @@ fn read_wear(c: &hdf5::Group, model: &Model) -> Result<crate::state::WearState, 
         predicted_area_rate,
         // (A checkpoint written before cycles' wear was applied in parts: whole cycles.)
         last_fraction: g.attr("last_fraction").and_then(|a| a.read_scalar::<f64>()).unwrap_or(0.0),
+        fraction_scale: g.attr("fraction_scale").and_then(|a| a.read_scalar::<f64>()).unwrap_or(0.0),
     };
     let increment = attr_u64("increment")? as usize;
     // A full literal: a new wear-state field does not compile until it is read here.

@@ -16,10 +16,10 @@
 //! state lives in [`WearState`], which a checkpoint saves.
 
 use super::{
-    bounded_implicit_jump, depth_increment, fractional_update, next_jump, pairing_position, prediction_cap,
-    swept_step_wear, vertex_measure, wear_coupling, wearing_resolution, worn_vertices, ControllerState, FractionBounds,
-    JumpContact, JumpOperator, JumpPolicy, JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel, WearSide,
-    PRESSURE_PREDICTION_TOLERANCE,
+    bounded_implicit_jump, depth_increment, fraction_scale, fractional_update, next_jump, pairing_position,
+    prediction_cap, swept_step_wear, vertex_measure, wear_coupling, wearing_resolution, worn_vertices, ControllerState,
+    FractionBounds, JumpContact, JumpOperator, JumpPolicy, JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel,
+    WearSide, PRESSURE_PREDICTION_TOLERANCE,
 };
 use crate::contact::ContactSet;
 use crate::fem::material::PlasticState;
@@ -575,7 +575,8 @@ fn open_row_gaps(scene: &WearScene<'_>, sens: &GapSensitivity, u: &[f64]) -> Vec
 
 /// The jump `dn` capped by the last implicit jump's prediction against this computed cycle:
 /// the pressure of every contact row at every increment (`all_pressure`, over `increments`
-/// stacked increments) and the worn-area rate of each surface (see [`prediction_cap`]).
+/// stacked increments) and the worn-area rate of each surface (see [`prediction_cap`]); with
+/// the pressure's relative error if it was checked.
 fn capped_by_last_prediction(
     scene: &WearScene<'_>,
     wear: &WearState,
@@ -583,7 +584,8 @@ fn capped_by_last_prediction(
     all_pressure: &[f64],
     increments: usize,
     mut dn: u64,
-) -> u64 {
+) -> (u64, Option<f64>) {
+    let mut pressure_error = None;
     if let JumpPolicy::Adaptive { prediction_tolerance, .. } = scene.model.jump {
         let area_rate: Vec<f64> = wear.cycle_volume.iter().map(|v| v.iter().sum()).collect();
         let (last, ones) = (controller.last_jump, vec![1.0; area_rate.len()]);
@@ -592,6 +594,7 @@ fn capped_by_last_prediction(
             prediction_cap(&controller.predicted, all_pressure, &phi, last, PRESSURE_PREDICTION_TOLERANCE, 2);
         let area_check =
             prediction_cap(&controller.predicted_area_rate, &area_rate, &ones, last, prediction_tolerance, 1);
+        pressure_error = pressure_check.map(|(error, _)| error);
         for (what, check) in [("pressure", pressure_check), ("area rate", area_check)] {
             if let Some((error, cap)) = check {
                 tracing::debug!(cycle = wear.cycle, what, error, cap, proposed = dn, "implicit jump: last prediction");
@@ -599,7 +602,7 @@ fn capped_by_last_prediction(
             }
         }
     }
-    dn
+    (dn, pressure_error)
 }
 
 /// The implicit jump's cycle volumes and works per surface (the computed cycle's, each
@@ -640,7 +643,8 @@ fn implicit_correction(
     // The last jump's prediction against this cycle: the pressure of every contact row at
     // every increment, the worn-area rate of each surface.
     let all_pressure: Vec<f64> = jumps.iter().flat_map(|j| j.all_pressure.iter().copied()).collect();
-    *dn = capped_by_last_prediction(scene, wear, &controller, &all_pressure, jumps.len(), *dn);
+    let pressure_error;
+    (*dn, pressure_error) = capped_by_last_prediction(scene, wear, &controller, &all_pressure, jumps.len(), *dn);
     // Parts of a cycle's wear: while a cycle's wear is being applied in parts (or the last
     // update was one), the next update is at most the rest of the cycle.
     let parts = match scene.model.jump {
@@ -649,6 +653,10 @@ fn implicit_correction(
     };
     if parts.is_some() && (wear.cycle_fraction > 0.0 || controller.last_fraction > 0.0) {
         *dn = 1;
+        // The last fraction's prediction against this pass sets the next fraction's bound.
+        if let Some(error) = pressure_error {
+            controller.fraction_scale = fraction_scale(controller.fraction_scale, error, PRESSURE_PREDICTION_TOLERANCE);
+        }
     }
     let (n, dp) = bounded_implicit_jump(scene.model.jump, &mut controller, *dn, &contact.pressure, &weights, &solve)?;
     let (fraction, dp) = match parts {
@@ -659,7 +667,9 @@ fn implicit_correction(
                 whole: Some(dp),
             };
             let solve_part = |f: f64| operator.fractional_contact_change(f, &contact);
-            fractional_update(pressure_change, &mut controller, bounds, &contact.pressure, &weights, &solve_part)?
+            let scale = if controller.fraction_scale > 0.0 { controller.fraction_scale } else { 1.0 };
+            let bound = pressure_change * scale;
+            fractional_update(bound, &mut controller, bounds, &contact.pressure, &weights, &solve_part)?
         }
         _ => (1.0, dp),
     };
