@@ -152,8 +152,8 @@ pub struct WearModel {
 /// Fractions (`[cycle_jump] min_fraction`, 1/256 is a good floor) follow the path of a realistic
 /// coefficient when one cycle's wear is large against the contact's compliance (accelerated
 /// coefficients), at the price of recomputing a cycle several times: on the rounded punch (12 um
-/// of wear per cycle against 0.6 um of elastic approach) about ten passes per cycle, 19x the
-/// wall time, for a smooth groove that 16 and 32 increments give alike to 0.2% (L2).
+/// of wear per cycle against 0.6 um of elastic approach) about three passes per cycle, 5x the
+/// wall time, for a smooth groove that 16 and 32 increments give alike to 0.25% (L2).
 pub const DEFAULT_MIN_FRACTION: f64 = 1.0;
 
 /// Default ratcheting tolerance: 1e-4 per jump (5% of the yield strain of a 400 MPa steel).
