@@ -474,10 +474,11 @@ fn applied_cycle_wear(
                 (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates.clone())
             }
             None => {
+                // The facts only: which row lacks stiffness is not checked here.
                 tracing::warn!(
                     cycle = wear.cycle,
-                    "implicit wear jump: the linearised interface system is singular (a contact row with no \
-                     stiffness); this cycle's wear is applied as computed, without a jump"
+                    "implicit wear jump: the factorisation of the linearised interface system failed (singular \
+                     or not finite); this cycle's wear is applied as computed, without a jump"
                 );
                 size.dn = 1;
                 wear.controller.last_jump = 1;
