@@ -391,6 +391,24 @@ fn sliding_wear_case() {
     assert!((rate / (1.5 * K * P) - 1.0).abs() < 0.05, "late wear rate {rate} against 1.5 k P");
     let deepest = depth.row(last).iter().fold(0.0_f64, |a, &b| a.max(b));
     assert!(deepest > 2.5 * LAYER, "groove {deepest} mm deep: less than 2.5 layers of {LAYER}");
+    assert_fields_every(&out, 80);
+}
+
+/// Full fields are written every `every` steps and at the last step, however many steps a wear
+/// run computes: fractions of a cycle compute cycles again (steps beyond the schedule's count),
+/// and each step past that count once wrote its fields (10 MB a step on the rounded punch).
+fn assert_fields_every(out: &Path, every: usize) {
+    let f = hdf5::File::open(out).unwrap();
+    let steps = f.dataset("series/iterations").unwrap().read_raw::<f64>().unwrap().len();
+    let with_fields = f
+        .group("steps")
+        .unwrap()
+        .member_names()
+        .unwrap()
+        .iter()
+        .filter(|g| f.link_exists(&format!("steps/{g}/contacts")))
+        .count();
+    assert_eq!(with_fields, steps / every + usize::from(steps % every != 0), "{steps} steps");
 }
 
 /// Reciprocating sliding of a pin on a plate (`pin_on_plate`, see its header), a stroke eight

@@ -194,11 +194,13 @@ fn checkpoint_bits(file: &Path, step: usize) -> Vec<u64> {
     b
 }
 
-/// The part of a cycle's wear applied so far at the checkpoint of `step` (0 between cycles).
-fn checkpoint_cycle_fraction(file: &Path, step: usize) -> f64 {
-    let f = hdf5::File::open(file).unwrap();
-    let w = f.group(&format!("steps/{step:06}/checkpoint/wear")).unwrap();
-    w.attr("cycle_fraction").unwrap().read_scalar::<f64>().unwrap()
+/// The part of a cycle's wear applied so far at the checkpoint of `step` (0 between cycles), or
+/// `None` where the killed run's file cannot be read there: a kill during an HDF5 metadata
+/// update may damage it, and the resume then came from the side copy of its last checkpoint.
+fn checkpoint_cycle_fraction(file: &Path, step: usize) -> Option<f64> {
+    let f = hdf5::File::open(file).ok()?;
+    let w = f.group(&format!("steps/{step:06}/checkpoint/wear")).ok()?;
+    w.attr("cycle_fraction").ok()?.read_scalar::<f64>().ok()
 }
 
 /// kill -9 at five moments of a wear run with adaptive cycle jumps (the McColl fretting case
@@ -329,7 +331,7 @@ fn kill_during_wear(name: &str, cycles_line: &str, cycles: u64, edits: &[(&str, 
         if i != 1 {
             // The killed run's file (the damaged one excepted) holds the checkpoint resumed from.
             let partial = PathBuf::from(format!("{}.partial", tmpfile(&format!("kill_wear{tag}_{i}.h5")).display()));
-            fractions_at_resume.push(checkpoint_cycle_fraction(&partial, k));
+            fractions_at_resume.extend(checkpoint_cycle_fraction(&partial, k));
         }
     }
     eprintln!("wear run{tag} ({computed} wear updates, {k_ref} steps, {wall:?}): resumed from steps {resumed_from:?}");

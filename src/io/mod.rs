@@ -664,7 +664,12 @@ impl ResultWriter {
         let Some(file) = self.file.as_ref() else {
             return Ok(());
         };
-        let full = report.step % self.fields_every == 0 || report.step >= self.last_step || wear_run_ends(model, state);
+        // A cycled wear run's step count is not the schedule's: jumps skip cycles and fractions
+        // of a cycle compute one again, so only its wear state says where it ends.
+        let cycled_wear = !model.wear.is_empty() && model.cycle.is_some();
+        let full = report.step % self.fields_every == 0
+            || (!cycled_wear && report.step >= self.last_step)
+            || wear_run_ends(model, state);
         let checkpoint = self.checkpoint_every > 0 && report.step % self.checkpoint_every == 0;
         let fields: Vec<Vec<crate::contact::ContactNodeState>> = (0..disc.contact.pairs.len())
             .map(|pair| crate::contact::contact_field(&disc.contact, &state.contact_unknowns(), pair))

@@ -148,13 +148,16 @@ pub struct WearModel {
     pub min_fraction: f64,
 }
 
-/// Default smallest wear fraction of an update: 1, a computed cycle's wear is applied whole.
-/// Fractions (`[cycle_jump] min_fraction`, 1/256 is a good floor) follow the path of a realistic
-/// coefficient when one cycle's wear is large against the contact's compliance (accelerated
-/// coefficients), at the price of recomputing a cycle several times: on the rounded punch (12 um
-/// of wear per cycle against 0.6 um of elastic approach) about three passes per cycle, 5x the
-/// wall time, for a smooth groove that 16 and 32 increments give alike to 0.25% (L2).
-pub const DEFAULT_MIN_FRACTION: f64 = 1.0;
+/// Default smallest wear fraction of an update: 1/256. An adaptive implicit update whose
+/// predicted pressure change exceeds the bound applies half, a quarter, ... of the computed
+/// cycle's wear and computes the cycle again on the worn geometry, so an accelerated coefficient
+/// (one cycle's wear large against the contact's compliance) follows the path of a realistic
+/// one; where a whole cycle's wear stays within the bound (realistic coefficients, fretting)
+/// nothing changes. On the rounded punch (12 um of wear per cycle against 0.6 um of elastic
+/// approach) about three passes per cycle, 5x the wall time of whole cycles, for a smooth groove
+/// that 16 and 32 increments give alike to 0.25% (L2); whole cycles (`min_fraction = 1`) grew
+/// pits there (17% of the depth at 32 increments).
+pub const DEFAULT_MIN_FRACTION: f64 = 1.0 / 256.0;
 
 /// Default ratcheting tolerance: 1e-4 per jump (5% of the yield strain of a 400 MPa steel).
 pub const DEFAULT_RATCHETING_TOLERANCE: f64 = 1e-4;
