@@ -777,7 +777,8 @@ fn fine_zone_meshes_resolve_the_contact_zone_evenly() {
 }
 
 /// Reciprocating sliding wear of a punch with rounded edges ten element layers deep
-/// (`rounded_punch_wear`, see its header): the run completes with default step control (its
+/// (`rounded_punch_wear`, see its header): the run completes with default settings, its wear
+/// applied in fractions of a cycle (25 passes for 8 cycles), and default step control (its
 /// first version stopped in the first cycle on a singular interface system, then at 68 um on a
 /// pairing that flipped between two states: a rounding's near-vertical flank paired with the
 /// plate across a third of a millimetre of open space), the groove is deeper than the plate's
@@ -804,7 +805,7 @@ fn rounded_punch_wears_ten_layers_deep() {
 }
 
 /// The rounded punch of `rounded_punch_wear` with wear applied in fractions of a cycle
-/// (`[cycle_jump] min_fraction = 1/256`): one cycle's wear (12 um) is twenty times the
+/// (`[cycle_jump] min_fraction = 1/256`, the default, written out so the scene stays this one): one cycle's wear (12 um) is twenty times the
 /// contact's elastic approach (0.6 um), so applied whole it changes the pressure beyond the
 /// controller's bound and the groove grows pits (whole cycles at 32 increments: 96-113 um over
 /// |x| <= 0.5, 17% of the depth); in fractions each update changes the pressure by at most
@@ -908,7 +909,8 @@ fn assert_free_punch_groove(out: &Path, first_cycle: f64) {
 /// grading); the worn area equals `k int p |ds|` to 1e-10 (one sum split between the
 /// vertices: round-off); the first cycle's worn area `k P S` within 3% (Archard's global
 /// balance; the friction moment tilts the punch at each reversal so its bottom slides beyond
-/// the top's stroke: measured +2.0%, +0.5% without friction). About two minutes: a long study.
+/// the top's stroke: measured +2.0% with whole cycles of wear, +0.6% without friction in
+/// fractions of a cycle, the default). A long study.
 #[test]
 #[ignore]
 fn free_rounded_punch_with_friction_wears_ten_layers_deep() {
