@@ -387,7 +387,10 @@ pub fn apply_cycle_wear(scene: &WearScene<'_>, wear: &mut WearState, count: u64,
     let scale = if fraction < 1.0 { fraction } else { dn as f64 };
     for (k, ws) in scene.model.surfaces.iter().enumerate() {
         let measure = &cycle.measures[k];
-        let inc = depth_increment(&rates[k], measure, scale);
+        // Never negative: wear only removes material, and an implicit update's rate at a vertex
+        // without pressure is zero only to round-off (-3.7e-12 mm lifted an unworn vertex of a
+        // surface lying on its host's edge out of the host: the free rounded punch, mu 0.3).
+        let inc: Vec<f64> = depth_increment(&rates[k], measure, scale).into_iter().map(|d| d.max(0.0)).collect();
         let verts: Vec<Point2<f64>> = wear.vertices[k].iter().map(|p| Point2::new(p[0], p[1])).collect();
         let moved = worn_vertices(&verts, scene.surfaces[ws.surface].base.closed, &inc);
         for (d, (i, a)) in wear.depth[k].iter_mut().zip(inc.iter().zip(measure)) {
