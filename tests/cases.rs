@@ -394,21 +394,49 @@ fn sliding_wear_case() {
     assert_fields_every(&out, 80);
 }
 
-/// Full fields are written every `every` steps and at the last step, however many steps a wear
-/// run computes: fractions of a cycle compute cycles again (steps beyond the schedule's count),
-/// and each step past that count once wrote its fields (10 MB a step on the rounded punch).
+/// Full fields are written every `every` recorded steps of the schedule and at the last step,
+/// however many steps a wear run computes: fractions of a cycle compute a cycle again and
+/// jumps skip cycles. Once, every step past the schedule's count wrote its fields (10 MB a step
+/// on the rounded punch), then every `every` computed steps (884 MB for the free rounded punch
+/// at 32 increments, 60 computed cycles for 6). The schedule position of a step is the ramp's
+/// steps, plus `increments` per cycle before its cycle, plus its increment; fields go where the
+/// furthest position reached passes a multiple of `every` (exact), and never twice at one
+/// position.
 fn assert_fields_every(out: &Path, every: usize) {
     let f = hdf5::File::open(out).unwrap();
-    let steps = f.dataset("series/iterations").unwrap().read_raw::<f64>().unwrap().len();
-    let with_fields = f
+    let read = |name: &str| f.dataset(&format!("series/{name}")).unwrap().read_raw::<f64>().unwrap();
+    let (step, cycle, increment) = (read("step"), read("cycle"), read("increment"));
+    let ramp = cycle.iter().filter(|&&c| c == 0.0).count();
+    let increments = increment.iter().zip(&cycle).filter(|(_, &c)| c > 0.0).fold(0.0_f64, |a, (&i, _)| a.max(i));
+    let position = |k: usize| {
+        if cycle[k] == 0.0 { step[k] as usize } else { ramp + ((cycle[k] - 1.0) * increments + increment[k]) as usize }
+    };
+    let mut reached = 0;
+    let mut expected = vec![];
+    for k in 0..step.len() {
+        if position(k) / every > reached / every || k + 1 == step.len() {
+            expected.push(step[k] as usize);
+        }
+        reached = reached.max(position(k));
+    }
+    let mut with_fields: Vec<usize> = f
         .group("steps")
         .unwrap()
         .member_names()
         .unwrap()
         .iter()
-        .filter(|g| f.link_exists(&format!("steps/{g}/contacts")))
-        .count();
-    assert_eq!(with_fields, steps / every + usize::from(steps % every != 0), "{steps} steps");
+        .filter(|g| {
+            // A body's displacement: checkpoint steps hold the contact fields too.
+            let members = f.group(&format!("steps/{g}")).unwrap().member_names().unwrap();
+            members.iter().any(|m| f.link_exists(&format!("steps/{g}/{m}/displacement")))
+        })
+        .map(|g| g.parse().unwrap())
+        .collect();
+    with_fields.sort_unstable();
+    assert_eq!(with_fields, expected, "{} steps, {} recorded", step.len(), reached);
+    let positions: std::collections::BTreeSet<usize> =
+        with_fields.iter().map(|s| position(step.iter().position(|&v| v as usize == *s).unwrap())).collect();
+    assert_eq!(positions.len(), with_fields.len(), "fields written twice at one schedule position");
 }
 
 /// Reciprocating sliding of a pin on a plate (`pin_on_plate`, see its header), a stroke eight
@@ -783,7 +811,8 @@ fn fine_zone_meshes_resolve_the_contact_zone_evenly() {
 /// pairing that flipped between two states: a rounding's near-vertical flank paired with the
 /// plate across a third of a millimetre of open space), the groove is deeper than the plate's
 /// top ten element layers, and the worn area equals k times the wear work `int p |ds|` (1e-10:
-/// the two are one sum, split between the vertices; a round-off margin).
+/// the two are one sum, split between the vertices; a round-off margin); full fields every 32
+/// recorded steps however often a cycle is computed again (see `assert_fields_every`).
 #[test]
 fn rounded_punch_wears_ten_layers_deep() {
     const K: f64 = 2e-4;
@@ -802,6 +831,7 @@ fn rounded_punch_wears_ten_layers_deep() {
     let deepest = depth.row(last).iter().fold(0.0_f64, |a, &b| a.max(b));
     assert!(deepest > ten_layers, "groove {deepest} mm deep, ten layers {ten_layers}");
     assert!(((area[last] - K * work[last]) / area[last]).abs() < 1e-10, "area {} work {}", area[last], work[last]);
+    assert_fields_every(&out, 32);
 }
 
 /// The rounded punch of `rounded_punch_wear` with wear applied in fractions of a cycle

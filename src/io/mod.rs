@@ -103,8 +103,11 @@ pub struct ResultWriter {
     /// The last this many checkpoints are kept (0: all), and the steps of those written.
     keep_checkpoints: usize,
     checkpoints: std::collections::VecDeque<usize>,
-    /// Full fields every this many output steps (and at the last).
+    /// Full fields every this many output steps (and at the last); a cycled wear run counts
+    /// the schedule's steps, see [`Output::schedule_position`].
     fields_every: usize,
+    /// The furthest schedule position a step has reached (0 before the first).
+    fields_position: Option<usize>,
     last_step: usize,
     last_flush: std::time::Instant,
     /// Per-step series (every step): extendable datasets, one row per step.
@@ -536,6 +539,7 @@ impl ResultWriter {
             keep_checkpoints: 0,
             checkpoints: Default::default(),
             fields_every: 1,
+            fields_position: None,
             last_step: model.times.len(),
             last_flush: std::time::Instant::now(),
             series: Series {
@@ -652,6 +656,22 @@ impl ResultWriter {
         res.map_err(h5err(&self.partial_path, "writing the restart origin"))
     }
 
+    /// Where `report`'s step stands in the case's schedule: its step number, or, in a cycled
+    /// wear run, the ramp's steps plus `increments` per cycle before its cycle plus its
+    /// increment. Fractions of a cycle compute a cycle again and jumps skip cycles, so the
+    /// step numbers of such a run count computed steps, not the path: full fields are written
+    /// where this position first passes a multiple of `fields_every`, once per recorded step
+    /// of the schedule whatever a run computes again.
+    fn schedule_position(model: &Model, report: &StepReport) -> usize {
+        match model.cycle {
+            Some(c) if !model.wear.is_empty() && report.cycle > 0 => {
+                let ramp = model.times.len().saturating_sub(c.count * c.increments);
+                ramp + (report.cycle - 1) * c.increments + report.increment
+            }
+            _ => report.step,
+        }
+    }
+
     /// Appends one converged step (and its checkpoint when the step is a multiple of the
     /// checkpoint interval).
     pub fn write_step(
@@ -667,9 +687,13 @@ impl ResultWriter {
         // A cycled wear run's step count is not the schedule's: jumps skip cycles and fractions
         // of a cycle compute one again, so only its wear state says where it ends.
         let cycled_wear = !model.wear.is_empty() && model.cycle.is_some();
-        let full = report.step % self.fields_every == 0
+        let position = Self::schedule_position(model, report);
+        // The first step written (of a run or a continuation) counts as one past the last.
+        let reached = self.fields_position.unwrap_or(position.saturating_sub(1));
+        let full = position / self.fields_every > reached / self.fields_every
             || (!cycled_wear && report.step >= self.last_step)
             || wear_run_ends(model, state);
+        self.fields_position = Some(reached.max(position));
         let checkpoint = self.checkpoint_every > 0 && report.step % self.checkpoint_every == 0;
         let fields: Vec<Vec<crate::contact::ContactNodeState>> = (0..disc.contact.pairs.len())
             .map(|pair| crate::contact::contact_field(&disc.contact, &state.contact_unknowns(), pair))
