@@ -409,7 +409,11 @@ fn assert_fields_every(out: &Path, every: usize) {
     let ramp = cycle.iter().filter(|&&c| c == 0.0).count();
     let increments = increment.iter().zip(&cycle).filter(|(_, &c)| c > 0.0).fold(0.0_f64, |a, (&i, _)| a.max(i));
     let position = |k: usize| {
-        if cycle[k] == 0.0 { step[k] as usize } else { ramp + ((cycle[k] - 1.0) * increments + increment[k]) as usize }
+        if cycle[k] == 0.0 {
+            step[k] as usize
+        } else {
+            ramp + ((cycle[k] - 1.0) * increments + increment[k]) as usize
+        }
     };
     let mut reached = 0;
     let mut expected = vec![];
@@ -894,13 +898,16 @@ fn rounded_punch_in_fractions_of_a_cycle_wears_a_flat_groove_at_any_increment_co
 /// about a point of its top, it runs with default step control (before, a total force put on
 /// one corner of its top tipped it and the first step failed) through the plate's top ten
 /// element layers; the worn area equals k times the wear work (1e-10: one sum split between
-/// the vertices, a round-off margin); and the first cycle, over the flat plate, wears
-/// `k P S` (Archard's global balance: `S` = 2 mm of stroke; 1% for the elastic slip of the
-/// surfaces and the punch's rocking at the stroke reversals; measured +0.5%).
+/// the vertices, a round-off margin); and the first cycle wears `k P S` (Archard's global
+/// balance: `S` = 2 mm of stroke; 2%: the punch, free to turn, rocks at the stroke reversals and
+/// its bottom slides further than its top, more as it sinks into the groove its first cycle's
+/// passes wear; measured +1.67%, and +1.58% and +1.43% at 32 and 64 increments. The +0.5% once
+/// measured here came from a groove pitted by a failed wear update, see
+/// `free_rounded_punch_grooves_agree_at_16_and_32_increments`).
 #[test]
 fn free_rounded_punch_wears_ten_layers_deep() {
     let out = run_case("rounded_punch_free");
-    assert_free_punch_groove(&out, 0.01);
+    assert_free_punch_groove(&out, 0.02);
 }
 
 /// The checks of the free rounded punch's groove (`rounded_punch_free` and its variants): 6
@@ -928,6 +935,49 @@ fn assert_free_punch_groove(out: &Path, first_cycle: f64) {
     let archard = K * P * STROKE_PER_CYCLE;
     let worn = area[one];
     assert!((worn / archard - 1.0).abs() < first_cycle, "first cycle's worn area {worn} against k P S {archard}");
+}
+
+/// The free rounded punch of `rounded_punch_free` (no friction) at 16 and 32 recorded
+/// increments per cycle: the grooves agree within 2% (the target; L2 over the track |x| <= 1.1
+/// mm and the deepest point). Measured 0.66% L2, 0.97% at the worst point, 101.3 against 101.45
+/// um; 64 increments give 100.97 um, 0.58% L2 from 32. Before, a wear update whose linearised
+/// system failed for the whole cycle (contact sets that cycled, or a singular system) applied
+/// the whole cycle's wear as computed: at one cycle's wear twenty times the contact's elastic
+/// approach that grew pits 20% of the depth at 16 increments (114.8 um, 7.7% L2 from 32); such
+/// an update now halves its part of the cycle until the system solves. About 3.5 + 4 minutes:
+/// a study, `cargo test --release -- --ignored`.
+#[test]
+#[ignore]
+fn free_rounded_punch_grooves_agree_at_16_and_32_increments() {
+    const INCREMENTS_AGREE: f64 = 0.02;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("wear_cases/rounded_punch_free.toml"))
+        .unwrap()
+        .replace("meshes/rounded_punch.msh", &root.join("wear_cases/meshes/rounded_punch.msh").to_string_lossy());
+    assert!(text.contains("friction = 0.0") && text.contains("increments = 16"));
+    let groove = |increments: usize| {
+        let t = text.replace("increments = 16", &format!("increments = {increments}"));
+        let out = run_text(&format!("rounded_punch_free_{increments}"), &t);
+        assert_free_punch_groove(&out, 0.02);
+        scar_and_islands(&out, "plate.top", "track").0
+    };
+    let (d16, d32) = (groove(16), groove(32));
+    let (mut num, mut den) = (0.0, 0.0);
+    for (&(x, a), &(x32, b)) in d16.iter().zip(&d32) {
+        assert_eq!(x, x32, "one plate");
+        if x.abs() <= 1.1 {
+            num += (a - b).powi(2);
+            den += b * b;
+        }
+    }
+    assert!((num / den).sqrt() < INCREMENTS_AGREE, "16 against 32 increments: L2 {}", (num / den).sqrt());
+    let deepest = |d: &[(f64, f64)]| d.iter().fold(0.0_f64, |m, p| m.max(p.1));
+    assert!(
+        (deepest(&d16) / deepest(&d32) - 1.0).abs() < INCREMENTS_AGREE,
+        "deepest {} {}",
+        deepest(&d16),
+        deepest(&d32)
+    );
 }
 
 /// The free rounded punch of `rounded_punch_free` with friction 0.3, the regime that stopped in

@@ -16,10 +16,10 @@
 //! state lives in [`WearState`], which a checkpoint saves.
 
 use super::{
-    bounded_implicit_jump, depth_increment, fraction_scale, fractional_update, next_jump, pairing_position,
-    prediction_cap, swept_step_wear, vertex_measure, wear_coupling, wearing_resolution, worn_vertices, ControllerState,
-    FractionBounds, JumpContact, JumpOperator, JumpPolicy, JumpScheme, JumpSurface, RateFilter, WearLaw, WearModel,
-    WearSide, PRESSURE_PREDICTION_TOLERANCE,
+    bounded_implicit_jump, depth_increment, fraction_floor, fraction_scale, fractional_update, next_jump,
+    pairing_position, prediction_cap, swept_step_wear, vertex_measure, wear_coupling, wearing_resolution,
+    worn_vertices, ControllerState, FractionBounds, JumpContact, JumpOperator, JumpPolicy, JumpScheme, JumpSurface,
+    RateFilter, WearLaw, WearModel, WearSide, PRESSURE_PREDICTION_TOLERANCE,
 };
 use crate::contact::ContactSet;
 use crate::fem::material::PlasticState;
@@ -469,10 +469,22 @@ fn applied_cycle_wear(
                 (volumes, works, rates)
             }
             None if size.dn == 1 => {
-                // A singular linearisation: the cycle as computed (explicit), the rest of it
-                // if passes over it applied a part already.
-                size.fraction = 1.0 - wear.cycle_fraction;
-                wear.controller.last_fraction = 0.0;
+                // No linearised update solved, not even the smallest part: the cycle's wear as
+                // computed (explicit). In parts of a cycle only the smallest part, `a f` below
+                // one where `a` (one cycle's wear against the contact's elastic approach) is
+                // below `1 / min_fraction`; whole, the roughness mode of an accelerated
+                // coefficient grows by `1 - a` (the free rounded punch grew pits 20% deep at
+                // a = 20). Otherwise the rest of the cycle if passes over it applied a part.
+                let remaining = 1.0 - wear.cycle_fraction;
+                let in_parts =
+                    matches!(scene.model.jump, JumpPolicy::Adaptive { .. }) && scene.model.min_fraction < 1.0;
+                size.fraction = if in_parts { fraction_floor(scene.model.min_fraction, remaining) } else { remaining };
+                tracing::debug!(
+                    cycle = wear.cycle,
+                    fraction = size.fraction,
+                    "linearised wear update failed; applied as computed"
+                );
+                wear.controller.last_fraction = if size.fraction < 1.0 { size.fraction } else { 0.0 };
                 wear.controller.forget_prediction();
                 (wear.cycle_volume.clone(), wear.cycle_work.clone(), cycle.rates.clone())
             }
@@ -492,6 +504,12 @@ fn applied_cycle_wear(
             }
         }
     } else {
+        tracing::debug!(
+            cycle = wear.cycle,
+            steps = wear.cycle_steps,
+            linearised = wear.cycle_jumps.len(),
+            "explicit cycle"
+        );
         size.fraction = 1.0 - wear.cycle_fraction;
         wear.controller.last_fraction = 0.0;
         wear.controller.forget_prediction();
@@ -662,20 +680,26 @@ fn implicit_correction(
             controller.fraction_scale = fraction_scale(controller.fraction_scale, error, PRESSURE_PREDICTION_TOLERANCE);
         }
     }
-    let (n, dp) = bounded_implicit_jump(scene.model.jump, &mut controller, *dn, &contact.pressure, &weights, &solve)?;
+    let jumped = bounded_implicit_jump(scene.model.jump, &mut controller, *dn, &contact.pressure, &weights, &solve);
+    let (n, whole) = match (jumped, parts) {
+        (Some((n, dp)), _) => (n, Some(dp)),
+        // The whole cycle's system failed (singular, or contact sets that cycle): in parts.
+        (None, Some(_)) => {
+            controller.last_jump = 1;
+            (1, None)
+        }
+        (None, None) => return None,
+    };
     let (fraction, dp) = match parts {
         Some(pressure_change) if n == 1 => {
-            let bounds = FractionBounds {
-                remaining: 1.0 - wear.cycle_fraction,
-                min_fraction: scene.model.min_fraction,
-                whole: Some(dp),
-            };
+            let bounds =
+                FractionBounds { remaining: 1.0 - wear.cycle_fraction, min_fraction: scene.model.min_fraction, whole };
             let solve_part = |f: f64| operator.fractional_contact_change(f, &contact);
             let scale = if controller.fraction_scale > 0.0 { controller.fraction_scale } else { 1.0 };
             let bound = pressure_change * scale;
             fractional_update(bound, &mut controller, bounds, &contact.pressure, &weights, &solve_part)?
         }
-        _ => (1.0, dp),
+        _ => (1.0, whole?),
     };
     size.fraction = fraction;
     let dn = &mut size.dn;
