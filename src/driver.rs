@@ -251,6 +251,12 @@ where
         solved.report.cycle = inc.n as usize + 1;
         solved.report.increment = inc.i + 1;
         accumulate_solved_wear(m, &mut solved, &state.u, &state.multipliers, &mut state.wear);
+        let wear = &mut state.wear;
+        if wear.cycle_jumps.len() == wear.cycle_steps {
+            if let Some(last) = wear.cycle_jumps.last_mut() {
+                last.increment_end = true;
+            }
+        }
         if let Some(fatigue) = &m.fatigue {
             fatigue.record(&state.u, &mut state.fatigue.history);
         }

@@ -382,7 +382,7 @@ fn write_wear(c: &hdf5::Group, w: &crate::state::WearState) -> hdf5::Result<()> 
 /// The implicit jump's linearisation of the current cycle's increments (see
 /// `IncrementJump`): group `increment_jumps` with attribute `count`, one group `j` per
 /// increment holding `rows`, `closed` (0/1), `stiffness` (`(na, na)`, row-major), `pressure`,
-/// `gap`, `weight`, `all_pressure`, and per wearing surface `b`: `entry_vertex_b`,
+/// `gap`, `weight`, `all_pressure`, attribute `increment_end` (0/1), and per wearing surface `b`: `entry_vertex_b`,
 /// `entry_row_b`, `entry_g_b`, `phi_b`, `work_b`, `work_per_pressure_b`.
 fn write_increment_jumps(g: &hdf5::Group, jumps: &[crate::wear::IncrementJump]) -> hdf5::Result<()> {
     let top = g.create_group("increment_jumps")?;
@@ -401,6 +401,7 @@ fn write_increment_jumps(g: &hdf5::Group, jumps: &[crate::wear::IncrementJump]) 
         f64s("gap", &j.gap)?;
         f64s("weight", &j.weight)?;
         f64s("all_pressure", &j.all_pressure)?;
+        super::write_attr(&jg, "increment_end", &u64::from(j.increment_end))?;
         for (b, sf) in j.surfaces.iter().enumerate() {
             u64s(&format!("entry_vertex_{b}"), sf.entries.iter().map(|e| e.0 as u64).collect())?;
             u64s(&format!("entry_row_{b}"), sf.entries.iter().map(|e| e.1 as u64).collect())?;
@@ -486,7 +487,9 @@ fn read_increment_jumps(g: &hdf5::Group, model: &Model) -> Result<Vec<crate::wea
                 .collect::<Result<Vec<_>, String>>()?;
             let dlambda_dgap = nalgebra::DMatrix::from_row_slice(na, na, &stiffness);
             let sensitivity = crate::wear::GapSensitivity { rows, closed, dlambda_dgap };
-            Ok(crate::wear::IncrementJump { sensitivity, pressure, gap, weight, all_pressure, surfaces })
+            // Written before sub-steps were told from increment ends: each was an end.
+            let increment_end = jg.attr("increment_end").and_then(|a| a.read_scalar::<u64>()).map_or(true, |v| v != 0);
+            Ok(crate::wear::IncrementJump { sensitivity, pressure, gap, weight, all_pressure, surfaces, increment_end })
         })
         .collect()
 }

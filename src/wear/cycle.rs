@@ -227,6 +227,10 @@ pub struct IncrementJump {
     /// The pressure of every contact row (the next computed cycle checks the prediction).
     pub all_pressure: Vec<f64>,
     pub surfaces: Vec<IncrementSurface>,
+    /// The last piece of its increment: the state the next pass over the cycle meets again at
+    /// the same time (an increment's sub-steps can differ from one pass to the next, so only
+    /// increment ends carry the prediction the next pass checks).
+    pub increment_end: bool,
 }
 
 impl IncrementJump {
@@ -288,7 +292,7 @@ impl IncrementJump {
             }
             surfaces.push(s);
         }
-        Some(IncrementJump { sensitivity, pressure, gap, weight, all_pressure, surfaces })
+        Some(IncrementJump { sensitivity, pressure, gap, weight, all_pressure, surfaces, increment_end: false })
     }
 }
 
@@ -664,9 +668,11 @@ fn implicit_correction(
     let mut controller = wear.controller.clone();
     // The last jump's prediction against this cycle: the pressure of every contact row at
     // every increment, the worn-area rate of each surface.
-    let all_pressure: Vec<f64> = jumps.iter().flat_map(|j| j.all_pressure.iter().copied()).collect();
+    // Checked at the increments' ends only: their sub-steps can differ from pass to pass.
+    let ends: Vec<usize> = (0..jumps.len()).filter(|&i| jumps[i].increment_end).collect();
+    let all_pressure: Vec<f64> = ends.iter().flat_map(|&i| jumps[i].all_pressure.iter().copied()).collect();
     let pressure_error;
-    (*dn, pressure_error) = capped_by_last_prediction(scene, wear, &controller, &all_pressure, jumps.len(), *dn);
+    (*dn, pressure_error) = capped_by_last_prediction(scene, wear, &controller, &all_pressure, ends.len(), *dn);
     // Parts of a cycle's wear: while a cycle's wear is being applied in parts (or the last
     // update was one), the next update is at most the rest of the cycle.
     let parts = match scene.model.jump {
@@ -708,9 +714,13 @@ fn implicit_correction(
         controller.predicted = all_pressure;
         let nrows = scene.contact.rows.len();
         let mut first = 0;
-        for (i, j) in jumps.iter().enumerate() {
-            for (r, &k) in j.sensitivity.rows.iter().enumerate() {
-                controller.predicted[i * nrows + k] += dp[first + r];
+        let mut slot = 0;
+        for j in &jumps {
+            if j.increment_end {
+                for (r, &k) in j.sensitivity.rows.iter().enumerate() {
+                    controller.predicted[slot * nrows + k] += dp[first + r];
+                }
+                slot += 1;
             }
             first += j.sensitivity.rows.len();
         }
