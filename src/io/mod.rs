@@ -17,7 +17,7 @@
 //! * `/steps/NNNNNN/` (snapshot steps only: full fields, or a checkpoint) attributes `time`,
 //!   `load_factor`, `iterations`, `cutbacks`,
 //!   `residual`; per body `displacement` `(n, 3)` (z = 0, for ParaView's warp), `stress` `(n, 4)`
-//!   nodal `[xx, yy, zz, xy]` (lumped L2 projection) and `stress_tensor` `(n, 6)` (the same as
+//!   nodal `[xx, yy, zz, xy]` (recovered from the points, see [`crate::post`]) and `stress_tensor` `(n, 6)` (the same as
 //!   XDMF's symmetric `[xx, xy, xz, yy, yz, zz]`), `von_mises` `(n)`, `eqps` `(n)`,
 //!   `reaction` `(n, 2)`, `cell_stress` `(c, 4)`, `cell_stress_tensor` `(c, 6)`, `cell_eqps` `(c)`; `/steps/NNNNNN/points/stress`
 //!   `(p, 4)` and `eqps` `(p)` at the integration points (with moving surfaces also their
