@@ -106,8 +106,9 @@ pub struct ResultWriter {
     /// Full fields every this many output steps (and at the last); a cycled wear run counts
     /// the schedule's steps, see [`Output::schedule_position`].
     fields_every: usize,
-    /// The furthest schedule position a step has reached (0 before the first).
-    fields_position: Option<usize>,
+    /// The furthest schedule position a step has reached, and the step of the last full
+    /// fields (the step before the first written, at the start of a run or a continuation).
+    fields_position: Option<(usize, usize)>,
     last_step: usize,
     last_flush: std::time::Instant,
     /// Per-step series (every step): extendable datasets, one row per step.
@@ -660,8 +661,9 @@ impl ResultWriter {
     /// wear run, the ramp's steps plus `increments` per cycle before its cycle plus its
     /// increment. Fractions of a cycle compute a cycle again and jumps skip cycles, so the
     /// step numbers of such a run count computed steps, not the path: full fields are written
-    /// where this position first passes a multiple of `fields_every`, once per recorded step
-    /// of the schedule whatever a run computes again.
+    /// where this position first passes a multiple of `fields_every` and at least
+    /// `fields_every` computed steps after the last fields, so a cycle computed again writes
+    /// none twice and a run with jumps no more than its computed steps ask.
     fn schedule_position(model: &Model, report: &StepReport) -> usize {
         match model.cycle {
             Some(c) if !model.wear.is_empty() && report.cycle > 0 => {
@@ -689,11 +691,13 @@ impl ResultWriter {
         let cycled_wear = !model.wear.is_empty() && model.cycle.is_some();
         let position = Self::schedule_position(model, report);
         // The first step written (of a run or a continuation) counts as one past the last.
-        let reached = self.fields_position.unwrap_or(position.saturating_sub(1));
-        let full = position / self.fields_every > reached / self.fields_every
+        let start = (position.saturating_sub(1), report.step.saturating_sub(1));
+        let (reached, last_fields) = self.fields_position.unwrap_or(start);
+        let every = self.fields_every;
+        let full = (position / every > reached / every && report.step - last_fields >= every)
             || (!cycled_wear && report.step >= self.last_step)
             || wear_run_ends(model, state);
-        self.fields_position = Some(reached.max(position));
+        self.fields_position = Some((reached.max(position), if full { report.step } else { last_fields }));
         let checkpoint = self.checkpoint_every > 0 && report.step % self.checkpoint_every == 0;
         let fields: Vec<Vec<crate::contact::ContactNodeState>> = (0..disc.contact.pairs.len())
             .map(|pair| crate::contact::contact_field(&disc.contact, &state.contact_unknowns(), pair))
