@@ -997,7 +997,10 @@ fn free_rounded_punch_grooves_agree_at_16_and_32_increments() {
 /// balance; the friction moment tilts the punch at each reversal so its bottom slides beyond
 /// the top's stroke: measured +2.0% with whole cycles of wear, +0.6% without friction in
 /// fractions of a cycle, the default; in fractions with friction: 97.1 um, +1.4%, 6 minutes).
-/// A long study.
+/// A long study. **Fails at present**: since a failed wear update halves its part of the cycle
+/// (before, it applied the whole cycle's wear as computed), the run stops in its sixth cycle
+/// (step 1014, 85.6 um): at a stroke reversal the punch rests on one node of a rounding and
+/// Newton's active set still changes after 8 cut-backs.
 #[test]
 #[ignore]
 fn free_rounded_punch_with_friction_wears_ten_layers_deep() {
