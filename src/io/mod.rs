@@ -674,18 +674,9 @@ impl ResultWriter {
         }
     }
 
-    /// Appends one converged step (and its checkpoint when the step is a multiple of the
-    /// checkpoint interval).
-    pub fn write_step(
-        &mut self,
-        model: &Model,
-        disc: &Discretisation,
-        report: &StepReport,
-        state: &SimState,
-    ) -> Result<(), OutputError> {
-        let Some(file) = self.file.as_ref() else {
-            return Ok(());
-        };
+    /// Whether `report`'s step writes full fields (see [`Output::schedule_position`]), and the
+    /// record of it.
+    fn fields_due(&mut self, model: &Model, report: &StepReport, state: &SimState) -> bool {
         // A cycled wear run's step count is not the schedule's: jumps skip cycles and fractions
         // of a cycle compute one again, so only its wear state says where it ends.
         let cycled_wear = !model.wear.is_empty() && model.cycle.is_some();
@@ -698,6 +689,22 @@ impl ResultWriter {
             || (!cycled_wear && report.step >= self.last_step)
             || wear_run_ends(model, state);
         self.fields_position = Some((reached.max(position), if full { report.step } else { last_fields }));
+        full
+    }
+
+    /// Appends one converged step (and its checkpoint when the step is a multiple of the
+    /// checkpoint interval).
+    pub fn write_step(
+        &mut self,
+        model: &Model,
+        disc: &Discretisation,
+        report: &StepReport,
+        state: &SimState,
+    ) -> Result<(), OutputError> {
+        let full = self.fields_due(model, report, state);
+        let Some(file) = self.file.as_ref() else {
+            return Ok(());
+        };
         let checkpoint = self.checkpoint_every > 0 && report.step % self.checkpoint_every == 0;
         let fields: Vec<Vec<crate::contact::ContactNodeState>> = (0..disc.contact.pairs.len())
             .map(|pair| crate::contact::contact_field(&disc.contact, &state.contact_unknowns(), pair))

@@ -631,6 +631,23 @@ fn capped_by_last_prediction(
     (dn, pressure_error)
 }
 
+/// The pressure of every contact row at each increment's end, `pressure` (stacked, `nrows` per
+/// end), moved by the update's change `dp` (on the stiffness rows of every step of `jumps`).
+fn predicted_pressure(jumps: &[IncrementJump], mut pressure: Vec<f64>, dp: &[f64], nrows: usize) -> Vec<f64> {
+    let mut first = 0;
+    let mut slot = 0;
+    for j in jumps {
+        if j.increment_end {
+            for (r, &k) in j.sensitivity.rows.iter().enumerate() {
+                pressure[slot * nrows + k] += dp[first + r];
+            }
+            slot += 1;
+        }
+        first += j.sensitivity.rows.len();
+    }
+    pressure
+}
+
 /// The implicit jump's cycle volumes and works per surface (the computed cycle's, each
 /// increment's row work moved by its change at the end-of-jump pressure, never below zero: the
 /// wear balance holds exactly), and the jump after the controller's pressure-change bound.
@@ -711,19 +728,7 @@ fn implicit_correction(
     let dn = &mut size.dn;
     if n > 1 || fraction < 1.0 {
         // What the next computed cycle (or the next pass over this one) should find.
-        controller.predicted = all_pressure;
-        let nrows = scene.contact.rows.len();
-        let mut first = 0;
-        let mut slot = 0;
-        for j in &jumps {
-            if j.increment_end {
-                for (r, &k) in j.sensitivity.rows.iter().enumerate() {
-                    controller.predicted[slot * nrows + k] += dp[first + r];
-                }
-                slot += 1;
-            }
-            first += j.sensitivity.rows.len();
-        }
+        controller.predicted = predicted_pressure(&jumps, all_pressure, &dp, scene.contact.rows.len());
     } else {
         // One cycle (not jumped over): nothing is predicted for the next computed cycle.
         controller.forget_prediction();
