@@ -575,7 +575,10 @@ impl StaticAnalysis<'_> {
             }
             let cycling = seen.iter().any(|s| s.active == sets.active && s.status == sets.status);
             if cycling || it == max_iterations {
-                tracing::debug!(step, t, it, cycling, "interface active set does not settle");
+                if tracing::enabled!(tracing::Level::DEBUG) {
+                    let sets = visited_sets(&seen, sets, nc);
+                    tracing::debug!(step, t, it, cycling, sets, "interface active set does not settle");
+                }
                 return failed(it);
             }
             seen.push(ContactSets { active: sets.active.clone(), status: sets.status.clone() });
@@ -691,6 +694,22 @@ impl StaticAnalysis<'_> {
         cd.log.push(batch);
         Ok(())
     }
+}
+
+/// The sets an interface iteration visited, in order and ending with the current one: each as
+/// its active rows, then the statuses of the rows in contact (what a debug log of a cycle shows:
+/// a punch rocking between its edges reads `[57][Slip(false)] -> [8, 9, 10, 11, 12, 57][..]`).
+fn visited_sets(seen: &[ContactSets], current: &SetIterate, nc: usize) -> String {
+    let one = |active: &[bool], status: &[FrictionStatus]| {
+        let on: Vec<usize> = (0..nc).filter(|&k| active[k]).collect();
+        let st: Vec<String> = status.iter().filter(|x| **x != FrictionStatus::Open).map(|x| format!("{x:?}")).collect();
+        format!("{on:?}{st:?}")
+    };
+    seen.iter()
+        .map(|s| one(&s.active, &s.status))
+        .chain(std::iter::once(one(&current.active, &current.status)))
+        .collect::<Vec<_>>()
+        .join(" -> ")
 }
 
 /// Factors on the contact's augmentation for the retries of a step's active-set iterations
