@@ -1008,7 +1008,8 @@ fn free_rounded_punch_grooves_agree_at_16_and_32_increments() {
 /// A long study. **Fails at present**: since a failed wear update halves its part of the cycle
 /// (before, it applied the whole cycle's wear as computed), the run stops in its sixth cycle
 /// (step 1014, 85.6 um): at a stroke reversal the punch rests on one node of a rounding and
-/// Newton's active set still changes after 8 cut-backs.
+/// Newton's active set still changes after 8 cut-backs (one slipping node leaves the punch a
+/// mechanism and the sets cycle between its edges; see docs/limits.md).
 #[test]
 #[ignore]
 fn free_rounded_punch_with_friction_wears_ten_layers_deep() {
