@@ -443,7 +443,8 @@ impl StaticAnalysis<'_> {
         let given = self.start_sets.take().filter(|g| g.active.len() == nc && g.status.len() == nfr);
         let predicted = std::iter::once(1.0)
             .chain(CYCLE_BREAKING_AUGMENTATION)
-            .map(|augmentation| SetStart::Predicted { augmentation });
+            .map(|augmentation| SetStart::Predicted { augmentation })
+            .chain(std::iter::once(SetStart::Restrained));
         // Iterations of the failed starts (added to a solve's count), and of the last one (the
         // count a failure reports: each start has the whole iteration limit).
         let (mut spent, mut last) = (0, 0);
@@ -487,9 +488,11 @@ impl StaticAnalysis<'_> {
         step: usize,
         t: f64,
     ) -> Result<InterfaceSolve, AnalysisError> {
+        let restrained = matches!(start_sets, SetStart::Restrained);
         let (mut given, augmentation) = match start_sets {
             SetStart::Given(sets) => (Some(sets), 1.0),
             SetStart::Predicted { augmentation } => (None, augmentation),
+            SetStart::Restrained => (None, 1.0),
         };
         let Predictor { z, start, lam0 } = predictor;
         let (m, shared) = (self.model, Arc::clone(&self.disc));
@@ -512,6 +515,8 @@ impl StaticAnalysis<'_> {
         // Every set visited: the next set is a function of the current one alone (the laws of
         // a set fix the solve), so a set seen before the last one is a cycle that never settles.
         let mut seen: Vec<ContactSets> = vec![];
+        let mut ran_away = false;
+        let size = if restrained { model_size(m) } else { f64::INFINITY };
         let mut mult = lam0.to_vec();
         let mut iterations = 0;
         // A set that never settles cuts the increment back (the caller reports gross sliding,
@@ -540,6 +545,14 @@ impl StaticAnalysis<'_> {
             let given = if it == 0 { given.take() } else { None };
             match given {
                 Some(given) => given_sets(&disc.contact, &given, &mut sets.active, &mut sets.status),
+                // The last set left a body a mechanism (see `ran_away`): the same rows in
+                // contact, those slipping stuck, so that the next solve is restrained; Coulomb's
+                // law decides their status again from its answer.
+                None if ran_away => {
+                    for st in sets.status.iter_mut().filter(|st| matches!(st, FrictionStatus::Slip(_))) {
+                        *st = FrictionStatus::Stick;
+                    }
+                }
                 None => update_sets(
                     &disc.contact,
                     SetValues { mult: &mult, gaps: &sets.gaps, slip: &sets.slip, augmentation },
@@ -592,6 +605,17 @@ impl StaticAnalysis<'_> {
                 return failed(it);
             };
             condensed::Law::unpack(&laws, &x, &mut dlam, &mut dw);
+            // A set under which a body is a mechanism (held only by slipping rows, free along a
+            // rigid mode: a free punch on one slipping node) solves on the grounding rows alone
+            // and its row values run away (seen: gaps of 6e8 on a 5 mm model); its update would
+            // close every row and cycle back to it.
+            if restrained {
+                let worst = (0..nc).filter_map(|k| cd.live_of[nt + k].map(|a| dw[a].abs())).fold(0.0, f64::max);
+                ran_away = worst > size && sets.status.iter().any(|st| matches!(st, FrictionStatus::Slip(_)));
+                if ran_away {
+                    tracing::debug!(step, t, it, worst, "interface set is a mechanism: its slipping rows stick next");
+                }
+            }
         }
         Ok(InterfaceSolve::Solved { dlam, dw, iterations })
     }
@@ -712,6 +736,14 @@ fn visited_sets(seen: &[ContactSets], current: &SetIterate, nc: usize) -> String
         .join(" -> ")
 }
 
+/// The diagonal of the model's bounding box: no increment moves a row by more.
+fn model_size(m: &Model) -> f64 {
+    let (lo, hi) = m.coords.iter().fold(([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]), |(lo, hi), p| {
+        ([lo[0].min(p.x), lo[1].min(p.y)], [hi[0].max(p.x), hi[1].max(p.y)])
+    });
+    ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2)).sqrt()
+}
+
 /// Factors on the contact's augmentation for the retries of a step's active-set iterations
 /// after the predicted sets cycled (see [`StaticAnalysis::interface_iterations`]): each tried
 /// in turn, smaller and larger, a decade and then two from the contact's own.
@@ -722,7 +754,12 @@ const CYCLE_BREAKING_AUGMENTATION: [f64; 4] = [0.1, 10.0, 0.01, 100.0];
 /// with the contact's augmentation scaled by `augmentation` (1: its own).
 pub(super) enum SetStart {
     Given(ContactSets),
-    Predicted { augmentation: f64 },
+    Predicted {
+        augmentation: f64,
+    },
+    /// The prediction, where a set that leaves a body a mechanism (its solve runs away on the
+    /// grounding rows) is followed by the same set with its slipping rows stuck: the last start.
+    Restrained,
 }
 
 impl SetStart {
@@ -730,6 +767,7 @@ impl SetStart {
         match self {
             SetStart::Given(_) => "the given sets".to_string(),
             SetStart::Predicted { augmentation } => format!("the prediction, augmentation x{augmentation}"),
+            SetStart::Restrained => "the prediction, mechanisms restrained".to_string(),
         }
     }
 }
