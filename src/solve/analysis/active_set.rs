@@ -563,24 +563,7 @@ impl StaticAnalysis<'_> {
                 ),
             }
             self.last_active = sets.active.iter().filter(|&&a| a).count();
-            // Rows outside the set stay open (checked after the solve).
-            for k in (0..nc).filter(|&k| cd.live_of[nt + k].is_none()) {
-                sets.active[k] = false;
-            }
-            for j in (0..nfr).filter(|&j| cd.live_of[nt + nc + j].is_none()) {
-                sets.status[j] = FrictionStatus::Open;
-            }
-            // Given sets whose rows this set lacks leave nothing active: start where the
-            // bodies touch first, as the prediction does (else a body that only contact holds
-            // floats on the grounding springs and its solve runs away).
-            if it == 0 && !sets.active.iter().any(|&a| a) {
-                activate_closest(&disc.contact, &sets.gaps, Some(&live_rows), &mut sets.active);
-                for (j, st) in sets.status.iter_mut().enumerate() {
-                    if sets.active[disc.contact.friction_normal[j]] && cd.live_of[nt + nc + j].is_some() {
-                        *st = FrictionStatus::Stick;
-                    }
-                }
-            }
+            keep_to_live_rows(&disc.contact, cd, nt, it == 0, &live_rows, sets);
             if let Some(ContactSets { active: pa, status: ps }) = seen.last() {
                 if pa == &sets.active && ps == &sets.status {
                     break;
@@ -605,16 +588,12 @@ impl StaticAnalysis<'_> {
                 return failed(it);
             };
             condensed::Law::unpack(&laws, &x, &mut dlam, &mut dw);
-            // A set under which a body is a mechanism (held only by slipping rows, free along a
-            // rigid mode: a free punch on one slipping node) solves on the grounding rows alone
-            // and its row values run away (seen: gaps of 6e8 on a 5 mm model); its update would
-            // close every row and cycle back to it.
+            // A set that leaves a body a mechanism (a free punch on one slipping node) runs away
+            // on the grounding rows (gaps of 6e8 on a 5 mm model); its update cycles back to it.
             if restrained {
                 let worst = (0..nc).filter_map(|k| cd.live_of[nt + k].map(|a| dw[a].abs())).fold(0.0, f64::max);
                 ran_away = worst > size && sets.status.iter().any(|st| matches!(st, FrictionStatus::Slip(_)));
-                if ran_away {
-                    tracing::debug!(step, t, it, worst, "interface set is a mechanism: its slipping rows stick next");
-                }
+                tracing::debug!(step, t, it, worst, ran_away, "restrained start: largest row change");
             }
         }
         Ok(InterfaceSolve::Solved { dlam, dw, iterations })
@@ -734,6 +713,35 @@ fn visited_sets(seen: &[ContactSets], current: &SetIterate, nc: usize) -> String
         .chain(std::iter::once(one(&current.active, &current.status)))
         .collect::<Vec<_>>()
         .join(" -> ")
+}
+
+/// Rows outside the condensed set `cd` stay open (checked after the solve). Given sets whose
+/// rows this set lacks leave nothing active in the `first` iteration: then the rows where the
+/// bodies touch first start active (sticking), as the prediction does (else a body that only
+/// contact holds floats on the grounding springs and its solve runs away).
+fn keep_to_live_rows(
+    contact: &ContactSet,
+    cd: &condensed::Condensed,
+    nt: usize,
+    first: bool,
+    live_rows: &[bool],
+    sets: &mut SetIterate,
+) {
+    let nc = contact.rows.len();
+    for k in (0..nc).filter(|&k| cd.live_of[nt + k].is_none()) {
+        sets.active[k] = false;
+    }
+    for j in (0..contact.friction_rows.len()).filter(|&j| cd.live_of[nt + nc + j].is_none()) {
+        sets.status[j] = FrictionStatus::Open;
+    }
+    if first && !sets.active.iter().any(|&a| a) {
+        activate_closest(contact, &sets.gaps, Some(live_rows), &mut sets.active);
+        for (j, st) in sets.status.iter_mut().enumerate() {
+            if sets.active[contact.friction_normal[j]] && cd.live_of[nt + nc + j].is_some() {
+                *st = FrictionStatus::Stick;
+            }
+        }
+    }
 }
 
 /// The diagonal of the model's bounding box: no increment moves a row by more.
