@@ -1011,7 +1011,7 @@ fn free_rounded_punch_grooves_agree_at_16_and_32_increments() {
 /// Newton's active set still changes after 8 cut-backs (one slipping node leaves the punch a
 /// mechanism and the sets cycle between its edges; see docs/limits.md). A last start that
 /// sticks such a set's slipping rows lets the run, restarted at step 1008, complete (97.18
-/// um); the whole run with it is to be measured.
+/// um); the whole run from the start still stops, at step 942 (cycle 6, a stroke reversal).
 #[test]
 #[ignore]
 fn free_rounded_punch_with_friction_wears_ten_layers_deep() {
