@@ -746,10 +746,8 @@ fn keep_to_live_rows(
 
 /// The diagonal of the model's bounding box: no increment moves a row by more.
 fn model_size(m: &Model) -> f64 {
-    let (lo, hi) = m.coords.iter().fold(([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]), |(lo, hi), p| {
-        ([lo[0].min(p.x), lo[1].min(p.y)], [hi[0].max(p.x), hi[1].max(p.y)])
-    });
-    ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2)).sqrt()
+    use parry2d_f64::{bounding_volume::Aabb, math::Vector};
+    Aabb::from_points(m.coords.iter().map(|p| Vector::new(p.x, p.y))).extents().length()
 }
 
 /// Factors on the contact's augmentation for the retries of a step's active-set iterations
