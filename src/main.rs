@@ -10,6 +10,7 @@ mod cli {
     pub mod bench;
     pub mod check;
     pub mod convergence;
+    pub mod life;
     pub mod pareto;
     pub mod plot;
     pub mod relocation;
@@ -157,6 +158,15 @@ enum StudyCommand {
         #[command(flatten)]
         runs: StudyRuns,
     },
+    /// Fretting-fatigue life against stroke amplitude, with wear and without (a file: `case`
+    /// with `[fatigue]`, `stroke = { key, values }`, `without_wear = [{ key, value }]`): the
+    /// engine's partial-to-gross-slip transition beside the lives, `<output>/life.csv`, `.md`
+    /// and `life.png`.
+    Life {
+        file: PathBuf,
+        #[command(flatten)]
+        runs: StudyRuns,
+    },
     /// Node relocation (the ALE practice of commercial wear codes) against the virtual surface on
     /// a case wearing a real boundary (a file: `case`, `output`, `cycles_per_update`, `layers`):
     /// `<output>/relocation.csv`, `.md` and `relocation.png`.
@@ -243,6 +253,9 @@ fn main() -> ExitCode {
         Command::Study { study: StudyCommand::Pareto { file, runs } } => {
             cli::pareto::study_pareto(&file, study_execution(runs))
         }
+        Command::Study { study: StudyCommand::Life { file, runs } } => {
+            cli::life::study_life(&file, study_execution(runs))
+        }
         Command::Study { study: StudyCommand::Gather { file } } => study_gather(&file),
         Command::Study { study: StudyCommand::Stability { output } } => cli::stability::stability(&output)
             .map(|md| println!("stability: table {}", md.display()))
@@ -313,8 +326,8 @@ fn study_execution(runs: StudyRuns) -> cli::study::Execution {
     cli::study::Execution::Local { parallel }
 }
 
-/// `mortex study gather`: the study kind from its file (`[[knob]]`: convergence; `reference`:
-/// Pareto; else a sweep), gathered without running anything.
+/// `mortex study gather`: the study kind from its file (`[[knob]]`: convergence; `stroke`:
+/// life; `reference`: Pareto; else a sweep), gathered without running anything.
 fn study_gather(file: &std::path::Path) -> anyhow::Result<()> {
     let text = std::fs::read_to_string(file).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
     let table: toml::Table =
@@ -322,6 +335,8 @@ fn study_gather(file: &std::path::Path) -> anyhow::Result<()> {
     let exec = cli::study::Execution::Gather;
     if table.contains_key("knob") {
         cli::convergence::study_convergence(file, exec)
+    } else if table.contains_key("stroke") {
+        cli::life::study_life(file, exec)
     } else if table.contains_key("reference") {
         cli::pareto::study_pareto(file, exec)
     } else {

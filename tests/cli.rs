@@ -777,9 +777,11 @@ fn wear_bad_inputs_give_clear_errors() {
         &["bad_scheme.toml", "scheme"],
     );
 
-    // Failing runs (the case itself is valid): zero stroke, a band too shallow.
+    // Failing runs (the case itself is valid): zero stroke, a zero coefficient (named as the
+    // cause, not the stroke), a band too shallow.
     for (name, text, needle) in [
         ("zero_stroke", sub("ux = 0.1", "ux = 0.0"), "no wear in the first cycle"),
+        ("zero_k", sub("coefficient = 4e-3", "coefficient = 0.0"), "every [[wear]] coefficient is 0"),
         ("shallow", sub("max_depth = 2.0", "max_depth = 0.5"), "raise [[wear]] max_depth"),
     ] {
         std::fs::write(d.join(format!("{name}.toml")), text).unwrap();

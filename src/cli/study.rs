@@ -379,11 +379,16 @@ fn run_dir(out: &Path, i: usize) -> PathBuf {
     out.join(format!("run_{i:04}"))
 }
 
+/// The result file of run `i` of a study.
+pub(super) fn result_path(out: &Path, i: usize) -> PathBuf {
+    run_dir(out, i).join("result.h5")
+}
+
 pub(super) fn figures_path(out: &Path, i: usize) -> PathBuf {
     run_dir(out, i).join("figures.csv")
 }
 
-fn run_ok(out: &Path, i: usize) -> bool {
+pub(super) fn run_ok(out: &Path, i: usize) -> bool {
     read_figures(&figures_path(out, i)).is_some_and(|f| f.first().is_some_and(|(k, v)| k == "status" && v == "ok"))
 }
 

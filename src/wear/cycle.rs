@@ -538,9 +538,20 @@ fn check_something_wears(scene: &WearScene<'_>, rates: &[Vec<f64>], count: u64) 
     if rmax * count as f64 > 1e-9 * h_min {
         return Ok(());
     }
+    let surface = scene.model.surfaces.iter().map(|s| s.name.as_str()).collect::<Vec<_>>().join(", ");
+    if scene.model.surfaces.iter().all(|s| s.coefficient == 0.0) {
+        // The cause is the input, not the contact: say so rather than list the others.
+        return Err(WearError {
+            cycle: 1,
+            surface,
+            msg: "every [[wear]] coefficient is 0: nothing would ever wear; give a coefficient > 0 (for \
+                  fatigue without a scar, one small enough that the scar stays negligible)"
+                .into(),
+        });
+    }
     Err(WearError {
         cycle: 1,
-        surface: scene.model.surfaces.iter().map(|s| s.name.as_str()).collect::<Vec<_>>().join(", "),
+        surface,
         msg: format!(
             "no wear in the first cycle: the wearing surfaces never slid under pressure at the {} increments \
              of the cycle (zero stroke, not in contact, or too few steps.increments to sample the stroke); \
